@@ -1,0 +1,1 @@
+"""The judge: image I/O, metrics, reports and the `rtval` command line."""

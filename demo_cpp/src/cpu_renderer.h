@@ -1,0 +1,24 @@
+// Renders a scene with the CPU tracer on a pool of threads (rows handed out one at a time).
+#pragma once
+
+#include "image.h"
+#include "scene.h"
+#include "tracer.h"
+
+namespace rt {
+
+struct RenderSettings {
+    TraceOptions trace;
+    int width = 640;
+    int height = 480;
+    int spp = 1;      // a perfect square k*k: stratum centres of a k x k grid, box filter
+    int threads = 1;  // >= 1
+};
+
+// Precondition: settings were validated (sizes >= 1, spp a perfect square).
+RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings);
+
+// k with k*k == spp, or 0 when spp is not a perfect square >= 1.
+int strata_per_axis(int spp);
+
+}  // namespace rt

@@ -1,0 +1,164 @@
+#include "image_io.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
+#include <png.h>
+
+namespace rt {
+namespace fs = std::filesystem;
+
+namespace {
+
+// A temporary sibling of `path`, renamed onto it by commit(); removed if never committed.
+class AtomicFile {
+public:
+    explicit AtomicFile(std::string path)
+        : path_(std::move(path)), temp_(path_ + ".tmp" + std::to_string(::getpid())) {}
+    ~AtomicFile() {
+        if (!committed_) {
+            std::error_code ec;
+            fs::remove(temp_, ec);
+        }
+    }
+    const std::string& temp() const { return temp_; }
+    void commit() {
+        std::error_code ec;
+        fs::rename(temp_, path_, ec);
+        if (ec) throw OutputError(path_ + ": cannot write: " + ec.message());
+        committed_ = true;
+    }
+
+private:
+    std::string path_, temp_;
+    bool committed_ = false;
+};
+
+float clamp01(float v) { return std::isnan(v) ? 0.0f : std::fmin(1.0f, std::fmax(0.0f, v)); }
+
+template <class Encode>
+std::vector<unsigned char> to_8bit(const RenderedImage& image, Encode encode) {
+    std::vector<unsigned char> out(image.rgb.size());
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = encode(image.rgb[i]);
+    return out;
+}
+
+}  // namespace
+
+unsigned char to_srgb8(float linear) {
+    const float v = clamp01(linear);
+    const float s = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+    return static_cast<unsigned char>(std::lround(s * 255.0f));
+}
+
+unsigned char to_linear8(float linear) {
+    return static_cast<unsigned char>(std::lround(clamp01(linear) * 255.0f));
+}
+
+void check_writable(const std::string& path) {
+    fs::path dir = fs::path(path).parent_path();
+    if (dir.empty()) dir = ".";
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec))
+        throw OutputError(path + ": cannot write: directory '" + dir.string() + "' does not exist");
+    if (::access(dir.c_str(), W_OK) != 0)
+        throw OutputError(path + ": cannot write: directory '" + dir.string() + "' is not writable");
+    if (fs::is_directory(path, ec)) throw OutputError(path + ": cannot write: it is a directory");
+}
+
+void write_exr(const std::string& path, const RenderedImage& image,
+               const std::map<std::string, std::string>& attributes) {
+    check_writable(path);
+    AtomicFile file(path);
+    try {
+        Imf::Header header(image.width, image.height);
+        header.compression() = Imf::ZIP_COMPRESSION;
+        for (const auto& [key, value] : attributes)
+            header.insert(key, Imf::StringAttribute(value));
+        const char* names[] = {"R", "G", "B", "id", "depth", "N.X", "N.Y", "N.Z"};
+        for (const char* name : names) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+
+        const std::size_t px = sizeof(float);
+        const std::size_t w = static_cast<std::size_t>(image.width);
+        Imf::FrameBuffer fb;
+        auto slice3 = [&](const std::vector<float>& v, int c) {
+            return Imf::Slice(Imf::FLOAT, (char*)(v.data() + c), 3 * px, 3 * px * w);
+        };
+        auto slice1 = [&](const std::vector<float>& v) {
+            return Imf::Slice(Imf::FLOAT, (char*)v.data(), px, px * w);
+        };
+        fb.insert("R", slice3(image.rgb, 0));
+        fb.insert("G", slice3(image.rgb, 1));
+        fb.insert("B", slice3(image.rgb, 2));
+        fb.insert("id", slice1(image.id));
+        fb.insert("depth", slice1(image.depth));
+        fb.insert("N.X", slice3(image.normal, 0));
+        fb.insert("N.Y", slice3(image.normal, 1));
+        fb.insert("N.Z", slice3(image.normal, 2));
+        {
+            Imf::OutputFile out(file.temp().c_str(), header);
+            out.setFrameBuffer(fb);
+            out.writePixels(image.height);
+        }
+    } catch (const std::exception& e) {
+        throw OutputError(path + ": cannot write EXR: " + e.what());
+    }
+    file.commit();
+}
+
+void write_png(const std::string& path, const RenderedImage& image) {
+    check_writable(path);
+    AtomicFile file(path);
+    const std::vector<unsigned char> bytes = to_8bit(image, to_srgb8);
+    std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(file.temp().c_str(), "wb"), &std::fclose);
+    if (!fp) throw OutputError(path + ": cannot open for writing");
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info) {
+        png_destroy_write_struct(&png, &info);
+        throw OutputError(path + ": cannot initialise the PNG writer");
+    }
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        throw OutputError(path + ": PNG write failed");
+    }
+    png_init_io(png, fp.get());
+    png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_write_info(png, info);
+    for (int y = 0; y < image.height; ++y)
+        png_write_row(png, bytes.data() + 3u * static_cast<std::size_t>(image.width) * y);
+    png_write_end(png, nullptr);
+    png_destroy_write_struct(&png, &info);
+    if (std::fflush(fp.get()) != 0 || std::ferror(fp.get()))
+        throw OutputError(path + ": write failed");
+    fp.reset();
+    file.commit();
+}
+
+void write_ppm(const std::string& path, const RenderedImage& image) {
+    check_writable(path);
+    AtomicFile file(path);
+    const std::vector<unsigned char> bytes = to_8bit(image, to_linear8);
+    std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(file.temp().c_str(), "wb"), &std::fclose);
+    if (!fp) throw OutputError(path + ": cannot open for writing");
+    std::fprintf(fp.get(), "P6\n%d %d\n255\n", image.width, image.height);
+    std::fwrite(bytes.data(), 1, bytes.size(), fp.get());
+    if (std::fflush(fp.get()) != 0 || std::ferror(fp.get()))
+        throw OutputError(path + ": write failed");
+    fp.reset();
+    file.commit();
+}
+
+}  // namespace rt

@@ -1,0 +1,34 @@
+// Writers for the demo's outputs. Every writer goes to a temporary name in the target
+// directory and renames on success, so a failed write never leaves a partial file.
+#pragma once
+
+#include <map>
+#include <stdexcept>
+#include <string>
+
+#include "image.h"
+
+namespace rt {
+
+class OutputError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// Throws OutputError when the file's directory does not exist or is not writable.
+void check_writable(const std::string& path);
+
+// Float32 EXR: R, G, B (linear, unclamped), id, depth, N.X, N.Y, N.Z; `attributes`
+// become string attributes of the header.
+void write_exr(const std::string& path, const RenderedImage& image,
+               const std::map<std::string, std::string>& attributes);
+// 8-bit PNG for people: clamped to [0, 1], sRGB-encoded. NaN is written as 0.
+void write_png(const std::string& path, const RenderedImage& image);
+// The paper's own format: binary P6, linear, clamped, 8-bit (x * 255, rounded). NaN -> 0.
+void write_ppm(const std::string& path, const RenderedImage& image);
+
+// Display encodings, exposed for tests and the GL backend's screenshots.
+unsigned char to_srgb8(float linear);
+unsigned char to_linear8(float linear);
+
+}  // namespace rt

@@ -1,0 +1,187 @@
+#include "tracer.h"
+
+#include <cmath>
+#include <limits>
+
+#include "fresnel.h"
+#include "light_units.h"
+#include "optics.h"
+
+namespace rt {
+
+namespace {
+constexpr float kInf = std::numeric_limits<float>::infinity();
+}
+
+Tracer::Tracer(const Scene& scene, TraceOptions options) : scene_(scene), opt_(options) {
+    for (int i = 0; i < static_cast<int>(scene.spheres.size()); ++i) {
+        if (scene.spheres[i].is_light()) {
+            lights_.push_back(i);
+            light_intensity_.push_back(point_intensity(scene, scene.spheres[i]));
+        }
+    }
+}
+
+float Tracer::offset_at(const point3& p) const {
+    if (opt_.quirks.has(Quirk::Q1)) return scene_.bias;
+    return scene_.bias * (1.0f + max_abs_component(p));
+}
+
+std::optional<Tracer::Hit> Tracer::nearest_hit(const ray& r, int skip) const {
+    std::optional<Hit> best;
+    float t_near = kInf;
+    const bool paper = opt_.quirks.has(Quirk::Q1);
+    for (int i = 0; i < static_cast<int>(scene_.spheres.size()); ++i) {
+        if (i == skip) continue;
+        const std::optional<float> t = paper ? intersect_paper(scene_.spheres[i], r)
+                                             : intersect_robust(scene_.spheres[i], r, {0.0f, t_near});
+        if (t && *t < t_near) {
+            t_near = *t;
+            best = Hit{i, *t};
+        }
+    }
+    return best;
+}
+
+bool Tracer::blocks(int j, const ray& shadow_ray, float max_t) const {
+    if (opt_.quirks.has(Quirk::Q1)) {
+        const std::optional<float> t = intersect_paper(scene_.spheres[j], shadow_ray);
+        return t && *t < max_t;
+    }
+    return intersect_robust(scene_.spheres[j], shadow_ray, {0.0f, max_t}).has_value();
+}
+
+PrimaryHit Tracer::primary(const ray& r) const {
+    PrimaryHit out;
+    if (const auto hit = nearest_hit(r, -1)) {
+        const Sphere& s = scene_.spheres[hit->index];
+        vec3 n = normalize(r.at(hit->t) - s.center);
+        if (dot(r.dir, n) > 0) n = -n;
+        out.id = hit->index;
+        out.depth = hit->t;
+        out.normal = n;
+    }
+    return out;
+}
+
+color Tracer::trace(const ray& r, int depth) const { return trace_skipping(r, depth, -1); }
+
+color Tracer::trace_skipping(const ray& r, int depth, int skip) const {
+    const auto hit = nearest_hit(r, skip);
+    if (!hit) return scene_.background;
+
+    const Sphere& s = scene_.spheres[hit->index];
+    const bool paper_light = opt_.quirks.has(Quirk::Q7);
+    if (!paper_light && s.is_light()) return sphere_radiance(scene_, s);
+
+    const point3 p = r.at(hit->t);
+    vec3 n = normalize(p - s.center);
+    bool inside = false;
+    if (dot(r.dir, n) > 0) {
+        n = -n;
+        inside = true;
+    }
+
+    color c;
+    if (s.has_specular_flags() && depth < opt_.max_depth) {
+        c = shade_specular(hit->index, r, p, n, inside, depth);
+    } else if (s.has_specular_flags() && !opt_.quirks.has(Quirk::Q6)) {
+        c = color(0.0f);  // a specular chain cut at max_depth carries nothing, as in Mitsuba
+    } else {
+        c = shade_direct(hit->index, p, n);
+    }
+    return paper_light ? c + s.emission : c;
+}
+
+color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const vec3& n,
+                             bool inside, int depth) const {
+    const Sphere& s = scene_.spheres[hit_index];
+    const QuirkSet& q = opt_.quirks;
+    const float d_dot_n = dot(r.dir, n);
+    const float facing = std::fmax(0.0f, -d_dot_n);
+    const float offset = offset_at(p);
+
+    bool total_internal = false;
+    color refracted(0.0f);
+    float eta_ti_sq = 1.0f;  // radiance scale across the interface (exact mode only)
+    if (s.transparency > 0) {
+        const float eta = (q.has(Quirk::Q2) || !inside) ? 1.0f / s.ior : s.ior;
+        total_internal = refraction_k(r.dir, n, eta) < 0 && !q.has(Quirk::Q3);
+        if (!total_internal && opt_.refraction)
+            refracted = trace({p - n * offset, refract(r.dir, n, eta)}, depth + 1);
+        eta_ti_sq = eta * eta;
+    }
+
+    float fresnel;
+    if (total_internal) {
+        fresnel = 1.0f;
+    } else if (q.has(Quirk::Q8)) {
+        fresnel = paper_fresnel(facing);
+    } else if (s.transparency > 0) {
+        fresnel = dielectric_fresnel(inside ? -facing : facing, s.ior);
+    } else {
+        fresnel = 1.0f;  // conductor material="none": an exact mirror tinted by its colour
+    }
+
+    color reflected(0.0f);
+    if (opt_.reflection) {
+        const vec3 r_dir = reflect(r.dir, n);
+        // Leaving a convex sphere outward, the ray cannot meet it again (Q1 fixed only).
+        const int skip = (!q.has(Quirk::Q1) && !inside) ? hit_index : -1;
+        reflected = trace_skipping({p + n * offset, r_dir}, depth + 1, skip);
+    }
+    const float t_weight = q.has(Quirk::Q8) ? 1.0f : eta_ti_sq;
+    return (reflected * fresnel + refracted * ((1.0f - fresnel) * s.transparency * t_weight)) *
+           s.surface_color;
+}
+
+color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const {
+    const Sphere& s = scene_.spheres[hit_index];
+    const QuirkSet& q = opt_.quirks;
+    const float offset = offset_at(p);
+    const point3 origin = p + n * offset;
+    // The paper aims shadow rays from the hit point; with Q1 fixed, from the offset origin
+    // so that the distance bound is measured from where the ray starts.
+    const point3 aim_from = q.has(Quirk::Q1) ? p : origin;
+    float shared_shadow = 1.0f;  // Q4: one shadow factor for all lights, compounded
+    color c(0.0f);
+    for (std::size_t li = 0; li < lights_.size(); ++li) {
+        const int light = lights_[li];
+        const Sphere& l_sphere = scene_.spheres[light];
+        const vec3 to_light = l_sphere.center - aim_from;
+        const float dist = length(to_light);
+        const vec3 l = to_light / dist;
+        const float cos_theta = std::fmax(0.0f, dot(n, l));
+        float transmission = 1.0f;
+        if (opt_.shadows && (q.has(Quirk::Q4) || cos_theta > 0)) {
+            const ray shadow_ray{origin, l};
+            const float max_t = q.has(Quirk::Q5) ? kInf : dist;
+            for (int j = 0; j < static_cast<int>(scene_.spheres.size()); ++j) {
+                if (j == light) continue;
+                // Q1 fixed: a ray leaving a convex sphere outward cannot hit it again.
+                if (j == hit_index && !q.has(Quirk::Q1)) continue;
+                if (!blocks(j, shadow_ray, max_t)) continue;
+                const float opacity =
+                    q.has(Quirk::Q9) ? 1.0f - scene_.spheres[j].transparency : 1.0f;
+                if (q.has(Quirk::Q4)) {
+                    shared_shadow = std::fmax(0.0f, shared_shadow - opacity);
+                    transmission *= shared_shadow;
+                } else {
+                    transmission *= 1.0f - opacity;
+                    if (transmission == 0.0f) break;
+                }
+            }
+        }
+        if (q.has(Quirk::Q7)) {
+            c += s.surface_color * l_sphere.emission * (transmission * cos_theta);
+        } else {
+            // Lambert albedo/pi times a point light's I/d^2; I = pi E d0^2 (light_units.h).
+            const vec3 from_p = l_sphere.center - p;
+            const float irradiance_scale = transmission * cos_theta / dot(from_p, from_p);
+            c += s.surface_color * light_intensity_[li] * (irradiance_scale / kPi);
+        }
+    }
+    return c;
+}
+
+}  // namespace rt

@@ -1,0 +1,60 @@
+// The paper's recursive Whitted tracer (paper-model.md), each quirk a switch.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include "quirks.h"
+#include "scene.h"
+
+namespace rt {
+
+struct TraceOptions {
+    QuirkSet quirks = QuirkSet::all();
+    int max_depth = 5;
+    // Effect switches for per-effect ablation: an effect switched off contributes nothing.
+    bool shadows = true;
+    bool reflection = true;
+    bool refraction = true;
+};
+
+// What the camera ray saw at a pixel, for the EXR's AOV channels.
+struct PrimaryHit {
+    int id = -1;       // index into scene.spheres, -1 on a miss
+    float depth = 0;   // camera-ray distance, 0 on a miss
+    vec3 normal{0, 0, 0};  // facing the camera, 0 on a miss
+};
+
+class Tracer {
+public:
+    // Precondition: `scene` outlives the tracer.
+    Tracer(const Scene& scene, TraceOptions options);
+
+    color trace(const ray& r, int depth) const;
+    PrimaryHit primary(const ray& r) const;
+    // Step 5 of paper-model.md: direct light at p (normal n) on sphere `hit_index`.
+    color shade_direct(int hit_index, const point3& p, const vec3& n) const;
+
+private:
+    struct Hit {
+        int index;
+        float t;
+    };
+    color trace_skipping(const ray& r, int depth, int skip) const;
+    // Nearest sphere along r; `skip` (or -1) is a sphere the ray cannot hit again.
+    std::optional<Hit> nearest_hit(const ray& r, int skip) const;
+    // Does sphere j block the shadow ray within `max_t`?
+    bool blocks(int j, const ray& shadow_ray, float max_t) const;
+    color shade_specular(int hit_index, const ray& r, const point3& p, const vec3& n,
+                         bool inside, int depth) const;
+    // Where a secondary ray leaves the surface: the paper's fixed bias, or (Q1 fixed) an
+    // offset that grows with |p| so float32 rounding at large coordinates cannot re-hit.
+    float offset_at(const point3& p) const;
+
+    const Scene& scene_;
+    TraceOptions opt_;
+    std::vector<int> lights_;
+    std::vector<color> light_intensity_;  // physical: I = pi E d0^2 per light
+};
+
+}  // namespace rt

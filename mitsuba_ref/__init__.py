@@ -1,0 +1,1 @@
+"""Scene loading for Python, Mitsuba XML export and reference rendering."""

@@ -1,0 +1,149 @@
+"""The Python loader enforces every rule of scene-format.md, and agrees with the C++ one."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from typing import Any, Callable
+
+import pytest
+from conftest import SCENES, run
+
+from mitsuba_ref.scene import SceneError, load_scene, parse_scene
+
+VALID: dict[str, Any] = {
+    "format": "rtval-scene/1",
+    "name": "unit",
+    "camera": {"position": [0, 0, 0], "look_at": [0, 0, -1], "up": [0, 1, 0],
+               "fov_y": 30, "width": 64, "height": 48},
+    "background": [2, 2, 2], "max_depth": 5, "bias": 1e-4,
+    "spheres": [
+        {"name": "a", "center": [0, 0, -5], "radius": 1, "color": [1, 0, 0],
+         "reflection": 1, "transparency": 0.5, "ior": 1.2},
+        {"name": "light", "center": [0, 5, 0], "radius": 1, "color": [0, 0, 0],
+         "emission": [3, 3, 3]},
+    ],
+}
+
+
+def _set(path: list[Any], value: Any) -> Callable[[dict[str, Any]], None]:
+    def mutate(j: dict[str, Any]) -> None:
+        node: Any = j
+        for key in path[:-1]:
+            node = node[key]
+        node[path[-1]] = value
+    return mutate
+
+
+def _drop(path: list[Any]) -> Callable[[dict[str, Any]], None]:
+    def mutate(j: dict[str, Any]) -> None:
+        node: Any = j
+        for key in path[:-1]:
+            node = node[key]
+        del node[path[-1]]
+    return mutate
+
+
+# (label, mutation, JSON path the error must name) — one per rule of scene-format.md.
+BAD_CASES = [
+    ("format missing", _drop(["format"]), "format"),
+    ("format wrong", _set(["format"], "rtval-scene/2"), "format"),
+    ("name missing", _drop(["name"]), "name"),
+    ("name pattern", _set(["name"], "Bad Name"), "name"),
+    ("unknown top key", _set(["backgrund"], [1, 1, 1]), "backgrund"),
+    ("unknown camera key", _set(["camera", "fov"], 30), "camera.fov"),
+    ("position overflows float32", _set(["camera", "position", 1], 1e39), "camera.position[1]"),
+    ("position length", _set(["camera", "position"], [0, 0]), "camera.position"),
+    ("look_at equals position", _set(["camera", "look_at"], [0, 0, 0]), "camera.look_at"),
+    ("up parallel", _set(["camera", "up"], [0, 0, -2]), "camera.up"),
+    ("fov zero", _set(["camera", "fov_y"], 0), "camera.fov_y"),
+    ("fov 180", _set(["camera", "fov_y"], 180), "camera.fov_y"),
+    ("width zero", _set(["camera", "width"], 0), "camera.width"),
+    ("width too big", _set(["camera", "width"], 16385), "camera.width"),
+    ("height not integer", _set(["camera", "height"], 48.5), "camera.height"),
+    ("background negative", _set(["background", 2], -0.1), "background[2]"),
+    ("background string", _set(["background"], "white"), "background"),
+    ("max_depth too deep", _set(["max_depth"], 65), "max_depth"),
+    ("max_depth negative", _set(["max_depth"], -1), "max_depth"),
+    ("bias zero", _set(["bias"], 0), "bias"),
+    ("bias boolean", _set(["bias"], True), "bias"),
+    ("spheres missing", _drop(["spheres"]), "spheres"),
+    ("spheres not array", _set(["spheres"], {}), "spheres"),
+    ("sphere not object", _set(["spheres", 0], 3), "spheres[0]"),
+    ("sphere name missing", _drop(["spheres", 0, "name"]), "spheres[0].name"),
+    ("sphere name duplicate", _set(["spheres", 1, "name"], "a"), "spheres[1].name"),
+    ("center missing", _drop(["spheres", 0, "center"]), "spheres[0].center"),
+    ("center string", _set(["spheres", 0, "center", 0], "nan"), "spheres[0].center[0]"),
+    ("radius missing", _drop(["spheres", 1, "radius"]), "spheres[1].radius"),
+    ("radius zero", _set(["spheres", 0, "radius"], 0), "spheres[0].radius"),
+    ("radius negative", _set(["spheres", 0, "radius"], -1), "spheres[0].radius"),
+    ("color missing", _drop(["spheres", 0, "color"]), "spheres[0].color"),
+    ("color negative", _set(["spheres", 0, "color", 1], -1), "spheres[0].color[1]"),
+    ("reflection negative", _set(["spheres", 0, "reflection"], -0.5), "spheres[0].reflection"),
+    ("transparency above 1", _set(["spheres", 0, "transparency"], 1.5), "spheres[0].transparency"),
+    ("ior below 1", _set(["spheres", 0, "ior"], 0.9), "spheres[0].ior"),
+    ("emission negative", _set(["spheres", 1, "emission", 0], -3), "spheres[1].emission[0]"),
+    ("unknown sphere key", _set(["spheres", 0, "colour"], [1, 1, 1]), "spheres[0].colour"),
+]
+
+
+@pytest.mark.parametrize("label,mutate,path", BAD_CASES, ids=[c[0] for c in BAD_CASES])
+def test_python_loader_rejects_naming_file_and_path(
+    label: str, mutate: Callable[[dict[str, Any]], None], path: str
+) -> None:
+    j = copy.deepcopy(VALID)
+    mutate(j)
+    with pytest.raises(SceneError) as err:
+        parse_scene(json.dumps(j), "bad.json")
+    msg = str(err.value)
+    assert msg.startswith("bad.json: "), msg
+    assert f": {path}: " in msg, msg
+    assert "expected" in msg, msg
+
+
+@pytest.mark.parametrize("label,mutate,path", BAD_CASES, ids=[c[0] for c in BAD_CASES])
+def test_cpp_loader_rejects_the_same_with_the_same_path(
+    label: str, mutate: Callable[[dict[str, Any]], None], path: str, rtdemo: str, tmp_path: Path
+) -> None:
+    j = copy.deepcopy(VALID)
+    mutate(j)
+    scene = tmp_path / "bad.json"
+    scene.write_text(json.dumps(j))
+    out = tmp_path / "out.exr"
+    proc = run([rtdemo, "render", str(scene), "-o", str(out)])
+    assert proc.returncode == 3, proc.stderr
+    assert f"{scene}: {path}: " in proc.stderr
+    assert not out.exists()
+
+
+def test_both_loaders_accept_the_builtin_scenes_with_exact_numbers() -> None:
+    paper = load_scene(SCENES / "paper.json")
+    assert [s.name for s in paper.spheres] == [
+        "floor", "glass", "red", "gold", "blue", "green", "violet", "light"]
+    assert paper.spheres[0].center == (0, -10004, -20) and paper.spheres[0].radius == 10000
+    assert paper.spheres[1].ior == 1.2 and paper.spheres[1].transparency == 0.8
+    assert paper.spheres[7].emission == (2.5, 2.5, 2.5)
+    assert paper.camera.position == (0, 1, 4) and paper.camera.look_at == (0, -1.5, -18)
+    assert [s.kind for s in paper.spheres] == [
+        "mirror", "glass", "diffuse", "mirror", "diffuse", "diffuse", "mirror", "light"]
+    classic = load_scene(SCENES / "classic.json")
+    assert classic.spheres[1].ior == 1.1 and classic.spheres[1].color == (1.0, 0.32, 0.36)
+    assert classic.spheres[-1].emission == (3, 3, 3)
+    assert classic.background == (2, 2, 2) and classic.max_depth == 5
+
+
+def test_invalid_json_names_line_and_column() -> None:
+    with pytest.raises(SceneError, match=r"broken.json: invalid JSON at line 3, column 11"):
+        parse_scene('{\n  "format": "rtval-scene/1",\n  "name": oops\n}', "broken.json")
+
+
+def test_nan_literal_is_not_json() -> None:
+    text = json.dumps(VALID).replace('"bias": 0.0001', '"bias": NaN')
+    with pytest.raises(SceneError, match="invalid JSON"):
+        parse_scene(text, "nan.json")
+
+
+def test_missing_file_is_a_scene_error(tmp_path: Path) -> None:
+    with pytest.raises(SceneError, match="cannot read"):
+        load_scene(tmp_path / "nope.json")
