@@ -140,3 +140,25 @@ def write_png(path: str | Path, rgb_linear: F32) -> None:
     tmp = p.with_name(p.name + ".tmp")
     PILImage.fromarray(data, "RGB").save(tmp, format="PNG")
     tmp.replace(p)
+
+
+def write_exr(path: str | Path, rgb: F32, *, aovs: dict[str, F32] | None = None,
+              header: dict[str, str] | None = None) -> None:
+    """Float32 EXR with R, G, B and optional AOV channels, written atomically."""
+    import OpenEXR
+
+    p = Path(path)
+    channels: dict[str, np.ndarray] = {c: np.ascontiguousarray(rgb[..., i], dtype=np.float32)
+                                       for i, c in enumerate("RGB")}
+    for name, data in (aovs or {}).items():
+        channels[name] = np.ascontiguousarray(data, dtype=np.float32)
+    hdr: dict[str, object] = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    hdr.update(header or {})
+    tmp = p.with_name(p.name + ".tmp")
+    try:
+        with OpenEXR.File(hdr, channels) as f:
+            f.write(str(tmp))
+        tmp.replace(p)
+    finally:
+        if tmp.exists():
+            tmp.unlink()

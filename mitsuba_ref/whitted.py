@@ -1,0 +1,182 @@
+"""rtval_whitted: a Mitsuba integrator computing exactly the light transport of the demo's
+physical mode, noise-free with point lights and centre rays.
+
+- camera and specular rays see the background (the `constant` emitter) and emitters;
+- diffuse surfaces get direct light from the sphere lights only (point emitters `light_i`,
+  or the spheres' area emitters sampled by area), never from the environment;
+- at dielectrics both lobes are followed deterministically (BSDFContext component 0 then 1:
+  weights F * tint and (1 - F) * tint * eta_ti^2), mirrors follow their one lobe;
+- chains stop at max_depth (a specular hit there carries nothing); a light's sphere is
+  emitter-only;
+- secondary rays leave from p + n * 1e-4 (1 + |p|), shadow rays end before the light, so
+  float32 rounding at large coordinates cannot self-intersect (mitsuba-notes.md).
+
+Switches shadows / reflection / refraction drop one effect for per-effect ablation.
+Works in JIT variants (wide arrays, recursion per depth) and scalar variants (one ray).
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+import drjit as dr
+import mitsuba as mi
+
+NAME = "rtval_whitted"
+OFFSET_SCALE = 1e-4
+
+
+def _jit() -> bool:
+    return bool(dr.is_jit_v(mi.Float))
+
+
+def _offset_origin(p: Any, n: Any, d: Any) -> Any:
+    """p moved off the surface by 1e-4 (1 + max|p_i|), to the side `d` leaves on."""
+    scale = OFFSET_SCALE * (1.0 + dr.max(dr.abs(p)))
+    side = dr.select(dr.dot(d, n) >= 0, 1.0, -1.0)
+    return p + n * (scale * side)
+
+
+@functools.lru_cache(maxsize=None)
+def integrator_class(variant: str) -> type:
+    """The integrator class for one Mitsuba variant (each variant has its own base class).
+    Precondition: `variant` is the active one (mitsuba_ref.drjit_env.load_mitsuba)."""
+    assert mi.variant() == variant, (mi.variant(), variant)
+
+    class WhittedIntegrator(mi.SamplingIntegrator):  # type: ignore[misc]
+        def __init__(self, props: Any) -> None:
+            super().__init__(props)
+            self.max_depth = int(props.get("max_depth", 5))
+            self.shadows = bool(props.get("shadows", True))
+            self.reflection = bool(props.get("reflection", True))
+            self.refraction = bool(props.get("refraction", True))
+            self.light_samples = int(props.get("light_samples", 1))
+            self._prepared_for: Any = None
+
+        # -- scene analysis -------------------------------------------------------------
+        def _prepare(self, scene: Any) -> None:
+            if self._prepared_for is scene:
+                return
+            radii: dict[str, float] = {}
+            for shape in scene.shapes():
+                box = shape.bbox()
+                radii[shape.id()] = float(box.extents()[0]) / 2.0
+            self.point_lights: list[tuple[Any, float]] = []
+            self.area_lights: list[Any] = []
+            for e in scene.emitters():
+                eid = e.id()
+                if eid.startswith("light_"):
+                    self.point_lights.append((e, radii.get("sphere_" + eid[len("light_"):], 0.0)))
+            if not self.point_lights:
+                self.area_lights = [e for e in scene.emitters() if e.get_shape() is not None]
+            self.environment = scene.environment()
+            self._prepared_for = scene
+
+        # -- helpers that hide scalar vs JIT ----------------------------------------------
+        def _emission(self, scene: Any, si: Any, active: Any) -> Any:
+            emitter = si.emitter(scene, active)
+            if _jit():
+                return emitter.eval(si, active)
+            return emitter.eval(si) if (active and emitter is not None) else mi.Color3f(0.0)
+
+        def _is_light(self, scene: Any, si: Any, active: Any) -> Any:
+            emitter = si.emitter(scene, active)
+            if _jit():
+                return active & (dr.reinterpret_array(mi.UInt32, emitter) != 0)
+            return bool(active) and emitter is not None
+
+        def _background(self, ray: Any, active: Any) -> Any:
+            if self.environment is None:
+                return mi.Color3f(0.0)
+            si = dr.zeros(mi.SurfaceInteraction3f)
+            si.wi = -ray.d
+            return self.environment.eval(si, active)
+
+        # -- transport ------------------------------------------------------------------
+        def _direct(self, scene: Any, sampler: Any, si: Any, bsdf: Any, active: Any) -> Any:
+            ctx = mi.BSDFContext()
+            result = mi.Color3f(0.0)
+            for emitter, radius in self.point_lights:
+                ds, spec = emitter.sample_direction(si, mi.Point2f(0.5, 0.5), active)
+                value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
+                if self.shadows:
+                    o = _offset_origin(si.p, si.n, ds.d)
+                    to_light = ds.p - o
+                    dist = dr.norm(to_light)
+                    # End before the light's own sphere (the point sits at its centre).
+                    shadow = mi.Ray3f(o, to_light / dist)
+                    shadow.maxt = (dist - radius) * (1.0 - 1e-5)
+                    value = dr.select(scene.ray_test(shadow, active), 0.0, value)
+                result += dr.select(active, value, 0.0)
+            for emitter in self.area_lights:
+                acc = mi.Color3f(0.0)
+                for _ in range(self.light_samples):
+                    ds, spec = emitter.sample_direction(si, sampler.next_2d(active), active)
+                    value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
+                    if self.shadows:
+                        o = _offset_origin(si.p, si.n, ds.d)
+                        to_light = ds.p - o
+                        dist = dr.norm(to_light)
+                        shadow = mi.Ray3f(o, to_light / dist)
+                        shadow.maxt = dist * (1.0 - 1e-4)
+                        value = dr.select(scene.ray_test(shadow, active), 0.0, value)
+                    acc += dr.select(active & (ds.pdf > 0), value, 0.0)
+                result += acc / self.light_samples
+            return result
+
+        def trace(self, scene: Any, sampler: Any, ray: Any, depth: int, weight: Any,
+                  active: Any) -> Any:
+            """Radiance along `ray` times `weight`, for the lanes in `active`."""
+            si = scene.ray_intersect(ray, active)
+            hit = active & si.is_valid()
+            miss = active & ~si.is_valid()
+            result = dr.select(miss, weight * self._background(ray, miss), 0.0)
+            if not dr.any(hit):
+                return result
+            light = self._is_light(scene, si, hit)
+            result += dr.select(light, weight * self._emission(scene, si, light), 0.0)
+            surface = hit & ~light
+            bsdf = si.bsdf(ray)
+            flags = bsdf.flags()
+            diffuse = surface & mi.has_flag(flags, mi.BSDFFlags.DiffuseReflection)
+            if dr.any(diffuse):
+                result += dr.select(diffuse, weight * self._direct(scene, sampler, si, bsdf, diffuse), 0.0)
+            specular = surface & mi.has_flag(flags, mi.BSDFFlags.Delta)
+            if depth >= self.max_depth or not dr.any(specular):
+                return result  # a specular chain cut at max_depth carries nothing
+            lobes = []
+            if self.reflection:
+                lobes.append((0, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaReflection)))
+            if self.refraction:
+                lobes.append((1, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaTransmission)))
+            for component, mask in lobes:
+                if not dr.any(mask):
+                    continue
+                ctx = mi.BSDFContext()
+                ctx.component = component
+                bs, w = bsdf.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5), mask)
+                mask = mask & dr.any(w != 0.0)
+                wo = si.to_world(bs.wo)
+                next_ray = mi.Ray3f(_offset_origin(si.p, si.n, wo), wo)
+                if _jit():
+                    dr.schedule(next_ray, w, mask)
+                result += self.trace(scene, sampler, next_ray, depth + 1, weight * w, mask)
+            return result
+
+        def sample(self, scene: Any, sampler: Any, ray: Any, medium: Any = None,
+                   active: Any = True) -> tuple[Any, Any, list[Any]]:
+            self._prepare(scene)
+            ray = mi.Ray3f(ray)
+            L = self.trace(scene, sampler, ray, 0, mi.Color3f(1.0), mi.Bool(active))
+            return L, mi.Bool(active), []
+
+        def to_string(self) -> str:
+            return f"WhittedIntegrator[max_depth={self.max_depth}]"
+    return WhittedIntegrator
+
+
+def register() -> None:
+    """Makes `rtval_whitted` loadable by name (dicts and XML) in the current variant."""
+    cls = integrator_class(mi.variant())
+    mi.register_integrator(NAME, lambda props: cls(props))
