@@ -41,7 +41,7 @@ def _rings(radius: float, height: float, theta_max: float, min_sagitta: float,
 
 
 def build_cap(center: Vec3, radius: float, eye: Vec3, *, azimuth: int = 512,
-              min_sagitta: float = 1e-3, rel_sagitta: float = 2e-4,
+              min_sagitta: float = 1e-4, rel_sagitta: float = 2e-5,
               extra_angle: float = 0.05) -> CapMesh:
     """Cap around the point of the sphere nearest to `eye`, reaching past its horizon.
 

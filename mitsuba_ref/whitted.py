@@ -31,6 +31,11 @@ def _jit() -> bool:
     return bool(dr.is_jit_v(mi.Float))
 
 
+def _not(mask: Any) -> Any:
+    """Logical not for JIT masks and for the plain bools of scalar variants (~True == -2)."""
+    return ~mask if _jit() else not mask
+
+
 def _offset_origin(p: Any, n: Any, d: Any) -> Any:
     """p moved off the surface by 1e-4 (1 + max|p_i|), to the side `d` leaves on."""
     scale = OFFSET_SCALE * (1.0 + dr.max(dr.abs(p)))
@@ -130,13 +135,13 @@ def integrator_class(variant: str) -> type:
             """Radiance along `ray` times `weight`, for the lanes in `active`."""
             si = scene.ray_intersect(ray, active)
             hit = active & si.is_valid()
-            miss = active & ~si.is_valid()
+            miss = active & _not(si.is_valid())
             result = dr.select(miss, weight * self._background(ray, miss), 0.0)
             if not dr.any(hit):
                 return result
             light = self._is_light(scene, si, hit)
             result += dr.select(light, weight * self._emission(scene, si, light), 0.0)
-            surface = hit & ~light
+            surface = hit & _not(light)
             bsdf = si.bsdf(ray)
             flags = bsdf.flags()
             diffuse = surface & mi.has_flag(flags, mi.BSDFFlags.DiffuseReflection)
