@@ -11,9 +11,18 @@ from compare.tools import ToolError
 from mitsuba_ref.drjit_env import MitsubaUnavailable
 from mitsuba_ref.scene import SceneError
 
-EXIT_USAGE = 2
+EXIT_USAGE = 64  # EX_USAGE: kept apart from compare's 0-4 verdict codes
 EXIT_SCENE = 3
 EXIT_IO = 4
+
+
+class _Parser(argparse.ArgumentParser):
+    """Bad arguments exit with 64, so that 2 always means "fail" for compare and check."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.print_usage(sys.stderr)
+        print(f"{self.prog}: error: {message}", file=sys.stderr)
+        sys.exit(EXIT_USAGE)
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -102,6 +111,89 @@ def _cmd_reference(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from compare.compare_images import load_mask, run_comparison, table, write_outputs
+    from compare.images import read_image
+    from compare.judge import EXIT_SIZE, Tolerances
+    from compare.metrics import SizeMismatch
+    from mitsuba_ref.scene import load_scene
+
+    ref = read_image(args.ref, encoding=args.ref_encoding)
+    test = read_image(args.test, encoding=args.test_encoding)
+    tol = Tolerances(fail=args.fail, failpercent=args.failpercent, hardfail=args.hardfail,
+                     warn=args.warn, warnpercent=args.warnpercent, min_ssim=args.min_ssim,
+                     max_flip=args.max_flip)
+    mask = load_mask(args.mask, ref.shape) if args.mask else None
+    scene = load_scene(args.scene) if args.scene else None
+    aovs = read_image(args.aovs) if args.aovs else None
+    try:
+        result = run_comparison(ref, test, tolerances=tol, mask=mask, scene=scene, aovs=aovs)
+    except SizeMismatch as e:
+        print(f"rtval: {e}", file=sys.stderr)
+        return EXIT_SIZE
+    write_outputs(result, json_path=args.json, diff_path=args.diff_image)
+    if not args.quiet:
+        print(table(result))
+    return result.verdict.exit_code
+
+
+def _cmd_ztest(args: argparse.Namespace) -> int:
+    import json
+
+    import numpy as np
+
+    from compare.images import ImageError, read_image, write_exr
+    from compare.judge import EXIT_FAIL, EXIT_PASS, EXIT_SIZE
+    from compare.ztest import z_test
+
+    ref = read_image(args.ref)
+    test = read_image(args.test)
+    if not all(f"var.{c}" in ref.aovs for c in "RGB"):
+        raise ImageError(f"{args.ref}: no var.R/var.G/var.B channels: render the reference with "
+                         "`rtval reference --spp N` (N >= 2), which stores per-sample variance")
+    if ref.shape != test.shape:
+        print(f"rtval: size mismatch: reference {ref.shape[1]}x{ref.shape[0]}, test "
+              f"{test.shape[1]}x{test.shape[0]}", file=sys.stderr)
+        return EXIT_SIZE
+    spp = args.test_spp or int(test.header.get("rtval.spp", "0") or 0)
+    if spp < 1:
+        raise ValueError(f"{args.test}: header has no rtval.spp; give --test-spp N")
+    var = np.stack([ref.aovs[f"var.{c}"] for c in "RGB"], axis=-1)
+    result = z_test(test.rgb, spp, ref.rgb, var, alpha=args.alpha)
+    failing = int((~(result.p_values > result.alpha_sidak).all(axis=-1)).sum())
+    print(f"Z-test: {100 * result.pass_fraction:.3f} % of pixels pass (need 99.75 %), "
+          f"{failing} fail at Sidak-corrected alpha {result.alpha_sidak:.3g} "
+          f"(alpha {args.alpha}, test spp {spp}): {'PASS' if result.passed else 'FAIL'}")
+    if args.json:
+        Path(args.json).write_text(json.dumps({
+            "passed": result.passed, "pass_fraction": result.pass_fraction,
+            "failing_pixels": failing, "alpha": args.alpha, "alpha_sidak": result.alpha_sidak,
+            "test_spp": spp}, indent=2) + "\n")
+    if not result.passed and args.pvalue_image:
+        write_exr(args.pvalue_image, result.p_values.astype(np.float32),
+                  header={"rtval.content": "per-channel two-sided p-values of the Z-test"})
+        print(f"p-value image: {args.pvalue_image}", file=sys.stderr)
+    return EXIT_PASS if result.passed else EXIT_FAIL
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    from compare import check
+
+    results = check.run_check(
+        scenes=args.scenes, modes=args.modes.split(","), backends=args.backends.split(","),
+        baseline_dir=Path(args.baseline), size=args.size, update=args.update, rtdemo=args.rtdemo,
+        progress=lambda m: print(m, file=sys.stderr))
+    print(check.table(results))
+    if args.json:
+        check.write_json(results, Path(args.json))
+    if args.junit:
+        check.write_junit(results, Path(args.junit))
+    updated = [r.name for r in results if r.updated]
+    if updated:
+        print(f"updated baselines: {', '.join(updated)}", file=sys.stderr)
+    return check.exit_code(results)
+
+
 def _positive_int(text: str) -> int:
     try:
         v = int(text)
@@ -123,12 +215,15 @@ def _positive_float(text: str) -> float:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="rtval",
         description="Holds the course paper's ray tracer against Mitsuba 3 and reports where and why they differ.",
-        epilog="Exit codes: 0 ok, 2 bad arguments, 3 invalid scene, 4 unreadable input or unwritable output.",
+        epilog="Exit codes: 0 ok (compare/check: pass), 1 warn or renderer failure, 2 fail, "
+               "3 invalid scene (compare/check: size mismatch), 4 unreadable input or unwritable "
+               "output, 64 bad arguments.",
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                parser_class=_Parser)
 
     p = sub.add_parser("report", help="render a scene with every renderer and write reports/<scene>/index.html",
                        description="Renders SCENE with every renderer and writes reports/<scene>/index.html, report.json and images.")
@@ -172,6 +267,65 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-refraction", action="store_true", help="whitted: no transmission lobes")
     _export_options_args(p)
     p.set_defaults(func=_cmd_reference)
+
+    p = sub.add_parser("compare", help="metrics and a verdict for two images (EXR, PNG, PPM, PFM)",
+                       description="Compares TEST against REF: SSIM, FLIP, PSNR, RMSE, MAE, relative MSE, "
+                                   "max error, pixels over threshold, NaN/Inf, each in a stated space; "
+                                   "per effect with --scene. Exit 0 pass, 1 warn, 2 fail, 3 size mismatch, "
+                                   "4 unreadable input.")
+    p.add_argument("ref", help="reference image")
+    p.add_argument("test", help="image under test")
+    p.add_argument("--ref-encoding", choices=("srgb", "linear"), default=None,
+                   help="8-bit reference encoding (default: PNG srgb, PPM linear as the paper writes it)")
+    p.add_argument("--test-encoding", choices=("srgb", "linear"), default=None,
+                   help="8-bit test encoding (default: PNG srgb, PPM linear)")
+    p.add_argument("--json", metavar="OUT.json", help="write every number as JSON")
+    p.add_argument("--diff-image", metavar="OUT.png", help="write |ref - test| (display) x 8")
+    p.add_argument("--mask", metavar="MASK.png", help="only pixels where the mask is white")
+    p.add_argument("--scene", metavar="SCENE.json", help="add per-effect metrics (masks from id/depth AOVs)")
+    p.add_argument("--aovs", metavar="FILE.exr", help="take the id/depth AOVs from this EXR")
+    g = p.add_argument_group("tolerances (per-pixel error = largest display-channel difference)")
+    g.add_argument("--fail", type=float, default=0.01, help="failing pixel error (default 0.01)")
+    g.add_argument("--failpercent", type=float, default=0.0, help="%% of pixels allowed over --fail (default 0)")
+    g.add_argument("--hardfail", type=float, default=float("inf"), help="any pixel over this fails")
+    g.add_argument("--warn", type=float, default=1 / 255, help="warning pixel error (default 1/255)")
+    g.add_argument("--warnpercent", type=float, default=0.0, help="%% of pixels allowed over --warn (default 0)")
+    g.add_argument("--min-ssim", type=float, default=None, help="fail below this SSIM")
+    g.add_argument("--max-flip", type=float, default=None, help="fail above this mean LDR FLIP")
+    p.add_argument("-q", "--quiet", action="store_true", help="no table on stdout")
+    p.set_defaults(func=_cmd_compare)
+
+    p = sub.add_parser("ztest", help="statistical check against a stochastic reference (Mitsuba's Z-test)",
+                       description="Per-pixel, per-channel Z-test of TEST against REF's mean and per-sample "
+                                   "variance (var.* channels), Sidak-corrected; passes when >= 99.75 %% of "
+                                   "pixels pass. Exit 0 pass, 2 fail, 3 size mismatch, 4 unreadable input.")
+    p.add_argument("ref", help="reference EXR with var.R, var.G, var.B (rtval reference --spp N)")
+    p.add_argument("test", help="image under test")
+    p.add_argument("--test-spp", type=_positive_int, default=None,
+                   help="samples per pixel of TEST (default: its rtval.spp header)")
+    p.add_argument("--alpha", type=float, default=0.01, help="significance level (default 0.01)")
+    p.add_argument("--pvalue-image", metavar="OUT.exr", help="on failure, write the p-values here")
+    p.add_argument("--json", metavar="OUT.json", help="write the result as JSON")
+    p.set_defaults(func=_cmd_ztest)
+
+    from compare.check import DEFAULT_MODES, DEFAULT_SCENES, DEFAULT_SIZE
+
+    p = sub.add_parser("check", help="regression check of the demo against stored baselines",
+                       description="Renders the demo on the scene set for every backend and mode asked for "
+                                   "and compares each render with its baseline under per-scene tolerances "
+                                   "(BASELINE/tolerances.json). A missing baseline fails. Exit 0 pass, 1 warn, "
+                                   "2 fail.")
+    p.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), help="scene files")
+    p.add_argument("--modes", default=",".join(DEFAULT_MODES), help="comma-separated modes (default all)")
+    p.add_argument("--backends", default="cpu", help="comma-separated backends (default cpu)")
+    p.add_argument("--baseline", default="tests/baselines", help="baseline folder (default tests/baselines)")
+    p.add_argument("--size", type=_size, default=DEFAULT_SIZE, metavar="WxH",
+                   help="render size (default %dx%d)" % DEFAULT_SIZE)
+    p.add_argument("--update", action="store_true", help="rewrite new or failing baselines, say which")
+    p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
+    p.add_argument("--junit", metavar="OUT.xml", help="write the results as JUnit XML")
+    p.add_argument("--rtdemo", default=None, help="the rtdemo executable to check (default: the installed one)")
+    p.set_defaults(func=_cmd_check)
     return parser
 
 

@@ -23,9 +23,9 @@ def rtdemo_path() -> str:
     return found
 
 
-def run_rtdemo(args: list[str]) -> subprocess.CompletedProcess[str]:
-    """Runs `rtdemo ARGS`; raises ToolError with its message on a non-zero exit."""
-    cmd = [rtdemo_path(), *args]
+def run_rtdemo(args: list[str], *, executable: str | None = None) -> subprocess.CompletedProcess[str]:
+    """Runs `rtdemo ARGS` (or `executable ARGS`); raises ToolError on a non-zero exit."""
+    cmd = [executable or rtdemo_path(), *args]
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise ToolError(f"rtdemo failed (exit {proc.returncode}): {proc.stderr.strip()}")

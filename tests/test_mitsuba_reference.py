@@ -246,8 +246,8 @@ def test_bad_reference_options_are_clear(tmp_path: Path) -> None:
     rtval = str(Path(sys.executable).with_name("rtval"))
     proc = run([rtval, "reference", str(SCENES / "classic.json"), "-o", str(tmp_path / "x.exr"),
                 "--integrator", "path", "--no-shadows"])
-    assert proc.returncode == 2 and "whitted integrator only" in proc.stderr
+    assert proc.returncode == 64 and "whitted integrator only" in proc.stderr
     proc = run([rtval, "reference", str(SCENES / "classic.json"), "-o", str(tmp_path / "x.exr"),
                 "--spp", "0"])
-    assert proc.returncode == 2 and "positive integer" in proc.stderr
+    assert proc.returncode == 64 and "positive integer" in proc.stderr
     assert not (tmp_path / "x.exr").exists()

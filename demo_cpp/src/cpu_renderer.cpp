@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "camera_rays.h"
+#include "fault_injection.h"
 
 namespace rt {
 
@@ -21,6 +22,7 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings) {
     const Tracer tracer(scene, settings.trace);
     const int k = strata_per_axis(settings.spp);
     const float inv_samples = 1.0f / static_cast<float>(k * k);
+    const float centre = fault(Fault::half_pixel_offset) ? 0.0f : 0.5f;
 
     std::atomic<int> next_row{0};
     auto worker = [&] {
@@ -28,7 +30,7 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings) {
             for (int x = 0; x < settings.width; ++x) {
                 const std::size_t i = static_cast<std::size_t>(y) * settings.width + x;
                 const PrimaryHit hit =
-                    tracer.primary(camera.render_from_camera(x + 0.5f, y + 0.5f));
+                    tracer.primary(camera.render_from_camera(x + centre, y + centre));
                 image.id[i] = static_cast<float>(hit.id);
                 image.depth[i] = hit.depth;
                 image.normal[3 * i + 0] = hit.normal.x;
@@ -38,10 +40,12 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings) {
                 color sum(0.0f);
                 for (int sy = 0; sy < k; ++sy)
                     for (int sx = 0; sx < k; ++sx)
-                        sum += tracer.trace(camera.render_from_camera(x + (sx + 0.5f) / k,
-                                                                      y + (sy + 0.5f) / k),
+                        sum += tracer.trace(camera.render_from_camera(x + (sx + centre) / k,
+                                                                      y + (sy + centre) / k),
                                             0);
-                const color c = sum * inv_samples;
+                color c = sum * inv_samples;
+                if (fault(Fault::double_gamma))
+                    c = {std::pow(c.x, 1 / 2.2f), std::pow(c.y, 1 / 2.2f), std::pow(c.z, 1 / 2.2f)};
                 image.rgb[3 * i + 0] = c.x;
                 image.rgb[3 * i + 1] = c.y;
                 image.rgb[3 * i + 2] = c.z;

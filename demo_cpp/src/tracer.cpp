@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "fault_injection.h"
 #include "fresnel.h"
 #include "light_units.h"
 #include "optics.h"
@@ -14,6 +15,7 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 }
 
 Tracer::Tracer(const Scene& scene, TraceOptions options) : scene_(scene), opt_(options) {
+    if (fault(Fault::depth_cut)) opt_.max_depth -= 1;
     for (int i = 0; i < static_cast<int>(scene.spheres.size()); ++i) {
         if (scene.spheres[i].is_light()) {
             lights_.push_back(i);
@@ -23,6 +25,7 @@ Tracer::Tracer(const Scene& scene, TraceOptions options) : scene_(scene), opt_(o
 }
 
 float Tracer::offset_at(const point3& p) const {
+    if (fault(Fault::no_bias)) return 0.0f;
     if (opt_.quirks.has(Quirk::Q1)) return scene_.bias;
     return scene_.bias * (1.0f + max_abs_component(p));
 }
@@ -81,6 +84,7 @@ color Tracer::trace_skipping(const ray& r, int depth, int skip) const {
         n = -n;
         inside = true;
     }
+    if (fault(Fault::flipped_normal)) n = -n;
 
     color c;
     if (s.has_specular_flags() && depth < opt_.max_depth) {
@@ -105,7 +109,8 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
     color refracted(0.0f);
     float eta_ti_sq = 1.0f;  // radiance scale across the interface (exact mode only)
     if (s.transparency > 0) {
-        const float eta = (q.has(Quirk::Q2) || !inside) ? 1.0f / s.ior : s.ior;
+        float eta = (q.has(Quirk::Q2) || !inside) ? 1.0f / s.ior : s.ior;
+        if (fault(Fault::wrong_eta) && !inside) eta = s.ior;
         total_internal = refraction_k(r.dir, n, eta) < 0 && !q.has(Quirk::Q3);
         if (!total_internal && opt_.refraction)
             refracted = trace({p - n * offset, refract(r.dir, n, eta)}, depth + 1);
@@ -116,7 +121,8 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
     if (total_internal) {
         fresnel = 1.0f;
     } else if (q.has(Quirk::Q8)) {
-        fresnel = paper_fresnel(facing);
+        fresnel = fault(Fault::fresnel_exponent) ? 0.1f + 0.9f * (1 - facing) * (1 - facing)
+                                                 : paper_fresnel(facing);
     } else if (s.transparency > 0) {
         fresnel = dielectric_fresnel(inside ? -facing : facing, s.ior);
     } else {
@@ -153,7 +159,7 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
         const vec3 l = to_light / dist;
         const float cos_theta = std::fmax(0.0f, dot(n, l));
         float transmission = 1.0f;
-        if (opt_.shadows && (q.has(Quirk::Q4) || cos_theta > 0)) {
+        if (opt_.shadows && !fault(Fault::no_shadows) && (q.has(Quirk::Q4) || cos_theta > 0)) {
             const ray shadow_ray{origin, l};
             const float max_t = q.has(Quirk::Q5) ? kInf : dist;
             for (int j = 0; j < static_cast<int>(scene_.spheres.size()); ++j) {
