@@ -137,6 +137,8 @@ def test_check_passes_unchanged_renderer_repeatedly_and_writes_junit(tmp_path: P
         assert code == 0, out
     suite = ET.parse(tmp_path / "j.xml").getroot()
     assert suite.get("tests") == "6" and suite.get("failures") == "0"
+    code, out = _check(baseline, "--backends", "gl", "--modes", "paper")
+    assert code in (0, 1), out  # the GL twin reproduces the CPU baselines (warn: a few px over 1/255)
     assert json.loads((tmp_path / "c.json").read_text())["status"] == "pass"
 
 
@@ -153,7 +155,7 @@ def test_missing_baseline_fails_and_update_writes_only_what_failed(tmp_path: Pat
     assert code == 2 and "no baseline" in out
     code, out = _check(tmp_path, "--scenes", str(SCENES / "classic.json"), "--modes", "paper,classic", "--update")
     assert code == 0 and "updated baselines: classic/cpu-paper, classic/cpu-classic" in out
-    stamp = (tmp_path / "classic" / "cpu-paper.exr").stat().st_mtime_ns
+    stamp = (tmp_path / "classic" / "paper.exr").stat().st_mtime_ns
     code, out = _check(tmp_path, "--scenes", str(SCENES / "classic.json"), "--modes", "paper", "--update")
     assert code == 0 and "updated" not in out
-    assert (tmp_path / "classic" / "cpu-paper.exr").stat().st_mtime_ns == stamp
+    assert (tmp_path / "classic" / "paper.exr").stat().st_mtime_ns == stamp

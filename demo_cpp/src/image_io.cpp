@@ -117,9 +117,13 @@ void write_exr(const std::string& path, const RenderedImage& image,
 }
 
 void write_png(const std::string& path, const RenderedImage& image) {
+    write_png_bytes(path, image.width, image.height, to_8bit(image, to_srgb8));
+}
+
+void write_png_bytes(const std::string& path, int width, int height,
+                     const std::vector<unsigned char>& bytes) {
     check_writable(path);
     AtomicFile file(path);
-    const std::vector<unsigned char> bytes = to_8bit(image, to_srgb8);
     std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(file.temp().c_str(), "wb"), &std::fclose);
     if (!fp) throw OutputError(path + ": cannot open for writing");
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
@@ -133,12 +137,12 @@ void write_png(const std::string& path, const RenderedImage& image) {
         throw OutputError(path + ": PNG write failed");
     }
     png_init_io(png, fp.get());
-    png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+    png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
     png_write_info(png, info);
-    for (int y = 0; y < image.height; ++y)
-        png_write_row(png, bytes.data() + 3u * static_cast<std::size_t>(image.width) * y);
+    for (int y = 0; y < height; ++y)
+        png_write_row(png, bytes.data() + 3u * static_cast<std::size_t>(width) * y);
     png_write_end(png, nullptr);
     png_destroy_write_struct(&png, &info);
     if (std::fflush(fp.get()) != 0 || std::ferror(fp.get()))

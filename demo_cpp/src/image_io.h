@@ -5,6 +5,7 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "image.h"
 
@@ -24,6 +25,9 @@ void write_exr(const std::string& path, const RenderedImage& image,
                const std::map<std::string, std::string>& attributes);
 // 8-bit PNG for people: clamped to [0, 1], sRGB-encoded. NaN is written as 0.
 void write_png(const std::string& path, const RenderedImage& image);
+// 8-bit RGB bytes (row-major, y down) that are already display-encoded, as a PNG.
+void write_png_bytes(const std::string& path, int width, int height,
+                     const std::vector<unsigned char>& rgb);
 // The paper's own format: binary P6, linear, clamped, 8-bit (x * 255, rounded). NaN -> 0.
 void write_ppm(const std::string& path, const RenderedImage& image);
 

@@ -11,6 +11,8 @@
 
 #include "cli_args.h"
 #include "cpu_renderer.h"
+#include "gl_headless.h"
+#include "gl_viewer.h"
 #include "image_io.h"
 #include "quirks.h"
 #include "scene_loader.h"
@@ -22,15 +24,33 @@ using namespace rt;
 constexpr int kExitUsage = 2;
 constexpr int kExitScene = 3;
 constexpr int kExitOutput = 4;
+constexpr int kExitGl = 5;
 constexpr long long kMaxPixels = 64ll * 1024 * 1024;
 
-const char* kTopHelp = R"(rtdemo - the course paper's Whitted ray tracer (CPU)
+const char* kTopHelp = R"(rtdemo - the course paper's Whitted ray tracer (CPU and GLSL)
 
 usage:
   rtdemo render SCENE.json -o OUT.exr [options]   render a scene (rtdemo render --help)
+  rtdemo view SCENE.json [options]                ray-trace it live in a window (rtdemo view --help)
   rtdemo --help | --version
 
-Exit codes: 0 ok, 2 bad arguments, 3 invalid scene file, 4 output not writable.
+Exit codes: 0 ok, 2 bad arguments, 3 invalid scene file, 4 output not writable,
+5 no OpenGL context or shader failure.
+)";
+
+const char* kViewHelp = R"(usage: rtdemo view SCENE.json [options]
+
+Opens a GLFW window and ray-traces SCENE every frame with the GLSL tracer.
+Drag with the left button to orbit, scroll to dolly; M cycles paper/classic/physical,
+S, R, T toggle shadows, reflection, refraction; P saves a screenshot; Esc or Q quits.
+The title shows the frame time.
+
+options:
+  --mode MODE, --fix Q1,...   as for render (default paper)
+  --max-depth N               recursion limit, 0-64 (default: the scene's)
+  --width W, --height H       window size (default: the camera's)
+  --frames N                  render N frames, then exit (for automation)
+  --screenshot OUT.png        with --frames: save the last frame (display-encoded)
 )";
 
 const char* kRenderHelp = R"(usage: rtdemo render SCENE.json [-o OUT.exr] [--png OUT.png] [--ppm OUT.ppm] [options]
@@ -63,8 +83,11 @@ algorithm:
 
 image:
   --width W, --height H  override the camera's size, 1-16384 each (at most 64 Mpixels)
-  --threads N            worker threads (default: all cores)
-  --backend cpu          the CPU tracer (the only backend in this build)
+  --threads N            CPU worker threads (default: all cores)
+  --backend cpu|gl       the CPU tracer (default) or the GLSL tracer in a headless EGL
+                         context (any GPU driver, or Mesa llvmpipe); same EXR layout
+  --frames N             gl: render N frames and time them (default 1); the header
+                         keeps compile time and median frame time apart
   -q, --quiet            no summary line on stderr
 )";
 
@@ -76,6 +99,8 @@ struct RenderArgs {
     std::optional<int> width, height, max_depth;
     int spp = 1;
     int threads = 0;
+    int frames = 1;
+    bool gl = false;
     bool shadows = true, reflection = true, refraction = true, quiet = false;
 };
 
@@ -110,8 +135,10 @@ RenderArgs parse_render_args(const std::vector<std::string>& args) {
         else if (a == "--no-refraction") out.refraction = false;
         else if (a == "--backend") {
             const std::string& b = value(i);
-            if (b != "cpu") throw UsageError("--backend: '" + b + "' is not available in this build (expected cpu)");
+            if (b != "cpu" && b != "gl") throw UsageError("--backend: expected cpu or gl, got '" + b + "'");
+            out.gl = b == "gl";
         }
+        else if (a == "--frames") out.frames = parse_int_arg(a, value(i), 1, 10000);
         else if (a == "-q" || a == "--quiet") out.quiet = true;
         else if (!a.empty() && a[0] == '-') throw UsageError("unknown option '" + a + "' (see rtdemo render --help)");
         else if (out.scene_path.empty()) out.scene_path = a;
@@ -132,12 +159,7 @@ std::string format_seconds(double s) {
     return o.str();
 }
 
-int run_render(const std::vector<std::string>& args) {
-    const RenderArgs a = parse_render_args(args);
-    for (const std::string* out : {&a.exr, &a.png, &a.ppm})
-        if (!out->empty()) check_writable(*out);
-
-    const Scene scene = load_scene_file(a.scene_path);
+RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
     RenderSettings settings;
     settings.trace.quirks = quirks_for(a.mode);
     for (Quirk q : a.fixes) settings.trace.quirks.fix(q);
@@ -157,36 +179,103 @@ int run_render(const std::vector<std::string>& args) {
     settings.spp = a.spp;
     settings.threads = a.threads > 0 ? a.threads
                                      : std::max(1u, std::thread::hardware_concurrency());
+    return settings;
+}
 
-    const auto start = std::chrono::steady_clock::now();
-    const RenderedImage image = render_cpu(scene, settings);
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+int run_render(const std::vector<std::string>& args) {
+    const RenderArgs a = parse_render_args(args);
+    for (const std::string* out : {&a.exr, &a.png, &a.ppm})
+        if (!out->empty()) check_writable(*out);
+
+    const Scene scene = load_scene_file(a.scene_path);
+    const RenderSettings settings = settings_for(a, scene);
+
+    RenderedImage image;
+    double seconds = 0;
+    GlTiming gl;
+    if (a.gl) {
+        image = render_gl(scene, settings, a.frames, &gl);
+        seconds = gl.frame_seconds;
+    } else {
+        const auto start = std::chrono::steady_clock::now();
+        image = render_cpu(scene, settings);
+        seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
 
     std::string effects;
     if (!a.shadows) effects += "no-shadows ";
     if (!a.reflection) effects += "no-reflection ";
     if (!a.refraction) effects += "no-refraction ";
-    const std::map<std::string, std::string> attributes = {
+    std::map<std::string, std::string> attributes = {
         {"rtval.renderer", "rtdemo"},
-        {"rtval.backend", "cpu"},
+        {"rtval.backend", a.gl ? "gl" : "cpu"},
         {"rtval.scene", scene.name},
         {"rtval.mode", mode_name(a.mode)},
         {"rtval.quirks", settings.trace.quirks.present_list()},
         {"rtval.spp", std::to_string(settings.spp)},
         {"rtval.max_depth", std::to_string(settings.trace.max_depth)},
         {"rtval.effects_off", effects.empty() ? "none" : effects},
-        {"rtval.threads", std::to_string(settings.threads)},
         {"rtval.render_seconds", format_seconds(seconds)},
     };
+    if (a.gl) {
+        attributes["rtval.gl_renderer"] = gl.renderer;
+        attributes["rtval.gl_context_seconds"] = format_seconds(gl.context_seconds);
+        attributes["rtval.gl_compile_seconds"] = format_seconds(gl.compile_seconds);
+        attributes["rtval.gl_first_frame_seconds"] = format_seconds(gl.first_frame_seconds);
+        attributes["rtval.gl_frames"] = std::to_string(gl.frames);
+    } else {
+        attributes["rtval.threads"] = std::to_string(settings.threads);
+    }
     if (!a.exr.empty()) write_exr(a.exr, image, attributes);
     if (!a.png.empty()) write_png(a.png, image);
     if (!a.ppm.empty()) write_ppm(a.ppm, image);
-    if (!a.quiet)
+    if (!a.quiet && a.gl)
+        std::fprintf(stderr, "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: gl on %s, compile %.3f s, "
+                     "first frame %.3f s, frame %.4f s (median of %d)\n",
+                     scene.name.c_str(), settings.width, settings.height, mode_name(a.mode),
+                     settings.trace.quirks.present_list().c_str(), settings.spp, gl.renderer.c_str(),
+                     gl.compile_seconds, gl.first_frame_seconds, gl.frame_seconds,
+                     std::max(gl.frames - 1, 1));
+    else if (!a.quiet)
         std::fprintf(stderr, "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: %.3f s on %d threads\n",
                      scene.name.c_str(), settings.width, settings.height, mode_name(a.mode),
                      settings.trace.quirks.present_list().c_str(), settings.spp, seconds,
                      settings.threads);
+    return 0;
+}
+
+int run_view(const std::vector<std::string>& args) {
+    // Same parser as render; outputs are not allowed, --screenshot takes their place.
+    std::vector<std::string> rest;
+    std::string screenshot;
+    int frames = 0;
+    for (std::size_t i = 0; i < args.size(); ++i) {
+        if (args[i] == "--screenshot" || args[i] == "--frames") {
+            if (i + 1 >= args.size()) throw UsageError(args[i] + ": expected a value");
+            if (args[i] == "--screenshot") screenshot = args[++i];
+            else frames = parse_int_arg("--frames", args[++i], 1, 100000);
+        } else if (args[i] == "-o" || args[i] == "--output" || args[i] == "--png" || args[i] == "--ppm" ||
+                   args[i] == "--backend" || args[i] == "--spp") {
+            throw UsageError(args[i] + " is not an option of view (see rtdemo view --help)");
+        } else {
+            rest.push_back(args[i]);
+        }
+    }
+    rest.push_back("--ppm");  // satisfies render's "one output" rule; nothing is written
+    rest.push_back("/dev/null");
+    const RenderArgs a = parse_render_args(rest);
+    if (!screenshot.empty() && frames == 0)
+        throw UsageError("--screenshot needs --frames N (press P in the window instead)");
+    if (!screenshot.empty()) check_writable(screenshot);
+    const Scene scene = load_scene_file(a.scene_path);
+    const RenderSettings settings = settings_for(a, scene);
+    ViewerOptions options;
+    options.trace = settings.trace;
+    options.width = settings.width;
+    options.height = settings.height;
+    options.frames = frames;
+    options.screenshot = screenshot;
+    run_viewer(scene, options);
     return 0;
 }
 
@@ -207,8 +296,10 @@ int main(int argc, char** argv) {
         for (const std::string& a : rest)
             if (a == "--help" || a == "-h") {
                 if (args[0] == "render") { std::fputs(kRenderHelp, stdout); return 0; }
+                if (args[0] == "view") { std::fputs(kViewHelp, stdout); return 0; }
             }
         if (args[0] == "render") return run_render(rest);
+        if (args[0] == "view") return run_view(rest);
         throw UsageError("unknown command '" + args[0] + "' (see rtdemo --help)");
     } catch (const UsageError& e) {
         std::fprintf(stderr, "rtdemo: error: %s\n", e.what());
@@ -219,6 +310,9 @@ int main(int argc, char** argv) {
     } catch (const OutputError& e) {
         std::fprintf(stderr, "rtdemo: error: %s\n", e.what());
         return kExitOutput;
+    } catch (const GlError& e) {
+        std::fprintf(stderr, "rtdemo: error: OpenGL: %s\n", e.what());
+        return kExitGl;
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "rtdemo: error: out of memory\n");
         return 1;

@@ -1,0 +1,281 @@
+// The paper's tracer (paper-model.md) as a fragment shader: the GLSL twin of tracer.cpp.
+// `#version` and STACK_SIZE (= max_depth + 2) are prepended by gl_tracer.cpp.
+//
+// GLSL has no recursion. A pixel's colour is linear in its children's colours
+// (c = local + wR * c_reflected + wT * c_refracted), so a depth-first walk over an explicit
+// stack of (ray, weight) items, summing weight * local, gives the same value. Each pop
+// pushes at most two children one level deeper, so max_depth + 2 entries always suffice.
+
+layout(location = 0) out vec4 out_color;   // linear RGB (or display-encoded in the window)
+layout(location = 1) out vec4 out_aov;     // id, depth
+layout(location = 2) out vec4 out_normal;  // N facing the camera
+
+struct Sphere {
+    vec4 center_radius;
+    vec4 color_reflection;
+    vec4 emission_transparency;
+    vec4 ior;               // x: ior
+    vec4 light_intensity;   // xyz: I = pi E d0^2 (light_units.h), w: 1 for a light
+};
+layout(std430, binding = 0) readonly buffer Spheres { Sphere spheres[]; };
+
+uniform int u_sphere_count;
+uniform int u_quirks;   // bit q-1 set: quirk Qq present
+uniform int u_effects;  // bit 0 shadows, bit 1 reflection, bit 2 refraction
+uniform int u_max_depth;
+uniform float u_bias;
+uniform vec3 u_background;
+uniform vec3 u_cam_origin;
+uniform vec3 u_cam_forward;
+uniform vec3 u_cam_right;
+uniform vec3 u_cam_up;
+uniform float u_half_height;  // tan(fov_y / 2)
+uniform vec2 u_size;          // width, height in pixels
+uniform int u_strata;         // k: k x k stratum centres per pixel
+uniform int u_display;        // 1: clamp and sRGB-encode (window), 0: linear (headless)
+
+const float PI = 3.14159265358979;
+const float INF = uintBitsToFloat(0x7F800000u);
+
+bool quirk(int q) { return (u_quirks & (1 << (q - 1))) != 0; }
+bool effect(int bit) { return (u_effects & (1 << bit)) != 0; }
+vec3 center(int i) { return spheres[i].center_radius.xyz; }
+float radius(int i) { return spheres[i].center_radius.w; }
+bool is_light(int i) { return spheres[i].light_intensity.w > 0.0; }
+float transparency(int i) { return spheres[i].emission_transparency.w; }
+bool specular_flags(int i) { return transparency(i) > 0.0 || spheres[i].color_reflection.w > 0.0; }
+
+// The paper's geometric test with Q1's early-out; false = miss. t may be NaN for a NaN
+// ray, exactly as on the CPU (every comparison with NaN is false).
+bool intersect_paper(int i, vec3 o, vec3 d, out float t) {
+    vec3 l = center(i) - o;
+    float tca = dot(l, d);
+    t = 0.0;
+    if (tca < 0.0) return false;
+    float d2 = dot(l, l) - tca * tca;
+    float r2 = radius(i) * radius(i);
+    if (d2 > r2) return false;
+    float thc = sqrt(r2 - d2);
+    float t0 = tca - thc;
+    t = t0 < 0.0 ? tca + thc : t0;
+    return true;
+}
+
+// Haines et al.'s robust quadratic; nearest root in (t_min, t_max).
+bool intersect_robust(int i, vec3 o, vec3 d, float t_min, float t_max, out float t) {
+    vec3 oc = o - center(i);
+    float b = dot(oc, d);
+    vec3 perpendicular = oc - d * b;
+    float r2 = radius(i) * radius(i);
+    float disc = r2 - dot(perpendicular, perpendicular);
+    t = 0.0;
+    if (disc < 0.0) return false;
+    float c = dot(oc, oc) - r2;
+    float q = -b - (b < 0.0 ? -sqrt(disc) : sqrt(disc));
+    float t0 = q != 0.0 ? c / q : 0.0;
+    float t1 = q;
+    if (t0 > t1) { float s = t0; t0 = t1; t1 = s; }
+    if (t_min < t0 && t0 < t_max) { t = t0; return true; }
+    if (t_min < t1 && t1 < t_max) { t = t1; return true; }
+    return false;
+}
+
+bool nearest_hit(vec3 o, vec3 d, int skip, out int index, out float t_near) {
+    index = -1;
+    t_near = INF;
+    bool paper = quirk(1);
+    for (int i = 0; i < u_sphere_count; ++i) {
+        if (i == skip) continue;
+        float t;
+        bool hit = paper ? intersect_paper(i, o, d, t) : intersect_robust(i, o, d, 0.0, t_near, t);
+        if (hit && t < t_near) { t_near = t; index = i; }
+    }
+    return index >= 0;
+}
+
+bool blocks(int j, vec3 o, vec3 d, float max_t) {
+    float t;
+    if (quirk(1)) return intersect_paper(j, o, d, t) && t < max_t;
+    return intersect_robust(j, o, d, 0.0, max_t, t);
+}
+
+float offset_at(vec3 p) {
+    if (quirk(1)) return u_bias;
+    return u_bias * (1.0 + max(abs(p.x), max(abs(p.y), abs(p.z))));
+}
+
+float paper_fresnel(float facing) {
+    float f = 1.0 - facing;
+    return 0.1 + 0.9 * f * f * f;
+}
+
+float dielectric_fresnel(float cos_theta_i, float eta) {
+    if (eta == 1.0) return 0.0;
+    bool outside = cos_theta_i >= 0.0;
+    float eta_it = outside ? eta : 1.0 / eta;
+    float eta_ti = 1.0 / eta_it;
+    float cos_i = abs(cos_theta_i);
+    float cos_t_sqr = 1.0 - eta_ti * eta_ti * (1.0 - cos_i * cos_i);
+    if (cos_t_sqr <= 0.0) return 1.0;
+    float cos_t = sqrt(cos_t_sqr);
+    float a_s = (cos_i - eta_it * cos_t) / (cos_i + eta_it * cos_t);
+    float a_p = (cos_t - eta_it * cos_i) / (cos_t + eta_it * cos_i);
+    return clamp(0.5 * (a_s * a_s + a_p * a_p), 0.0, 1.0);
+}
+
+// Step 5 of paper-model.md: direct light at p on sphere `hit`.
+vec3 shade_direct(int hit, vec3 p, vec3 n) {
+    vec3 origin = p + n * offset_at(p);
+    vec3 aim_from = quirk(1) ? p : origin;
+    float shared_shadow = 1.0;  // Q4
+    vec3 c = vec3(0.0);
+    for (int light = 0; light < u_sphere_count; ++light) {
+        if (!is_light(light)) continue;
+        vec3 to_light = center(light) - aim_from;
+        float dist = length(to_light);
+        vec3 l = to_light / dist;
+        float cos_theta = max(0.0, dot(n, l));
+        float transmission = 1.0;
+        if (effect(0) && (quirk(4) || cos_theta > 0.0)) {
+            float max_t = quirk(5) ? INF : dist;
+            for (int j = 0; j < u_sphere_count; ++j) {
+                if (j == light) continue;
+                if (j == hit && !quirk(1)) continue;
+                if (!blocks(j, origin, l, max_t)) continue;
+                float opacity = quirk(9) ? 1.0 - transparency(j) : 1.0;
+                if (quirk(4)) {
+                    shared_shadow = max(0.0, shared_shadow - opacity);
+                    transmission *= shared_shadow;
+                } else {
+                    transmission *= 1.0 - opacity;
+                    if (transmission == 0.0) break;
+                }
+            }
+        }
+        vec3 surface = spheres[hit].color_reflection.rgb;
+        if (quirk(7)) {
+            c += surface * spheres[light].emission_transparency.rgb * (transmission * cos_theta);
+        } else {
+            vec3 from_p = center(light) - p;
+            float scale = transmission * cos_theta / dot(from_p, from_p);
+            c += surface * spheres[light].light_intensity.rgb * (scale / PI);
+        }
+    }
+    return c;
+}
+
+struct Item {
+    vec3 origin;
+    vec3 dir;
+    vec3 weight;
+    int depth;
+    int skip;
+};
+
+vec3 trace(vec3 origin, vec3 dir) {
+    Item stack[STACK_SIZE];
+    int sp = 0;
+    stack[sp++] = Item(origin, dir, vec3(1.0), 0, -1);
+    vec3 total = vec3(0.0);
+    while (sp > 0) {
+        Item it = stack[--sp];
+        int idx;
+        float t;
+        if (!nearest_hit(it.origin, it.dir, it.skip, idx, t)) {
+            total += it.weight * u_background;
+            continue;
+        }
+        if (!quirk(7) && is_light(idx)) {
+            float r = radius(idx);
+            total += it.weight * spheres[idx].light_intensity.rgb / (PI * r * r);
+            continue;
+        }
+        vec3 p = it.origin + it.dir * t;
+        vec3 n = normalize(p - center(idx));
+        bool inside = false;
+        if (dot(it.dir, n) > 0.0) { n = -n; inside = true; }
+        bool spec = specular_flags(idx);
+        if (spec && it.depth < u_max_depth) {
+            float d_dot_n = dot(it.dir, n);
+            float facing = max(0.0, -d_dot_n);
+            float offset = offset_at(p);
+            float tr = transparency(idx);
+            float ior = spheres[idx].ior.x;
+            bool total_internal = false;
+            float eta_ti_sq = 1.0;
+            bool refract_child = false;
+            vec3 t_dir = vec3(0.0);
+            if (tr > 0.0) {
+                float eta = (quirk(2) || !inside) ? 1.0 / ior : ior;
+                float cosi = -d_dot_n;
+                float k = 1.0 - eta * eta * (1.0 - cosi * cosi);
+                total_internal = k < 0.0 && !quirk(3);
+                if (!total_internal && effect(2)) {
+                    // With Q3 present and k < 0 this is NaN, like the original's sqrt(k).
+                    t_dir = normalize(it.dir * eta + n * (eta * cosi - sqrt(k)));
+                    refract_child = true;
+                }
+                eta_ti_sq = eta * eta;
+            }
+            float fresnel;
+            if (total_internal) fresnel = 1.0;
+            else if (quirk(8)) fresnel = paper_fresnel(facing);
+            else if (tr > 0.0) fresnel = dielectric_fresnel(inside ? -facing : facing, ior);
+            else fresnel = 1.0;
+            vec3 surface = spheres[idx].color_reflection.rgb;
+            float t_weight = quirk(8) ? 1.0 : eta_ti_sq;
+            if (refract_child && sp < STACK_SIZE)
+                stack[sp++] = Item(p - n * offset, t_dir,
+                                   it.weight * surface * ((1.0 - fresnel) * tr * t_weight),
+                                   it.depth + 1, -1);
+            if (effect(1) && sp < STACK_SIZE) {
+                vec3 r_dir = normalize(it.dir - n * (2.0 * d_dot_n));
+                int skip = (!quirk(1) && !inside) ? idx : -1;
+                stack[sp++] = Item(p + n * offset, r_dir, it.weight * surface * fresnel,
+                                   it.depth + 1, skip);
+            }
+        } else if (!(spec && !quirk(6))) {
+            total += it.weight * shade_direct(idx, p, n);
+        }
+        if (quirk(7)) total += it.weight * spheres[idx].emission_transparency.rgb;
+    }
+    return total;
+}
+
+vec3 camera_dir(float px, float py) {
+    float xx = (2.0 * px / u_size.x - 1.0) * u_half_height * (u_size.x / u_size.y);
+    float yy = (1.0 - 2.0 * py / u_size.y) * u_half_height;
+    return normalize(u_cam_right * xx + u_cam_up * yy + u_cam_forward);
+}
+
+vec3 srgb_encode(vec3 linear) {
+    vec3 v = clamp(linear, 0.0, 1.0);
+    return mix(12.92 * v, 1.055 * pow(v, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), v));
+}
+
+void main() {
+    // Pixel (x, y) with y down, as the CPU numbers them.
+    float x = floor(gl_FragCoord.x);
+    float y = u_size.y - 1.0 - floor(gl_FragCoord.y);
+
+    vec3 d0 = camera_dir(x + 0.5, y + 0.5);
+    int id;
+    float t;
+    if (nearest_hit(u_cam_origin, d0, -1, id, t)) {
+        vec3 n = normalize(u_cam_origin + d0 * t - center(id));
+        if (dot(d0, n) > 0.0) n = -n;
+        out_aov = vec4(float(id), t, 0.0, 1.0);
+        out_normal = vec4(n, 1.0);
+    } else {
+        out_aov = vec4(-1.0, 0.0, 0.0, 1.0);
+        out_normal = vec4(0.0, 0.0, 0.0, 1.0);
+    }
+
+    vec3 sum = vec3(0.0);
+    float k = float(u_strata);
+    for (int sy = 0; sy < u_strata; ++sy)
+        for (int sx = 0; sx < u_strata; ++sx)
+            sum += trace(u_cam_origin, camera_dir(x + (float(sx) + 0.5) / k, y + (float(sy) + 0.5) / k));
+    vec3 c = sum / (k * k);
+    out_color = vec4(u_display == 1 ? srgb_encode(c) : c, 1.0);
+}

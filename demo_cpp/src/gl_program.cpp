@@ -1,0 +1,137 @@
+#include "gl_program.h"
+
+#include <epoxy/gl.h>
+
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+#include "embedded_shaders.h"
+#include "light_units.h"
+
+namespace rt {
+namespace {
+
+unsigned compile(GLenum type, const std::string& source, const char* name) {
+    const unsigned shader = glCreateShader(type);
+    const char* text = source.c_str();
+    glShaderSource(shader, 1, &text, nullptr);
+    glCompileShader(shader);
+    int ok = 0;
+    glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        int length = 0;
+        glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
+        std::string log(static_cast<std::size_t>(std::max(length, 1)), '\0');
+        glGetShaderInfoLog(shader, length, nullptr, log.data());
+        glDeleteShader(shader);
+        throw GlError(std::string("cannot compile ") + name + ":\n" + log);
+    }
+    return shader;
+}
+
+// std430 layout of trace.frag.glsl's Sphere: five vec4.
+struct GpuSphere {
+    float center_radius[4];
+    float color_reflection[4];
+    float emission_transparency[4];
+    float ior[4];
+    float light_intensity[4];
+};
+
+}  // namespace
+
+GlView view_of(const Camera& c) { return {c.position, c.look_at, c.up, c.fov_y}; }
+
+TraceProgram::TraceProgram(const Scene& scene, int max_depth) : scene_(scene), max_depth_(max_depth) {
+    const auto start = std::chrono::steady_clock::now();
+    GLint64 max_block = 0;
+    glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
+    const long long needed = static_cast<long long>(scene.spheres.size()) * sizeof(GpuSphere);
+    if (needed > max_block)
+        throw GlError("scene has " + std::to_string(scene.spheres.size()) +
+                      " spheres; this GL's storage-buffer limit holds " +
+                      std::to_string(max_block / sizeof(GpuSphere)));
+
+    const std::string header = "#version 430 core\n#define STACK_SIZE " +
+                               std::to_string(max_depth + 2) + "\n";
+    const unsigned vs = compile(GL_VERTEX_SHADER, kFullscreenVertSource, "fullscreen.vert.glsl");
+    const unsigned fs = compile(GL_FRAGMENT_SHADER, header + kTraceFragSource, "trace.frag.glsl");
+    program_ = glCreateProgram();
+    glAttachShader(program_, vs);
+    glAttachShader(program_, fs);
+    glLinkProgram(program_);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    int ok = 0;
+    glGetProgramiv(program_, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        int length = 0;
+        glGetProgramiv(program_, GL_INFO_LOG_LENGTH, &length);
+        std::string log(static_cast<std::size_t>(std::max(length, 1)), '\0');
+        glGetProgramInfoLog(program_, length, nullptr, log.data());
+        throw GlError("cannot link the tracer program:\n" + log);
+    }
+
+    std::vector<GpuSphere> data(std::max<std::size_t>(scene.spheres.size(), 1));
+    for (std::size_t i = 0; i < scene.spheres.size(); ++i) {
+        const Sphere& s = scene.spheres[i];
+        const color intensity = s.is_light() ? point_intensity(scene, s) : color(0.0f);
+        data[i] = {{s.center.x, s.center.y, s.center.z, s.radius},
+                   {s.surface_color.x, s.surface_color.y, s.surface_color.z, s.reflection},
+                   {s.emission.x, s.emission.y, s.emission.z, s.transparency},
+                   {s.ior, 0, 0, 0},
+                   {intensity.x, intensity.y, intensity.z, s.is_light() ? 1.0f : 0.0f}};
+    }
+    glGenBuffers(1, &ssbo_);
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, ssbo_);
+    glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(GpuSphere)),
+                 data.data(), GL_STATIC_DRAW);
+    glGenVertexArrays(1, &vao_);
+    compile_seconds_ =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+TraceProgram::~TraceProgram() {
+    if (vao_) glDeleteVertexArrays(1, &vao_);
+    if (ssbo_) glDeleteBuffers(1, &ssbo_);
+    if (program_) glDeleteProgram(program_);
+}
+
+void TraceProgram::draw(const TraceOptions& options, const GlView& view, int width, int height,
+                        int strata, bool display_encode) const {
+    if (options.max_depth > max_depth_)
+        throw GlError("max depth " + std::to_string(options.max_depth) +
+                      " exceeds the compiled stack (" + std::to_string(max_depth_) + ")");
+    const vec3 forward = normalize(view.look_at - view.position);
+    const vec3 right = normalize(cross(forward, view.up));
+    const vec3 up = cross(right, forward);
+    int quirks = 0;
+    for (int q = 1; q <= kQuirkCount; ++q)
+        if (options.quirks.has(static_cast<Quirk>(q))) quirks |= 1 << (q - 1);
+    const int effects = (options.shadows ? 1 : 0) | (options.reflection ? 2 : 0) |
+                        (options.refraction ? 4 : 0);
+
+    glUseProgram(program_);
+    auto loc = [&](const char* name) { return glGetUniformLocation(program_, name); };
+    glUniform1i(loc("u_sphere_count"), static_cast<int>(scene_.spheres.size()));
+    glUniform1i(loc("u_quirks"), quirks);
+    glUniform1i(loc("u_effects"), effects);
+    glUniform1i(loc("u_max_depth"), options.max_depth);
+    glUniform1f(loc("u_bias"), scene_.bias);
+    glUniform3f(loc("u_background"), scene_.background.x, scene_.background.y, scene_.background.z);
+    glUniform3f(loc("u_cam_origin"), view.position.x, view.position.y, view.position.z);
+    glUniform3f(loc("u_cam_forward"), forward.x, forward.y, forward.z);
+    glUniform3f(loc("u_cam_right"), right.x, right.y, right.z);
+    glUniform3f(loc("u_cam_up"), up.x, up.y, up.z);
+    glUniform1f(loc("u_half_height"), std::tan(view.fov_y * 0.5f * kPi / 180.0f));
+    glUniform2f(loc("u_size"), static_cast<float>(width), static_cast<float>(height));
+    glUniform1i(loc("u_strata"), strata);
+    glUniform1i(loc("u_display"), display_encode ? 1 : 0);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, ssbo_);
+    glBindVertexArray(vao_);
+    glViewport(0, 0, width, height);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+}
+
+}  // namespace rt
