@@ -22,6 +22,7 @@ from mitsuba_ref.export import ExportOptions, export_scene
 from mitsuba_ref.scene import Scene
 
 INTEGRATORS = ("whitted", "path")
+MAX_WAVEFRONT = 1 << 22  # rays per JIT launch (~4 M): memory stays well under 4 GiB
 F32 = NDArray[np.float32]
 
 
@@ -91,28 +92,38 @@ def render_reference(scene: Scene, settings: ReferenceSettings,
     width, height = settings.size or (scene.camera.width, scene.camera.height)
     sensor = _sensor(mi, scene, exported, width, height)
 
-    render_pass = _jit_pass if dr.is_jit_v(mi.Float) else _scalar_pass
+    jit = bool(dr.is_jit_v(mi.Float))
     total = np.zeros((height, width, 3), np.float64)
     total_sq = np.zeros((height, width, 3), np.float64)
     passes = 1 if _deterministic(settings) else settings.spp
+    # JIT variants trace several samples per pixel in one wavefront (recording the
+    # recursion once per batch); scalar variants go one sample at a time.
+    batch_max = max(1, MAX_WAVEFRONT // (width * height)) if jit else 1
     start = time.perf_counter()
     done = 0
     stopped_by = "spp"
     stderr = float("nan")
-    for k in range(passes):
-        sample = render_pass(mi, dr, mscene, sensor, integrator, width, height,
-                             settings.seed * 1_000_003 + k, settings.centre_rays)
-        total += sample
-        total_sq += sample * sample
-        done += 1
+    while done < passes:
+        batch = min(batch_max, passes - done)
+        seed = settings.seed * 1_000_003 + done
+        if jit:
+            samples = _jit_batch(mi, dr, mscene, sensor, integrator, width, height, seed, batch,
+                                 settings.centre_rays)
+        else:
+            samples = _scalar_pass(mi, dr, mscene, sensor, integrator, width, height, seed,
+                                   settings.centre_rays)[None]
+        total += samples.sum(axis=0)
+        total_sq += (samples * samples).sum(axis=0)
+        done += batch
         elapsed = time.perf_counter() - start
         if done >= 2:
             var = np.maximum(total_sq / done - (total / done) ** 2, 0) * done / (done - 1)
             stderr = float(np.mean(np.sqrt(var / done)))
         if progress:
-            bar = "#" * int(20 * done / passes) + "." * (20 - int(20 * done / passes))
-            progress(f"{settings.integrator} {settings.variant} [{bar}] {done}/{passes} spp "
-                     f"{elapsed:.1f} s" + (f", std err {stderr:.2e}" if done >= 2 else ""))
+            filled = int(20 * done / passes)
+            progress(f"{settings.integrator} {settings.variant} [{'#' * filled}{'.' * (20 - filled)}] "
+                     f"{done}/{passes} spp {elapsed:.1f} s"
+                     + (f", std err {stderr:.2e}" if done >= 2 else ""))
         if settings.time_budget is not None and elapsed >= settings.time_budget and done < passes:
             stopped_by = "time budget"
             break
@@ -171,16 +182,24 @@ def _film_positions(dr: Any, mi: Any, sampler: Any, width: int, height: int,
     return mi.Point2f((x + offset.x) / width, (y + offset.y) / height)
 
 
-def _jit_pass(mi: Any, dr: Any, mscene: Any, sensor: Any, integrator: Any, width: int,
-              height: int, seed: int, centre: bool) -> NDArray[np.float64]:
+def _jit_batch(mi: Any, dr: Any, mscene: Any, sensor: Any, integrator: Any, width: int,
+               height: int, seed: int, batch: int, centre: bool) -> NDArray[np.float64]:
+    """`batch` samples per pixel in one wavefront: batch x H x W x 3."""
+    n = width * height
     sampler = mi.load_dict({"type": "independent"})
-    sampler.seed(seed, width * height)
-    pos = _film_positions(dr, mi, sampler, width, height, centre)
+    sampler.seed(seed, n * batch)
+    idx = dr.arange(mi.UInt32, n * batch) % n
+    x, y = mi.Float(idx % width), mi.Float(idx // width)
+    if centre:
+        pos = mi.Point2f((x + 0.5) / width, (y + 0.5) / height)
+    else:
+        o = sampler.next_2d()
+        pos = mi.Point2f((x + o.x) / width, (y + o.y) / height)
     ray, weight = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
     L, _, _ = integrator.sample(mscene, sampler, ray, None, True)
     L = L * weight
     out = np.stack([np.asarray(L.x), np.asarray(L.y), np.asarray(L.z)], axis=-1)
-    return out.reshape(height, width, 3).astype(np.float64)
+    return out.reshape(batch, height, width, 3).astype(np.float64)
 
 
 def _scalar_pass(mi: Any, dr: Any, mscene: Any, sensor: Any, integrator: Any, width: int,

@@ -36,6 +36,20 @@ def _not(mask: Any) -> Any:
     return ~mask if _jit() else not mask
 
 
+def _concat(parts: list[Any]) -> Any:
+    """Arrays of one drjit type laid end to end."""
+    if len(parts) == 1:
+        return parts[0]
+    total = sum(dr.width(p) for p in parts)
+    out = dr.zeros(type(parts[0]), total)
+    offset = 0
+    for p in parts:
+        w = dr.width(p)
+        dr.scatter(out, p, dr.arange(mi.UInt32, w) + offset)
+        offset += w
+    return out
+
+
 def _offset_origin(p: Any, n: Any, d: Any) -> Any:
     """p moved off the surface by 1e-4 (1 + max|p_i|), to the side `d` leaves on."""
     scale = OFFSET_SCALE * (1.0 + dr.max(dr.abs(p)))
@@ -99,7 +113,7 @@ def integrator_class(variant: str) -> type:
             return self.environment.eval(si, active)
 
         # -- transport ------------------------------------------------------------------
-        def _direct(self, scene: Any, sampler: Any, si: Any, bsdf: Any, active: Any) -> Any:
+        def _direct(self, scene: Any, draw2d: Any, si: Any, bsdf: Any, active: Any) -> Any:
             ctx = mi.BSDFContext()
             result = mi.Color3f(0.0)
             for emitter, radius in self.point_lights:
@@ -117,7 +131,7 @@ def integrator_class(variant: str) -> type:
             for emitter in self.area_lights:
                 acc = mi.Color3f(0.0)
                 for _ in range(self.light_samples):
-                    ds, spec = emitter.sample_direction(si, sampler.next_2d(active), active)
+                    ds, spec = emitter.sample_direction(si, draw2d(), active)
                     value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
                     if self.shadows:
                         o = _offset_origin(si.p, si.n, ds.d)
@@ -130,26 +144,27 @@ def integrator_class(variant: str) -> type:
                 result += acc / self.light_samples
             return result
 
-        def trace(self, scene: Any, sampler: Any, ray: Any, depth: int, weight: Any,
-                  active: Any) -> Any:
-            """Radiance along `ray` times `weight`, for the lanes in `active`."""
+        def shade(self, scene: Any, draw2d: Any, ray: Any, depth: int, active: Any) -> Any:
+            """One path vertex: the radiance it adds directly (background, emission, direct
+            light) and the specular children [(mask, ray, weight)] it spawns."""
             si = scene.ray_intersect(ray, active)
             hit = active & si.is_valid()
             miss = active & _not(si.is_valid())
-            result = dr.select(miss, weight * self._background(ray, miss), 0.0)
+            result = dr.select(miss, self._background(ray, miss), 0.0)
+            children: list[tuple[Any, Any, Any]] = []
             if not dr.any(hit):
-                return result
+                return result, children
             light = self._is_light(scene, si, hit)
-            result += dr.select(light, weight * self._emission(scene, si, light), 0.0)
+            result += dr.select(light, self._emission(scene, si, light), 0.0)
             surface = hit & _not(light)
             bsdf = si.bsdf(ray)
             flags = bsdf.flags()
             diffuse = surface & mi.has_flag(flags, mi.BSDFFlags.DiffuseReflection)
             if dr.any(diffuse):
-                result += dr.select(diffuse, weight * self._direct(scene, sampler, si, bsdf, diffuse), 0.0)
+                result += dr.select(diffuse, self._direct(scene, draw2d, si, bsdf, diffuse), 0.0)
             specular = surface & mi.has_flag(flags, mi.BSDFFlags.Delta)
             if depth >= self.max_depth or not dr.any(specular):
-                return result  # a specular chain cut at max_depth carries nothing
+                return result, children  # a specular chain cut at max_depth carries nothing
             lobes = []
             if self.reflection:
                 lobes.append((0, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaReflection)))
@@ -163,17 +178,57 @@ def integrator_class(variant: str) -> type:
                 bs, w = bsdf.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5), mask)
                 mask = mask & dr.any(w != 0.0)
                 wo = si.to_world(bs.wo)
-                next_ray = mi.Ray3f(_offset_origin(si.p, si.n, wo), wo)
-                if _jit():
-                    dr.schedule(next_ray, w, mask)
-                result += self.trace(scene, sampler, next_ray, depth + 1, weight * w, mask)
+                children.append((mask, mi.Ray3f(_offset_origin(si.p, si.n, wo), wo), w))
+            return result, children
+
+        def _trace_recursive(self, scene: Any, sampler: Any, ray: Any, depth: int,
+                             active: Any) -> Any:
+            """Scalar variants: one ray, depth-first."""
+            result, children = self.shade(scene, sampler.next_2d, ray, depth, active)
+            for mask, child, w in children:
+                if mask:
+                    result += w * self._trace_recursive(scene, sampler, child, depth + 1, mask)
+            return result
+
+        def _trace_wavefront(self, scene: Any, sampler: Any, ray: Any, active: Any) -> Any:
+            """JIT variants: per depth one compacted front holding every live ray of every
+            lobe; contributions are scattered back to their camera ray."""
+            n = dr.width(ray.o)
+            result = dr.zeros(mi.Color3f, n)
+            idx = dr.compress(mi.Bool(active) | dr.zeros(mi.Bool, n))
+            origins = dr.gather(mi.Point3f, ray.o, idx)
+            dirs = dr.gather(mi.Vector3f, ray.d, idx)
+            weight = dr.full(mi.Color3f, 1.0, dr.width(idx))
+            for depth in range(self.max_depth + 1):
+                width = dr.width(idx)
+                if width == 0:
+                    break
+                draw2d = lambda idx=idx: dr.gather(mi.Point2f, sampler.next_2d(), idx)  # noqa: E731
+                contrib, children = self.shade(scene, draw2d, mi.Ray3f(origins, dirs), depth,
+                                               dr.full(mi.Bool, True, width))
+                dr.scatter_reduce(dr.ReduceOp.Add, result, weight * contrib, idx)
+                parts = []
+                for mask, child, w in children:
+                    keep = dr.compress(mask)
+                    if dr.width(keep) > 0:
+                        parts.append((dr.gather(mi.Point3f, child.o, keep),
+                                      dr.gather(mi.Vector3f, child.d, keep),
+                                      dr.gather(mi.Color3f, weight * w, keep),
+                                      dr.gather(mi.UInt32, idx, keep)))
+                if not parts:
+                    break
+                origins, dirs, weight, idx = (_concat([p[k] for p in parts]) for k in range(4))
+                dr.eval(origins, dirs, weight, idx)
             return result
 
         def sample(self, scene: Any, sampler: Any, ray: Any, medium: Any = None,
                    active: Any = True) -> tuple[Any, Any, list[Any]]:
             self._prepare(scene)
             ray = mi.Ray3f(ray)
-            L = self.trace(scene, sampler, ray, 0, mi.Color3f(1.0), mi.Bool(active))
+            if _jit():
+                L = self._trace_wavefront(scene, sampler, ray, active)
+            else:
+                L = self._trace_recursive(scene, sampler, ray, 0, mi.Bool(active))
             return L, mi.Bool(active), []
 
         def to_string(self) -> str:

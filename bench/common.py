@@ -1,0 +1,72 @@
+"""Shared helpers for the benchmarks: timing whole processes, machine facts, JSON output."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "bench" / "results"
+SCENES = ROOT / "scenes"
+
+
+def tool(name: str) -> str:
+    """A console script of the project's venv (rtdemo, rtval)."""
+    path = Path(sys.executable).with_name(name)
+    if not path.is_file():
+        raise SystemExit(f"{path} missing: run `make setup` first")
+    return str(path)
+
+
+def time_process(cmd: list[str], repeats: int = 3, env: dict[str, str] | None = None) -> dict[str, Any]:
+    """Wall time of a whole process (start-up and output included), median of `repeats`."""
+    times = []
+    last = None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        last = subprocess.run(cmd, capture_output=True, text=True, check=False,
+                              env={**os.environ, **(env or {})})
+        times.append(time.perf_counter() - start)
+        if last.returncode != 0:
+            raise SystemExit(f"{' '.join(cmd)} failed: {last.stderr}")
+    return {"median_s": statistics.median(times), "min_s": min(times), "runs": times,
+            "stderr": last.stderr.strip() if last else ""}
+
+
+def machine() -> dict[str, Any]:
+    cpu = ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"host": platform.node(), "cpu": cpu, "cores": os.cpu_count(),
+            "python": platform.python_version(), "system": f"{platform.system()} {platform.release()}",
+            "date": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+
+
+def write_results(name: str, data: dict[str, Any]) -> Path:
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    path = RESULTS / f"{name}.json"
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps({"machine": machine(), **data}, indent=2) + "\n")
+    tmp.replace(path)
+    return path
+
+
+def print_table(headers: list[str], rows: list[list[Any]]) -> None:
+    cells = [[str(h) for h in headers]] + [[f"{c:.4g}" if isinstance(c, float) else str(c) for c in r] for r in rows]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
+    for i, r in enumerate(cells):
+        print("  ".join(c.rjust(w) for c, w in zip(r, widths)))
+        if i == 0:
+            print("  ".join("-" * w for w in widths))
