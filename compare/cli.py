@@ -38,8 +38,9 @@ def _size(text: str) -> tuple[int, int]:
 def _cmd_report(args: argparse.Namespace) -> int:
     from compare.report import build_report
 
-    index = build_report(args.scene, args.reports_dir, size=args.size,
-                         progress=lambda m: print(m, file=sys.stderr))
+    index = build_report(args.scene, args.reports_dir, size=args.size, test_image=args.test_image,
+                         test_label=args.label, test_encoding=args.test_encoding, jobs=args.jobs,
+                         pdf=not args.no_pdf, progress=lambda m: print(m, file=sys.stderr, flush=True))
     print(index)
     return 0
 
@@ -230,6 +231,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scene", nargs="?", default="scenes/paper.json", help="scene file (default: scenes/paper.json)")
     p.add_argument("--reports-dir", type=Path, default=Path("reports"), help="where reports go (default: reports)")
     p.add_argument("--size", type=_size, default=None, metavar="WxH", help="override the camera's image size")
+    p.add_argument("--test-image", metavar="IMAGE", help="grade this render (EXR, PNG, PPM, PFM) in the demo's place")
+    p.add_argument("--label", default=None, help="name of the --test-image renderer in the report")
+    p.add_argument("--test-encoding", choices=("srgb", "linear"), default=None,
+                   help="8-bit encoding of --test-image (default: PNG srgb, PPM linear)")
+    p.add_argument("--jobs", type=_positive_int, default=1, help="renders run in parallel (default 1)")
+    p.add_argument("--no-pdf", action="store_true", help="skip report.pdf (printed by headless Chromium)")
     p.set_defaults(func=_cmd_report)
 
     p = sub.add_parser("export", help="write the scene as Mitsuba 3 XML (plus PLY meshes)",

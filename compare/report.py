@@ -1,52 +1,52 @@
-"""`rtval report`: the paper scene through the renderers into reports/<scene>/.
+"""`rtval report`: one scene through every renderer into reports/<scene>/.
 
-Every number in the report comes with the command that regenerates it.
+Writes index.html (renders with a flip control, difference/FLIP/SSIM maps, global and
+per-effect tables, sentences, speed-accuracy and convergence charts, the ablation ladder,
+reproducibility facts, a one-screen verdict), report.json, report.pdf and the images.
+Every render is a printed command, cached by content hash (render_cache.py).
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+import importlib.metadata
 import json
+import os
 import platform
 import shlex
+import shutil
+import subprocess
 import sys
-import time
-from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
+import numpy as np
 from jinja2 import Environment, PackageLoader, select_autoescape
 
-from compare.images import read_image
-from compare.tools import run_rtdemo
+from compare import report_figures as figs
+from compare.effects import EFFECTS, effect_masks
+from compare.images import Image, ImageError, read_image, write_png
+from compare.metrics import compute_maps, compute_metrics
+from compare.render_cache import RenderJob, run_jobs
+from compare.report_plan import EFFECT_SWITCHES, QUIRKS, REFERENCE_KEY, REFERENCE_SPP, plan
+from compare.tools import ToolError, rtdemo_path
+from compare.verdict import contribution_sentence, difference_sentences, grade
 from mitsuba_ref.scene import load_scene
 
-
-@dataclass
-class RenderEntry:
-    key: str
-    label: str
-    command: list[str]
-    exr: str
-    png: str
-    seconds: float
-    header: dict[str, str]
-
-    @property
-    def command_text(self) -> str:
-        return shlex.join(self.command)
-
-
-# The demo renders of this issue's report: (key, label, extra rtdemo arguments).
-DEMO_RENDERS = [
-    ("demo-paper-cpu", "demo, paper mode (CPU)", ["--mode", "paper"]),
-    ("demo-classic-cpu", "demo, classic mode (CPU)", ["--mode", "classic"]),
-    ("demo-physical-cpu", "demo, physical mode (CPU)", ["--mode", "physical"]),
+# Renders compared in full (global + per effect), with maps.
+FEATURED = [
+    ("demo-paper-cpu", "demo, paper mode"),
+    ("demo-classic-cpu", "demo, classic mode"),
+    ("demo-physical-cpu-1spp", "demo, physical mode (pixel centres)"),
+    ("demo-physical-cpu-16spp", "demo, physical mode, 16 spp"),
+    ("demo-physical-gl-16spp", "demo, physical mode, GL, 16 spp"),
+    ("mitsuba-path-llvm-64spp", "Mitsuba path tracer, 64 spp"),
 ]
+MAPPED = ("demo-paper-cpu", "demo-physical-cpu-16spp", "mitsuba-path-llvm-64spp")
 
 
-def _sha256(path: Path) -> str:
+def _sha(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
@@ -56,46 +56,233 @@ def _write_atomic(path: Path, text: str) -> None:
     tmp.replace(path)
 
 
-def build_report(
-    scene_path: str | Path,
-    reports_dir: str | Path = "reports",
-    *,
-    size: tuple[int, int] | None = None,
-    progress: Callable[[str], None] = print,
-) -> Path:
-    """Renders the scene with every renderer and writes reports/<scene>/index.html."""
-    scene = load_scene(scene_path)
+def _finite(x: float | None) -> float | None:
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+class Evaluator:
+    """Metrics of images against the reference, cached by the pair's content hashes."""
+
+    def __init__(self, ref: Image, ref_hash: str, masks: dict[str, np.ndarray], cache: Path) -> None:
+        self.ref, self.ref_hash, self.masks, self.cache = ref, ref_hash, masks, cache
+
+    def evaluate(self, test: Image, test_hash: str, *, per_effect: bool) -> dict[str, Any]:
+        path = self.cache / f"metrics-{self.ref_hash[:16]}-{test_hash[:16]}-{int(per_effect)}.json"
+        if path.is_file():
+            return json.loads(path.read_text())
+        maps = compute_maps(self.ref.rgb, test.rgb, hdr=per_effect)
+        m = compute_metrics(self.ref.rgb, test.rgb, maps)
+        out: dict[str, Any] = {"global": _json_safe(m.as_dict()), "per_effect": {}}
+        if per_effect:
+            for name in EFFECTS:
+                region = self.masks[name]
+                if region.any():
+                    out["per_effect"][name] = _json_safe(
+                        compute_metrics(self.ref.rgb, test.rgb, maps, mask=region).as_dict())
+        _write_atomic(path, json.dumps(out))
+        return out
+
+    def maps(self, test: Image) -> Any:
+        return compute_maps(self.ref.rgb, test.rgb, hdr=False)
+
+
+def _json_safe(x: Any) -> Any:
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json_safe(v) for v in x]
+    return x
+
+
+def _versions() -> dict[str, str]:
+    v = {}
+    for dist in ("rtval", "mitsuba", "drjit", "numpy", "scikit-image", "flip-evaluator", "OpenEXR",
+                 "matplotlib", "jinja2"):
+        try:
+            v[dist] = importlib.metadata.version(dist)
+        except importlib.metadata.PackageNotFoundError:
+            v[dist] = "not installed"
+    try:
+        v["rtdemo"] = subprocess.run([rtdemo_path(), "--version"], capture_output=True, text=True,
+                                     check=False).stdout.strip()
+    except ToolError:
+        v["rtdemo"] = "not found"
+    v["python"] = platform.python_version()
+    return v
+
+
+def _machine() -> str:
+    cpu = ""
+    try:
+        cpu = next((l.split(":", 1)[1].strip() for l in Path("/proc/cpuinfo").read_text().splitlines()
+                    if l.startswith("model name")), "")
+    except OSError:
+        pass
+    return f"{cpu or platform.processor()} x {os.cpu_count()} cores, {platform.system()} {platform.release()}"
+
+
+def _penumbra_numbers(point_ref: Image, area_ref: Image, demo: Image) -> dict[str, Any]:
+    """Where the demo (point lights) differs from the area-light reference: is it penumbrae?"""
+    soft = np.abs(area_ref.rgb - point_ref.rgb).max(-1) > 2.0 / 255.0
+    err = np.abs(np.nan_to_num(demo.rgb) - area_ref.rgb).mean(-1)
+    total = float(err.sum())
+    inside = float(err[soft].sum())
+    outside_px = int(((np.abs(np.clip(np.nan_to_num(demo.rgb), 0, 1) - np.clip(area_ref.rgb, 0, 1)).max(-1)
+                       > 2.0 / 255.0) & ~soft).sum())
+    return {"penumbra_pixels": int(soft.sum()), "penumbra_share": float(soft.mean()),
+            "error_share_in_penumbra": inside / total if total > 0 else 0.0,
+            "differing_pixels_outside_penumbra": outside_px}
+
+
+def build_report(scene_path: str | Path, reports_dir: str | Path = "reports", *,
+                 size: tuple[int, int] | None = None, test_image: str | None = None,
+                 test_label: str | None = None, test_encoding: str | None = None, jobs: int = 1,
+                 pdf: bool = True, progress: Callable[[str], None] = print) -> Path:
+    scene_file = Path(scene_path)
+    scene = load_scene(scene_file)
     out = Path(reports_dir) / scene.name
-    out.mkdir(parents=True, exist_ok=True)
-    size_args = ["--width", str(size[0]), "--height", str(size[1])] if size else []
+    cache = out / "cache"
+    images_dir = out / "images"
+    for d in (out, cache, images_dir):
+        d.mkdir(parents=True, exist_ok=True)
 
-    entries: list[RenderEntry] = []
-    for i, (key, label, extra) in enumerate(DEMO_RENDERS, 1):
-        exr, png = out / f"{key}.exr", out / f"{key}.png"
-        cmd = ["rtdemo", "render", str(scene_path), "-o", str(exr), "--png", str(png), "-q",
-               *extra, *size_args]
-        start = time.perf_counter()
-        run_rtdemo(cmd[1:])
-        wall = time.perf_counter() - start
-        header = read_image(exr).header
-        seconds = float(header.get("rtval.render_seconds", wall))
-        progress(f"[{i}/{len(DEMO_RENDERS)}] {label}: {seconds:.3f} s render, {wall:.2f} s wall")
-        entries.append(RenderEntry(key, label, cmd, exr.name, png.name, seconds, header))
+    render_jobs = plan(str(scene_file), size)
+    run_jobs(render_jobs, scene_file, cache, images_dir, jobs_in_parallel=jobs, progress=progress)
+    by_key: dict[str, RenderJob] = {j.key: j for j in render_jobs}
+    imgs: dict[str, Image] = {k: read_image(images_dir / f"{k}.exr") for k in by_key}
+    hashes = {k: _sha(images_dir / f"{k}.exr") for k in by_key}
+    for k, img in imgs.items():
+        write_png(images_dir / f"{k}.png", img.rgb)
 
-    data = {
-        "scene": scene.name,
-        "scene_file": str(scene_path),
-        "scene_sha256": _sha256(Path(scene_path)),
+    ref = imgs[REFERENCE_KEY]
+    masks = effect_masks(scene, ref.aovs["id"], ref.aovs["depth"])
+    ev = Evaluator(ref, hashes[REFERENCE_KEY], masks, cache)
+
+    # The image under test: the demo's paper mode, or a foreign render.
+    test_key = "demo-paper-cpu"
+    label = test_label or "the demo (paper mode)"
+    featured = list(FEATURED)
+    if test_image:
+        foreign = read_image(test_image, encoding=test_encoding)
+        if foreign.shape != ref.shape:
+            raise ImageError(f"{test_image}: {foreign.shape[1]}x{foreign.shape[0]}, the scene renders at "
+                             f"{ref.shape[1]}x{ref.shape[0]} (never resampled)")
+        test_key = "test-image"
+        label = test_label or Path(test_image).stem
+        imgs[test_key] = foreign
+        hashes[test_key] = _sha(Path(test_image))
+        write_png(images_dir / "test-image.png", foreign.rgb)
+        featured.insert(0, (test_key, label))
+    progress("metrics ...")
+    results = {k: ev.evaluate(imgs[k], hashes[k], per_effect=True) for k, _ in featured}
+
+    # Maps for the main comparisons (cached by the pair's hashes).
+    maps_info = []
+    for k in ([test_key] if test_image else []) + list(MAPPED):
+        stamp = cache / f"maps-{k}.sha"
+        pair = hashes[REFERENCE_KEY] + hashes[k]
+        files = {kind: f"images/map-{k}-{kind}.png" for kind in ("diff", "flip", "ssim")}
+        if not (stamp.is_file() and stamp.read_text() == pair and all((out / f).is_file() for f in files.values())):
+            m = ev.maps(imgs[k])
+            title = dict(featured).get(k, k)
+            figs.signed_difference(ref.rgb, imgs[k].rgb, out / files["diff"], f"signed difference: {title}")
+            figs.map_figure(m.flip_ldr, out / files["flip"], title=f"FLIP (LDR, 67 ppd): {title}",
+                            cmap="magma", vmin=0, vmax=1, label="FLIP error")
+            figs.map_figure(np.nan_to_num(m.ssim, nan=1.0), out / files["ssim"], title=f"SSIM map: {title}",
+                            cmap="viridis", vmin=0, vmax=1, label="SSIM")
+            stamp.write_text(pair)
+        maps_info.append({"key": k, "label": dict(featured).get(k, k), **files})
+
+    # Speed against accuracy, convergence.
+    chart_rows = []
+    for j in render_jobs:
+        if j.family in ("reference", "ablation", "ladder", "reference area"):
+            continue
+        g = ev.evaluate(imgs[j.key], hashes[j.key], per_effect=False)["global"]
+        seconds = float(imgs[j.key].header.get("rtval.render_seconds", "nan"))
+        chart_rows.append({"key": j.key, "label": j.label, "family": j.family, "spp": j.spp,
+                           "seconds": seconds, "one_minus_ssim": max(1.0 - (g["ssim"] or 0.0), 1e-7),
+                           "flip": g["flip_ldr"], "rmse": g["rmse_display"]})
+    figs.speed_accuracy_chart(chart_rows, out / "images" / "speed-accuracy.png")
+    slopes = figs.convergence_chart(chart_rows, out / "images" / "convergence.png")
+
+    # Ablation ladder: paper -> Q1 fixed -> Q1,Q2 fixed ... -> physical (Q10: 16 spp).
+    ladder_keys = ["demo-paper-cpu"] + [f"ladder-{i:02d}" for i in range(1, 10)] + ["demo-physical-cpu-16spp"]
+    ladder_names = ["paper"] + [f"+{q}" for q in QUIRKS[:9]] + ["+Q10 = physical 16 spp"]
+    ladder = []
+    for name, k in zip(ladder_names, ladder_keys):
+        g = ev.evaluate(imgs[k], hashes[k], per_effect=False)["global"]
+        ladder.append({"step": name, "key": k, "flip": g["flip_ldr"], "one_minus_ssim": 1.0 - (g["ssim"] or 0.0),
+                       "seconds": float(imgs[k].header.get("rtval.render_seconds", "nan")),
+                       "command": by_key[k].command_text(images_dir / f"{k}.exr")})
+    figs.ladder_chart(ladder, out / "images" / "ablation-ladder.png")
+
+    # Effect contributions at pixel centres: what shadows / reflection / refraction add.
+    contributions = []
+    if not test_image:
+        for effect in EFFECT_SWITCHES:
+            for demo_mode in ("paper", "physical"):
+                base = "demo-paper-cpu" if demo_mode == "paper" else "demo-physical-cpu-1spp"
+                contributions.append({"mode": demo_mode, **contribution_sentence(
+                    effect, imgs[base].rgb, imgs[f"demo-{demo_mode}-cpu-no-{effect}"].rgb,
+                    imgs["ref-centre"].rgb, imgs[f"ref-centre-no-{effect}"].rgb,
+                    f"the demo ({demo_mode} mode)")})
+
+    test_effects = results[test_key]["per_effect"]
+    verdict = grade(test_effects)
+    sentences = difference_sentences(ref.rgb, imgs[test_key].rgb, masks, test_effects, label)
+    penumbra = _penumbra_numbers(ref, imgs["ref-area"], imgs["demo-physical-cpu-16spp"])
+
+    renders = [{"key": j.key, "label": j.label, "png": f"images/{j.key}.png", "exr": f"images/{j.key}.exr",
+                "command": j.command_text(images_dir / f"{j.key}.exr"), "family": j.family,
+                "seconds": float(imgs[j.key].header.get("rtval.render_seconds", "nan")),
+                "cached": j.cached, "sha256": hashes[j.key]} for j in render_jobs]
+    if test_image:
+        renders.insert(0, {"key": test_key, "label": label, "png": "images/test-image.png",
+                           "exr": str(test_image), "command": f"(given) {test_image}", "family": "test",
+                           "seconds": float("nan"), "cached": True, "sha256": hashes[test_key]})
+    command = ["rtval", "report", str(scene_file)]
+    if size:
+        command += ["--size", f"{size[0]}x{size[1]}"]
+    if test_image:
+        command += ["--test-image", str(test_image)] + (["--label", test_label] if test_label else [])
+    data = _json_safe({
+        "scene": scene.name, "scene_file": str(scene_file), "scene_sha256": _sha(scene_file),
+        "size": [ref.shape[1], ref.shape[0]],
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "machine": f"{platform.node()} {platform.machine()} {platform.system()} {platform.release()}",
-        "python": sys.version.split()[0],
-        "command": shlex.join(["rtval", "report", str(scene_path)]),
-        "renders": [asdict(e) | {"command_text": e.command_text,
-                                 "exr_sha256": _sha256(out / e.exr)} for e in entries],
-    }
+        "machine": _machine(), "versions": _versions(), "command": shlex.join(command),
+        "reference": {"key": REFERENCE_KEY, "label": by_key[REFERENCE_KEY].label, "spp": REFERENCE_SPP,
+                      "command": by_key[REFERENCE_KEY].command_text(images_dir / f"{REFERENCE_KEY}.exr")},
+        "test": {"key": test_key, "label": label},
+        "verdict": verdict, "sentences": sentences, "contributions": contributions,
+        "featured": [{"key": k, "label": l, **results[k]} for k, l in featured],
+        "maps": maps_info, "speed_accuracy": chart_rows, "convergence_slopes": slopes,
+        "ladder": ladder, "penumbra": penumbra, "renders": renders,
+        "effect_pixels": {k: int(v.sum()) for k, v in masks.items()},
+    })
     _write_atomic(out / "report.json", json.dumps(data, indent=2) + "\n")
-    env = Environment(loader=PackageLoader("compare", "templates"),
-                      autoescape=select_autoescape(["html", "j2"]))
-    html = env.get_template("report.html.j2").render(report=data)
+    env = Environment(loader=PackageLoader("compare", "templates"), autoescape=select_autoescape(["html", "j2"]))
+    html = env.get_template("report.html.j2").render(report=data, effects=EFFECTS,
+                                                     renders_json=json.dumps(renders))
     _write_atomic(out / "index.html", html)
+    if pdf:
+        write_pdf(out / "index.html", out / "report.pdf")
     return out / "index.html"
+
+
+def write_pdf(html: Path, pdf: Path) -> None:
+    """The same page printed by headless Chromium."""
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+    if not chromium:
+        raise ToolError("report.pdf needs Chromium (make setup installs Debian's chromium); "
+                        "or pass --no-pdf")
+    tmp = pdf.with_name(pdf.stem + ".tmp.pdf")
+    proc = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+                           "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                           "--no-pdf-header-footer", f"--print-to-pdf={tmp}", html.resolve().as_uri()],
+                          capture_output=True, text=True, check=False, timeout=120)
+    if proc.returncode != 0 or not tmp.is_file():
+        raise ToolError(f"Chromium could not print {html} to PDF: {proc.stderr.strip()[-500:]}")
+    tmp.replace(pdf)
