@@ -8,7 +8,7 @@ DEBIAN_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libopenexr-dev libpng-dev nlohmann-json3-dev libgtest-dev
   libglfw3-dev libglm-dev libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev
-  xvfb xauth libllvm19 chromium
+  xvfb xauth libllvm19 chromium poppler-utils
   python3-venv
 )
 

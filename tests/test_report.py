@@ -1,38 +1,132 @@
-"""`rtval report` writes a complete report folder."""
+"""`rtval report` end to end: the page in headless Chromium, the PDF, caching, grading a
+foreign image. Runs at 160x120 to keep the suite fast; `make report` runs full size."""
 
 from __future__ import annotations
 
 import json
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
-from conftest import SCENES, run
+import numpy as np
+import pytest
+from conftest import ROOT, SCENES, run
+from PIL import Image as PILImage
+
+pytestmark = pytest.mark.slow
+RTVAL = str(Path(sys.executable).with_name("rtval"))
+ARTIFACTS = ROOT / "build" / "test-artifacts"
 
 
-def test_report_writes_index_json_and_every_image(tmp_path: Path) -> None:
-    import sys
-
-    rtval = str(Path(sys.executable).with_name("rtval"))
-    proc = run([rtval, "report", str(SCENES / "paper.json"), "--reports-dir", str(tmp_path),
-                "--size", "64x48"])
+@pytest.fixture(scope="module")
+def report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.CompletedProcess[str]]:
+    out = tmp_path_factory.mktemp("reports")
+    proc = run([RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(out), "--size", "160x120",
+                "--jobs", "2"])
     assert proc.returncode == 0, proc.stderr
-    out = tmp_path / "paper"
-    index = (out / "index.html").read_text()
-    data = json.loads((out / "report.json").read_text())
-    assert data["scene"] == "paper"
-    assert len(data["renders"]) >= 3
-    for r in data["renders"]:
-        assert (out / r["png"]).stat().st_size > 0 and (out / r["exr"]).stat().st_size > 0
-        assert f'src="{r["png"]}"' in index
-        assert r["command_text"] in index.replace("&#39;", "'")
-    assert "[3/3]" in proc.stderr  # progress
-    assert not list(out.glob("*.tmp"))
+    return out / "classic", proc
 
 
-def test_report_on_invalid_scene_is_exit_3(tmp_path: Path) -> None:
-    import sys
+def test_page_loads_without_errors_and_flip_control_works(report: tuple[Path, object]) -> None:
+    from playwright.sync_api import sync_playwright
 
+    folder, _ = report
+    chromium = shutil.which("chromium")
+    assert chromium, "Debian's chromium is installed by make setup"
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=[
+            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+            "--disable-sync", "--no-first-run"])
+        page = browser.new_page(viewport={"width": 1400, "height": 1000})
+        errors: list[str] = []
+        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        failed: list[str] = []
+        page.on("requestfailed", lambda r: failed.append(r.url))
+        page.goto((folder / "index.html").as_uri())
+        page.wait_for_load_state("load")
+        for img in page.query_selector_all("img"):
+            img.scroll_into_view_if_needed()
+        page.wait_for_function("Array.from(document.images).every(i => i.complete)")
+        broken = page.evaluate("Array.from(document.images).filter(i => i.naturalWidth === 0).map(i => i.src)")
+        assert not broken, broken
+        assert page.evaluate("document.images.length") >= 20
+        a = page.eval_on_selector("#flip-a", "e => e.value")
+        b = page.eval_on_selector("#flip-b", "e => e.value")
+        assert a != b
+        img = page.locator("#flip-img")
+        assert img.get_attribute("src") == a
+        img.hover()
+        assert img.get_attribute("src") == b
+        page.mouse.move(5, 5)
+        assert img.get_attribute("src") == a
+        img.click()  # pins B
+        page.mouse.move(5, 5)
+        assert img.get_attribute("src") == b
+        page.select_option("#flip-b", index=3)
+        assert img.get_attribute("src") == page.eval_on_selector("#flip-b", "e => e.value")
+        page.screenshot(path=str(ARTIFACTS / "report.png"), full_page=False)
+        browser.close()
+    assert not errors, errors
+    assert not failed, failed
+
+
+def test_pdf_has_the_same_content(report: tuple[Path, object]) -> None:
+    folder, _ = report
+    pdf = folder / "report.pdf"
+    assert pdf.stat().st_size > 50_000
+    text = subprocess.run(["pdftotext", str(pdf), "-"], capture_output=True, text=True, check=True).stdout
+    data = json.loads((folder / "report.json").read_text())
+    for needle in ("Verdict", "Speed against accuracy", "Ablation ladder", "Reproducibility", data["reference"]["label"]):
+        assert needle in text, needle
+
+
+def test_report_json_holds_every_section(report: tuple[Path, subprocess.CompletedProcess[str]]) -> None:
+    folder, proc = report
+    data = json.loads((folder / "report.json").read_text())
+    assert data["verdict"]["status"] in ("pass", "fail") and 0 <= data["verdict"]["score"] <= 100
+    assert {"background", "direct", "shadow", "reflection", "refraction"} <= set(data["verdict"]["effects"])
+    assert len(data["sentences"]) == 3
+    assert len(data["ladder"]) == 11 and data["ladder"][-1]["step"].startswith("+Q10")
+    families = {r["family"] for r in data["speed_accuracy"]}
+    assert {"demo paper cpu", "demo physical gl", "mitsuba whitted llvm", "mitsuba path scalar"} <= families
+    assert all(r["command"].startswith(("rtdemo ", "rtval ")) for r in data["renders"])
+    assert len(data["contributions"]) == 6
+    assert data["versions"]["mitsuba"] != "not installed"
+    assert "[40/40]" in proc.stderr  # progress
+
+
+def test_rerun_renders_nothing(report: tuple[Path, object]) -> None:
+    folder, _ = report
+    proc = run([RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent),
+                "--size", "160x120", "--no-pdf"])
+    assert proc.returncode == 0, proc.stderr
+    lines = [l for l in proc.stderr.splitlines() if l.startswith("[")]
+    assert len(lines) == 40 and all(l.endswith(": cached") for l in lines), lines
+
+
+def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtdemo: str) -> None:
+    folder, _ = report
+    student = tmp_path / "student.ppm"
+    assert run([rtdemo, "render", str(SCENES / "classic.json"), "--ppm", str(student), "--mode", "classic",
+                "--width", "160", "--height", "120"]).returncode == 0
+    proc = run([RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent), "--size",
+                "160x120", "--test-image", str(student), "--label", "student 42", "--no-pdf"])
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads((folder / "report.json").read_text())
+    assert data["test"]["label"] == "student 42" and data["featured"][0]["key"] == "test-image"
+    assert "student 42" in (folder / "index.html").read_text()
+    small = tmp_path / "small.png"
+    PILImage.fromarray(np.zeros((10, 10, 3), np.uint8)).save(small)
+    bad = run([RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent), "--size",
+               "160x120", "--test-image", str(small), "--no-pdf"])
+    assert bad.returncode == 4 and "never resampled" in bad.stderr
+
+
+def test_invalid_scene_is_exit_3(tmp_path: Path) -> None:
     bad = tmp_path / "bad.json"
     bad.write_text('{"format": "rtval-scene/1"}')
-    rtval = str(Path(sys.executable).with_name("rtval"))
-    proc = run([rtval, "report", str(bad), "--reports-dir", str(tmp_path)])
+    proc = run([RTVAL, "report", str(bad), "--reports-dir", str(tmp_path)])
     assert proc.returncode == 3 and "bad.json: name" in proc.stderr
