@@ -195,6 +195,18 @@ def _cmd_check(args: argparse.Namespace) -> int:
     return check.exit_code(results)
 
 
+def _cmd_stress(args: argparse.Namespace) -> int:
+    from compare import stress
+
+    files = [Path(p) for p in args.scenes] if args.scenes else sorted(Path("scenes/stress").glob("*.json"))
+    if not files:
+        raise OSError("no stress scenes: give files, or run from the project folder (scenes/stress/*.json)")
+    data = stress.run_stress(files, Path(args.out), size=args.size, progress=lambda m: print(m, file=sys.stderr))
+    print(stress.table(data))
+    print(Path(args.out) / "index.html")
+    return 0
+
+
 def _positive_int(text: str) -> int:
     try:
         v = int(text)
@@ -333,6 +345,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--junit", metavar="OUT.xml", help="write the results as JUnit XML")
     p.add_argument("--rtdemo", default=None, help="the rtdemo executable to check (default: the installed one)")
     p.set_defaults(func=_cmd_check)
+
+    p = sub.add_parser("stress", help="render the stress scenes with every method; NaN, error and stability atlas",
+                       description="Renders each stress scene with every demo mode and backend and both Mitsuba "
+                                   "references; reports NaN/Inf, error against the Whitted reference and stability "
+                                   "under tiny nudges; writes an atlas to OUT/index.html.")
+    p.add_argument("scenes", nargs="*", help="scene files (default: scenes/stress/*.json)")
+    p.add_argument("--out", default="reports/stress", help="output folder (default reports/stress)")
+    p.add_argument("--size", type=_size, default=(160, 120), metavar="WxH", help="render size (default 160x120)")
+    p.set_defaults(func=_cmd_stress)
     return parser
 
 

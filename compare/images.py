@@ -61,17 +61,23 @@ def _read_exr(path: Path) -> Image:
 
 
 def _read_8bit(path: Path, encoding: str) -> Image:
+    import warnings
+
     from PIL import Image as PILImage
-    from PIL import UnidentifiedImageError
 
     try:
-        with PILImage.open(path) as im:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", PILImage.DecompressionBombWarning)  # refuse, never allocate
+            im = PILImage.open(path)
+        with im:
             im.load()
             if im.mode not in ("RGB", "RGBA", "L"):
                 raise ImageError(f"{path}: unsupported pixel mode {im.mode} (expected 8-bit RGB)")
             data = np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
-    except (OSError, UnidentifiedImageError, SyntaxError) as e:
-        raise ImageError(f"{path}: cannot read image: {e}") from None
+    except ImageError:
+        raise
+    except Exception as e:  # Pillow raises OSError, ValueError, SyntaxError, DecompressionBombError ...
+        raise ImageError(f"{path}: cannot read image: {type(e).__name__}: {e}") from None
     rgb = srgb_to_linear(data) if encoding == "srgb" else data
     return Image(rgb=rgb.astype(np.float32), path=str(path), encoding=encoding)
 

@@ -102,8 +102,10 @@ def compute_maps(ref: F32, test: F32, *, hdr: bool) -> Maps:
     flip_ldr = flip_evaluator.evaluate(a, b, "LDR", applyMagma=False,
                                        parameters={"ppd": FLIP_PPD})[0][..., 0]
     flip_hdr = None
-    if hdr:
-        clean = lambda x: np.maximum(np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0), 0.0)  # noqa: E731
+    clean = lambda x: np.maximum(np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0), 0.0)  # noqa: E731
+    # HDR FLIP derives its exposures from the reference; on an all-black one flip-evaluator
+    # exits the process, so it is left undefined (None) there.
+    if hdr and float(clean(ref).max()) > 0.0:
         flip_hdr = flip_evaluator.evaluate(clean(ref).astype(np.float32),
                                            clean(test).astype(np.float32), "HDR",
                                            applyMagma=False, parameters={"ppd": FLIP_PPD})[0][..., 0]

@@ -91,7 +91,11 @@ def run_jobs(jobs: list[RenderJob], scene_file: Path, cache_dir: Path, out_dir: 
             cmd = job.command(tmp)
             cmd[0] = _executable(cmd[0])
             start = time.perf_counter()
-            proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+            try:
+                proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+            except BaseException:  # interrupted: leave nothing that looks like a result
+                tmp.unlink(missing_ok=True)
+                raise
             job.seconds = time.perf_counter() - start
             if proc.returncode != 0:
                 tmp.unlink(missing_ok=True)

@@ -22,6 +22,7 @@ from mitsuba_ref.export import ExportOptions, export_scene
 from mitsuba_ref.scene import Scene
 
 INTEGRATORS = ("whitted", "path")
+MAX_PIXELS = 64 * 1024 * 1024  # as rtdemo: refuse before allocating
 MAX_WAVEFRONT = 1 << 22  # rays per JIT launch (~4 M): memory stays well under 4 GiB
 F32 = NDArray[np.float32]
 
@@ -49,6 +50,9 @@ class ReferenceSettings:
             raise ValueError(f"integrator must be one of {INTEGRATORS}, got {self.integrator!r}")
         if self.spp < 1:
             raise ValueError(f"spp must be >= 1, got {self.spp}")
+        if self.size and self.size[0] * self.size[1] > MAX_PIXELS:
+            raise ValueError(f"image of {self.size[0]}x{self.size[1]} pixels is too large "
+                             f"(at most {MAX_PIXELS} pixels)")
 
 
 @dataclass
