@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from compare.images import ImageError
+from compare.rubric import RubricError
 from compare.tools import ToolError
 from mitsuba_ref.drjit_env import MitsubaUnavailable
 from mitsuba_ref.scene import SceneError
@@ -207,6 +208,25 @@ def _cmd_stress(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_grade(args: argparse.Namespace) -> int:
+    from compare import grade
+
+    out = Path(args.out)
+    if args.explain:
+        print(grade.explain(out, args.explain))
+        return 0
+    if not args.submissions or not args.scene:
+        raise ValueError("grade needs SUBMISSIONS and at least one --scene (or --explain ID)")
+    scenes = [Path(s) if Path(s).suffix == ".json" else Path("scenes") / f"{s}.json" for s in args.scene]
+    results = grade.run_grading(Path(args.submissions), scenes, out, rubric_path=args.rubric,
+                                executor=args.executor, scheduler=args.scheduler, jobs=args.jobs, size=args.size,
+                                progress=lambda m: print(m, file=sys.stderr, flush=True))
+    passed = sum(r["status"] == "pass" for r in results)
+    print(f"{passed} passed, {len(results) - passed} failed")
+    print(out / "gradebook.csv")
+    return 0
+
+
 def _positive_int(text: str) -> int:
     try:
         v = int(text)
@@ -354,6 +374,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="reports/stress", help="output folder (default reports/stress)")
     p.add_argument("--size", type=_size, default=(160, 120), metavar="WxH", help="render size (default 160x120)")
     p.set_defaults(func=_cmd_stress)
+
+    p = sub.add_parser("grade", help="grade a folder of submissions: per-student pages and a gradebook",
+                       description="Grades every submission (an image named after the student, or a folder of "
+                                   "images named after the scenes) against the scenes' references with a rubric; "
+                                   "writes OUT/gradebook.csv, gradebook.json and OUT/students/ID/index.html. "
+                                   "Re-runs skip what is done.")
+    p.add_argument("submissions", nargs="?", help="folder of submissions")
+    p.add_argument("--scene", action="append", help="scene name (scenes/NAME.json) or file; repeatable")
+    p.add_argument("--out", default="grades", help="output folder (default grades)")
+    p.add_argument("--rubric", default=None, help="rubric TOML (default: the built-in rubric, see compare/rubric.py)")
+    p.add_argument("--executor", choices=("local", "dask"), default="local", help="process pool (default) or Dask")
+    p.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://127.0.0.1:8786")
+    p.add_argument("--jobs", type=_positive_int, default=2, help="local processes (default 2)")
+    p.add_argument("--size", type=_size, default=None, metavar="WxH", help="reference size (default: the scene's)")
+    p.add_argument("--explain", metavar="ID", help="print how student ID's score came about, then exit")
+    p.set_defaults(func=_cmd_grade)
     return parser
 
 
@@ -365,7 +401,7 @@ def main(argv: list[str] | None = None) -> int:
     except SceneError as e:
         print(f"rtval: error: {e}", file=sys.stderr)
         return EXIT_SCENE
-    except (ImageError, OSError) as e:
+    except (ImageError, OSError, RubricError) as e:
         print(f"rtval: error: {e}", file=sys.stderr)
         return EXIT_IO
     except ValueError as e:  # invalid combinations of options found below argparse
