@@ -127,7 +127,7 @@ def write_outputs(c: Comparison, *, json_path: str | None, diff_path: str | None
     if json_path:
         p = Path(json_path)
         tmp = p.with_name(p.name + ".tmp")
-        tmp.write_text(json.dumps(_json_safe(c.as_dict()), indent=2) + "\n")
+        tmp.write_text(json.dumps(json_safe(c.as_dict()), indent=2) + "\n")
         tmp.replace(p)
     if diff_path:
         d = diff_image(display(c.ref.rgb), display(c.test.rgb))
@@ -137,12 +137,12 @@ def write_outputs(c: Comparison, *, json_path: str | None, diff_path: str | None
         write_png(diff_path, srgb_to_linear(d))
 
 
-def _json_safe(x: Any) -> Any:
+def json_safe(x: Any) -> Any:
     """NaN and Inf are not JSON: write them as null."""
     if isinstance(x, float) and not math.isfinite(x):
         return None
     if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
+        return {k: json_safe(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_json_safe(v) for v in x]
+        return [json_safe(v) for v in x]
     return x

@@ -26,6 +26,7 @@ from jinja2 import Environment, PackageLoader, select_autoescape
 
 from compare import report_figures as figs
 from compare.effects import EFFECTS, effect_masks
+from compare.compare_images import json_safe as _json_safe
 from compare.images import Image, ImageError, read_image, write_png
 from compare.metrics import compute_maps, compute_metrics
 from compare.render_cache import RenderJob, run_jobs
@@ -84,16 +85,6 @@ class Evaluator:
 
     def maps(self, test: Image) -> Any:
         return compute_maps(self.ref.rgb, test.rgb, hdr=False)
-
-
-def _json_safe(x: Any) -> Any:
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_json_safe(v) for v in x]
-    return x
 
 
 def _versions() -> dict[str, str]:

@@ -176,8 +176,9 @@ def _sensor(mi: Any, scene: Scene, exported: Any, width: int, height: int) -> An
 
 
 def _film_positions(dr: Any, mi: Any, sampler: Any, width: int, height: int,
-                    centre: bool) -> Any:
-    idx = dr.arange(mi.UInt32, width * height)
+                    centre: bool, batch: int = 1) -> Any:
+    """Film positions in [0, 1]^2, `batch` samples per pixel: centres or uniform in the pixel."""
+    idx = dr.arange(mi.UInt32, width * height * batch) % (width * height)
     x = mi.Float(idx % width)
     y = mi.Float(idx // width)
     if centre:
@@ -189,16 +190,9 @@ def _film_positions(dr: Any, mi: Any, sampler: Any, width: int, height: int,
 def _jit_batch(mi: Any, dr: Any, mscene: Any, sensor: Any, integrator: Any, width: int,
                height: int, seed: int, batch: int, centre: bool) -> NDArray[np.float64]:
     """`batch` samples per pixel in one wavefront: batch x H x W x 3."""
-    n = width * height
     sampler = mi.load_dict({"type": "independent"})
-    sampler.seed(seed, n * batch)
-    idx = dr.arange(mi.UInt32, n * batch) % n
-    x, y = mi.Float(idx % width), mi.Float(idx // width)
-    if centre:
-        pos = mi.Point2f((x + 0.5) / width, (y + 0.5) / height)
-    else:
-        o = sampler.next_2d()
-        pos = mi.Point2f((x + o.x) / width, (y + o.y) / height)
+    sampler.seed(seed, width * height * batch)
+    pos = _film_positions(dr, mi, sampler, width, height, centre, batch)
     ray, weight = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
     L, _, _ = integrator.sample(mscene, sampler, ray, None, True)
     L = L * weight

@@ -113,6 +113,16 @@ def integrator_class(variant: str) -> type:
             return self.environment.eval(si, active)
 
         # -- transport ------------------------------------------------------------------
+        def _blocked(self, scene: Any, si: Any, ds: Any, shorten: float, rel_eps: float, active: Any) -> Any:
+            """Is the segment from the offset hit point to ds.p blocked? It ends `shorten`
+            before ds.p (the light's radius for a point at a sphere's centre), minus rel_eps."""
+            o = _offset_origin(si.p, si.n, ds.d)
+            to_light = ds.p - o
+            dist = dr.norm(to_light)
+            shadow = mi.Ray3f(o, to_light / dist)
+            shadow.maxt = (dist - shorten) * (1.0 - rel_eps)
+            return scene.ray_test(shadow, active)
+
         def _direct(self, scene: Any, draw2d: Any, si: Any, bsdf: Any, active: Any) -> Any:
             ctx = mi.BSDFContext()
             result = mi.Color3f(0.0)
@@ -120,13 +130,8 @@ def integrator_class(variant: str) -> type:
                 ds, spec = emitter.sample_direction(si, mi.Point2f(0.5, 0.5), active)
                 value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
                 if self.shadows:
-                    o = _offset_origin(si.p, si.n, ds.d)
-                    to_light = ds.p - o
-                    dist = dr.norm(to_light)
                     # End before the light's own sphere (the point sits at its centre).
-                    shadow = mi.Ray3f(o, to_light / dist)
-                    shadow.maxt = (dist - radius) * (1.0 - 1e-5)
-                    value = dr.select(scene.ray_test(shadow, active), 0.0, value)
+                    value = dr.select(self._blocked(scene, si, ds, radius, 1e-5, active), 0.0, value)
                 result += dr.select(active, value, 0.0)
             for emitter in self.area_lights:
                 acc = mi.Color3f(0.0)
@@ -134,12 +139,7 @@ def integrator_class(variant: str) -> type:
                     ds, spec = emitter.sample_direction(si, draw2d(), active)
                     value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
                     if self.shadows:
-                        o = _offset_origin(si.p, si.n, ds.d)
-                        to_light = ds.p - o
-                        dist = dr.norm(to_light)
-                        shadow = mi.Ray3f(o, to_light / dist)
-                        shadow.maxt = dist * (1.0 - 1e-4)
-                        value = dr.select(scene.ray_test(shadow, active), 0.0, value)
+                        value = dr.select(self._blocked(scene, si, ds, 0.0, 1e-4, active), 0.0, value)
                     acc += dr.select(active & (ds.pdf > 0), value, 0.0)
                 result += acc / self.light_samples
             return result

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from compare.effects import camera_directions
 from mitsuba_ref.scene import Scene
 
 F64 = NDArray[np.float64]
@@ -51,18 +52,8 @@ class ReferenceTracer:
         self.lights = [i for i, x in enumerate(s) if any(e > 0 for e in x.emission)]
 
     def camera_rays(self, width: int, height: int) -> tuple[F64, F64]:
-        cam = self.scene.camera
-        pos = np.array(cam.position, dtype=np.float64)
-        forward = _normalize(np.array([cam.look_at], dtype=np.float64) - pos)[0]
-        right = np.cross(forward, np.array(cam.up, dtype=np.float64))
-        right /= np.linalg.norm(right)
-        up = np.cross(right, forward)
-        a = np.tan(np.radians(cam.fov_y) / 2)
-        ys, xs = np.mgrid[0:height, 0:width].astype(np.float64)
-        xx = (2 * (xs + 0.5) / width - 1) * a * width / height
-        yy = (1 - 2 * (ys + 0.5) / height) * a
-        d = xx[..., None] * right + yy[..., None] * up + forward
-        d = _normalize(d.reshape(-1, 3))
+        d = camera_directions(self.scene, width, height).reshape(-1, 3)
+        pos = np.array(self.scene.camera.position, dtype=np.float64)
         return np.broadcast_to(pos, d.shape).copy(), d
 
     def render(self, width: int, height: int) -> F64:

@@ -1,5 +1,6 @@
 #include "tracer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -102,7 +103,7 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
     const Sphere& s = scene_.spheres[hit_index];
     const QuirkSet& q = opt_.quirks;
     const float d_dot_n = dot(r.dir, n);
-    const float facing = std::fmax(0.0f, -d_dot_n);
+    const float facing = std::max(0.0f, -d_dot_n);
     const float offset = offset_at(p);
 
     bool total_internal = false;
@@ -157,7 +158,7 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
         const vec3 to_light = l_sphere.center - aim_from;
         const float dist = length(to_light);
         const vec3 l = to_light / dist;
-        const float cos_theta = std::fmax(0.0f, dot(n, l));
+        const float cos_theta = std::max(0.0f, dot(n, l));
         float transmission = 1.0f;
         if (opt_.shadows && !fault(Fault::no_shadows) && (q.has(Quirk::Q4) || cos_theta > 0)) {
             const ray shadow_ray{origin, l};
@@ -170,7 +171,7 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
                 const float opacity =
                     q.has(Quirk::Q9) ? 1.0f - scene_.spheres[j].transparency : 1.0f;
                 if (q.has(Quirk::Q4)) {
-                    shared_shadow = std::fmax(0.0f, shared_shadow - opacity);
+                    shared_shadow = std::max(0.0f, shared_shadow - opacity);
                     transmission *= shared_shadow;
                 } else {
                     transmission *= 1.0f - opacity;
