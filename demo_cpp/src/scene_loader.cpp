@@ -150,6 +150,9 @@ Scene parse_scene(const std::string& text, const std::string& source) {
         const auto [line, col] = line_column(text, e.byte == 0 ? 0 : e.byte - 1);
         throw SceneError(source + ": invalid JSON at line " + std::to_string(line) + ", column " +
                          std::to_string(col) + ": " + e.what());
+    } catch (const json::exception& e) {
+        // e.g. out_of_range for a literal like 9e6666 (found by the fuzzer)
+        throw SceneError(source + ": invalid JSON: " + e.what());
     }
     const Validator v(source);
     if (!root.is_object()) v.fail("", "expected a JSON object");

@@ -128,6 +128,15 @@ TEST(SceneLoader, InvalidJsonNamesLineAndColumn) {
     }
 }
 
+// Found by scene_loader_fuzz: nlohmann reports an overflowing literal as out_of_range,
+// not as a parse error; it must still be a SceneError.
+TEST(SceneLoader, OverflowingNumberLiteralIsASceneError) {
+    EXPECT_THROW(parse_scene("9e6666 of669e", "fuzz.json"), SceneError);
+    EXPECT_THROW(parse_scene(R"({"format": "rtval-scene/1", "name": "x", "bias": 1e99999, "spheres": []})",
+                             "big.json"),
+                 SceneError);
+}
+
 TEST(SceneLoader, MissingFileIsASceneError) {
     EXPECT_THROW(load_scene_file("/nonexistent/scene.json"), SceneError);
 }
