@@ -9,7 +9,6 @@ pixel means drops below `target_stderr`. Mean and per-sample variance are both r
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -165,14 +164,12 @@ def render_reference(scene: Scene, settings: ReferenceSettings,
 
 
 def _sensor(mi: Any, scene: Scene, exported: Any, width: int, height: int) -> Any:
-    sensor = exported.load_sensor(mi, width, height) if hasattr(exported, "load_sensor") else None
-    if sensor is None:
-        from mitsuba_ref.plugin_tree import to_dict
+    """The exported camera, with the film resized to the render size."""
+    from mitsuba_ref.plugin_tree import to_dict
 
-        d = to_dict(exported.tree.props["sensor"], mi)  # type: ignore[arg-type]
-        d["film"]["width"], d["film"]["height"] = width, height
-        sensor = mi.load_dict(d)
-    return sensor
+    d = to_dict(exported.tree.props["sensor"], mi)  # type: ignore[arg-type]
+    d["film"]["width"], d["film"]["height"] = width, height
+    return mi.load_dict(d)
 
 
 def _film_positions(dr: Any, mi: Any, sampler: Any, width: int, height: int,
@@ -259,7 +256,3 @@ def _primary_aovs(mi: Any, dr: Any, mscene: Any, sensor: Any, shape_index: dict[
                 normal[y, x] = -n if n @ dd > 0 else n
     return {"id": ids, "depth": depth, "N.X": normal[..., 0], "N.Y": normal[..., 1],
             "N.Z": normal[..., 2]}
-
-
-def stderr_for(rgb_var: F32, spp: int) -> float:
-    return float(np.mean(np.sqrt(rgb_var / max(spp, 1)))) if spp > 1 else math.nan

@@ -2,6 +2,7 @@
 
 #include <epoxy/gl.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <vector>
@@ -12,6 +13,16 @@
 namespace rt {
 namespace {
 
+// The info log of a shader or program (getiv/getlog: glGetShaderiv/InfoLog or the Program pair).
+template <class GetIv, class GetLog>
+std::string info_log(unsigned object, GetIv getiv, GetLog getlog) {
+    int length = 0;
+    getiv(object, GL_INFO_LOG_LENGTH, &length);
+    std::string log(static_cast<std::size_t>(std::max(length, 1)), '\0');
+    getlog(object, length, nullptr, log.data());
+    return log;
+}
+
 unsigned compile(GLenum type, const std::string& source, const char* name) {
     const unsigned shader = glCreateShader(type);
     const char* text = source.c_str();
@@ -20,10 +31,7 @@ unsigned compile(GLenum type, const std::string& source, const char* name) {
     int ok = 0;
     glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
     if (!ok) {
-        int length = 0;
-        glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
-        std::string log(static_cast<std::size_t>(std::max(length, 1)), '\0');
-        glGetShaderInfoLog(shader, length, nullptr, log.data());
+        const std::string log = info_log(shader, glGetShaderiv, glGetShaderInfoLog);
         glDeleteShader(shader);
         throw GlError(std::string("cannot compile ") + name + ":\n" + log);
     }
@@ -65,13 +73,7 @@ TraceProgram::TraceProgram(const Scene& scene, int max_depth) : scene_(scene), m
     glDeleteShader(fs);
     int ok = 0;
     glGetProgramiv(program_, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        int length = 0;
-        glGetProgramiv(program_, GL_INFO_LOG_LENGTH, &length);
-        std::string log(static_cast<std::size_t>(std::max(length, 1)), '\0');
-        glGetProgramInfoLog(program_, length, nullptr, log.data());
-        throw GlError("cannot link the tracer program:\n" + log);
-    }
+    if (!ok) throw GlError("cannot link the tracer program:\n" + info_log(program_, glGetProgramiv, glGetProgramInfoLog));
 
     std::vector<GpuSphere> data(std::max<std::size_t>(scene.spheres.size(), 1));
     for (std::size_t i = 0; i < scene.spheres.size(); ++i) {
