@@ -29,8 +29,10 @@ $(FUZZ_BIN): $(STAMP) demo_cpp/fuzz/scene_loader_fuzz.cpp demo_cpp/src/scene_loa
 	cmake --build build/fuzz --target scene_loader_fuzz
 
 # Deterministic in CI (fixed seed and run count, the tracked corpus only); `make fuzz` explores.
+# New inputs go to a scratch folder (libFuzzer writes into the first one), emptied each time.
 test-fuzz: $(FUZZ_BIN)
-	$(FUZZ_BIN) -seed=1 -runs=150000 -max_total_time=60 -print_final_stats=1 demo_cpp/fuzz/corpus \
+	rm -rf build/fuzz/corpus-ci && mkdir -p build/fuzz/corpus-ci
+	$(FUZZ_BIN) -seed=1 -runs=150000 -max_total_time=60 -print_final_stats=1 build/fuzz/corpus-ci demo_cpp/fuzz/corpus \
 	  2>&1 | grep -E "stat::number_of_executed_units|Done|ERROR|SUMMARY" ; test $${PIPESTATUS[0]} -eq 0
 
 fuzz: $(FUZZ_BIN)
