@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from compare.compare_images import run_comparison
+from compare.files import write_atomic
 from compare.images import read_image, write_exr
 from compare.judge import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
 from compare.tools import run_rtdemo
@@ -132,8 +133,8 @@ def table(results: list[CaseResult]) -> str:
 
 def write_json(results: list[CaseResult], path: Path) -> None:
     data: list[dict[str, Any]] = [{**r.__dict__, "name": r.name} for r in results]
-    path.write_text(json.dumps({"status": ("pass", "warn", "fail")[exit_code(results)],
-                                "cases": data}, indent=2) + "\n")
+    write_atomic(path, json.dumps({"status": ("pass", "warn", "fail")[exit_code(results)],
+                                   "cases": data}, indent=2) + "\n")
 
 
 def write_junit(results: list[CaseResult], path: Path) -> None:

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from compare.effects import EFFECTS, effect_masks
+from compare.files import write_atomic
 from compare.images import Image, ImageError, read_image, write_png
 from compare.judge import Tolerances, Verdict, diff_image, judge
 from compare.metrics import Maps, Metrics, check_same_size, compute_maps, compute_metrics, display
@@ -125,10 +126,7 @@ def table(c: Comparison) -> str:
 
 def write_outputs(c: Comparison, *, json_path: str | None, diff_path: str | None) -> None:
     if json_path:
-        p = Path(json_path)
-        tmp = p.with_name(p.name + ".tmp")
-        tmp.write_text(json.dumps(json_safe(c.as_dict()), indent=2) + "\n")
-        tmp.replace(p)
+        write_atomic(json_path, json.dumps(json_safe(c.as_dict()), indent=2) + "\n")
     if diff_path:
         d = diff_image(display(c.ref.rgb), display(c.test.rgb))
         # diff_image is already display-encoded; write it as linear so it is not re-encoded

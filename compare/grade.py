@@ -22,6 +22,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from compare.files import sha256_file, write_atomic
+
 IMAGE_SUFFIXES = (".exr", ".png", ".ppm", ".pfm")
 
 
@@ -37,27 +39,14 @@ class GradeTask:
     out_dir: str
 
 
-def _sha(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def _write_atomic(path: Path, data: str | bytes) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    if isinstance(data, str):
-        tmp.write_text(data, encoding="utf-8")
-    else:
-        tmp.write_bytes(data)
-    tmp.replace(path)
-
-
 def task_key(task: GradeTask) -> str:
     h = hashlib.sha256(task.rubric_text.encode())
     h.update((task.problem or "").encode())
     for scene in sorted(task.files):
         f = task.files[scene]
         h.update(scene.encode())
-        h.update((_sha(Path(f)) if f and Path(f).is_file() else "missing").encode())
-        h.update(_sha(Path(task.references[scene])).encode())
+        h.update((sha256_file(Path(f)) if f and Path(f).is_file() else "missing").encode())
+        h.update(sha256_file(Path(task.references[scene])).encode())
     return h.hexdigest()[:24]
 
 
@@ -103,7 +92,7 @@ def _grade_scene(scene_name: str, path: str | None, task: GradeTask, rubric: Any
     for name, data in ((f"{scene_name}.png", b), (f"{scene_name}-diff.png", np.clip(np.abs(a - b) * 8, 0, 1))):
         buf = io.BytesIO()
         PILImage.fromarray(np.round(data * 255).astype(np.uint8)).save(buf, format="PNG")
-        _write_atomic(page_dir / name, buf.getvalue())
+        write_atomic(page_dir / name, buf.getvalue())
     return {"scene": scene_name, "status": verdict["status"], "score": verdict["score"], "reason": reason,
             "verdict": verdict, "sentences": sentences, "nan_pixels": nan}
 
@@ -137,9 +126,9 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
               "scenes": scenes, "rubric": rubric.source, "seconds": time.perf_counter() - start,
               "page": f"students/{task.student}/index.html"}
     env = Environment(loader=PackageLoader("compare", "templates"), autoescape=select_autoescape(["html", "j2"]))
-    _write_atomic(page_dir / "index.html", env.get_template("student.html.j2").render(r=result))
+    write_atomic(page_dir / "index.html", env.get_template("student.html.j2").render(r=result))
     (out / "results").mkdir(exist_ok=True)
-    _write_atomic(result_path, json.dumps(result, indent=2, default=float))
+    write_atomic(result_path, json.dumps(result, indent=2, default=float))
     return result
 
 
@@ -226,11 +215,11 @@ def write_gradebook(results: list[dict[str, Any]], out: Path, rubric: str, secon
         w.writerow([r["student"], r["status"], f"{r['score']:.2f}",
                     *[f"{by[s]['score']:.2f}" if s in by else "" for s in scenes],
                     *[by[s]["status"] if s in by else "" for s in scenes], r["reasons"], r["page"]])
-    _write_atomic(out / "gradebook.csv", buf.getvalue())
+    write_atomic(out / "gradebook.csv", buf.getvalue())
     summary = [{k: r[k] for k in ("student", "status", "score", "reasons", "page")} |
                {"scenes": {s["scene"]: {"status": s["status"], "score": s["score"]} for s in r["scenes"]}}
                for r in results]
-    _write_atomic(out / "gradebook.json", json.dumps({"rubric": rubric, "seconds": seconds,
+    write_atomic(out / "gradebook.json", json.dumps({"rubric": rubric, "seconds": seconds,
                                                       "students": summary}, indent=2))
 
 

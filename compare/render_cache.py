@@ -20,6 +20,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Callable
 
+from compare.files import sha256_file, write_atomic
 from compare.tools import ToolError, rtdemo_path
 
 
@@ -41,14 +42,10 @@ class RenderJob:
         return shlex.join(self.command(out))
 
 
-def _file_hash(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
 @lru_cache(maxsize=None)
 def renderer_identity(tool: str) -> str:
     if tool == "rtdemo":
-        return _file_hash(Path(rtdemo_path()))
+        return sha256_file(Path(rtdemo_path()))
     h = hashlib.sha256()
     for pkg in ("mitsuba_ref",):  # the renderer; report code changes must not re-render
         root = Path(__file__).resolve().parent.parent / pkg
@@ -62,7 +59,7 @@ def renderer_identity(tool: str) -> str:
 def cache_key(job: RenderJob, scene_file: Path) -> str:
     h = hashlib.sha256()
     h.update(shlex.join(job.args).encode())
-    h.update(_file_hash(scene_file).encode())
+    h.update(sha256_file(scene_file).encode())
     h.update(renderer_identity(job.tool).encode())
     return h.hexdigest()[:20]
 
@@ -102,9 +99,7 @@ def run_jobs(jobs: list[RenderJob], scene_file: Path, cache_dir: Path, out_dir: 
                 raise ToolError(f"{job.label} failed (exit {proc.returncode}): "
                                 f"{job.command_text(target)}\n{proc.stderr.strip()[-2000:]}")
             tmp.replace(cached)
-        tmp_target = target.with_name(target.name + ".tmp")
-        tmp_target.write_bytes(cached.read_bytes())
-        tmp_target.replace(target)
+        write_atomic(target, cached.read_bytes())
         done[0] += 1
         state = "cached" if job.cached else f"{job.seconds:.1f} s"
         progress(f"[{done[0]}/{total}] {job.label}: {state}")

@@ -9,7 +9,6 @@ Every render is a printed command, cached by content hash (render_cache.py).
 from __future__ import annotations
 
 import datetime as _dt
-import hashlib
 import importlib.metadata
 import json
 import os
@@ -26,6 +25,7 @@ from jinja2 import Environment, PackageLoader, select_autoescape
 from compare import report_figures as figs
 from compare.effects import EFFECTS, effect_masks
 from compare.compare_images import json_safe as _json_safe
+from compare.files import sha256_file, write_atomic
 from compare.images import Image, ImageError, read_image, write_png
 from compare.metrics import compute_maps, compute_metrics
 from compare.render_cache import RenderJob, run_jobs
@@ -44,20 +44,6 @@ FEATURED = [
     ("mitsuba-path-llvm-64spp", "Mitsuba path tracer, 64 spp"),
 ]
 MAPPED = ("demo-paper-cpu", "demo-physical-cpu-16spp", "mitsuba-path-llvm-64spp")
-
-
-def _sha(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
-
-
-def _finite(x: float | None) -> float | None:
-    return None if x is None or not np.isfinite(x) else float(x)
 
 
 class Evaluator:
@@ -79,7 +65,7 @@ class Evaluator:
                 if region.any():
                     out["per_effect"][name] = _json_safe(
                         compute_metrics(self.ref.rgb, test.rgb, maps, mask=region).as_dict())
-        _write_atomic(path, json.dumps(out))
+        write_atomic(path, json.dumps(out))
         return out
 
     def maps(self, test: Image) -> Any:
@@ -142,7 +128,7 @@ def build_report(scene_path: str | Path, reports_dir: str | Path = "reports", *,
     run_jobs(render_jobs, scene_file, cache, images_dir, jobs_in_parallel=jobs, progress=progress)
     by_key: dict[str, RenderJob] = {j.key: j for j in render_jobs}
     imgs: dict[str, Image] = {k: read_image(images_dir / f"{k}.exr") for k in by_key}
-    hashes = {k: _sha(images_dir / f"{k}.exr") for k in by_key}
+    hashes = {k: sha256_file(images_dir / f"{k}.exr") for k in by_key}
     for k, img in imgs.items():
         write_png(images_dir / f"{k}.png", img.rgb)
 
@@ -162,7 +148,7 @@ def build_report(scene_path: str | Path, reports_dir: str | Path = "reports", *,
         test_key = "test-image"
         label = test_label or Path(test_image).stem
         imgs[test_key] = foreign
-        hashes[test_key] = _sha(Path(test_image))
+        hashes[test_key] = sha256_file(Path(test_image))
         write_png(images_dir / "test-image.png", foreign.rgb)
         featured.insert(0, (test_key, label))
     progress("metrics ...")
@@ -239,7 +225,7 @@ def build_report(scene_path: str | Path, reports_dir: str | Path = "reports", *,
     if test_image:
         command += ["--test-image", str(test_image)] + (["--label", test_label] if test_label else [])
     data = _json_safe({
-        "scene": scene.name, "scene_file": str(scene_file), "scene_sha256": _sha(scene_file),
+        "scene": scene.name, "scene_file": str(scene_file), "scene_sha256": sha256_file(scene_file),
         "size": [ref.shape[1], ref.shape[0]],
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "machine": _machine(), "versions": _versions(), "command": shlex.join(command),
@@ -252,11 +238,10 @@ def build_report(scene_path: str | Path, reports_dir: str | Path = "reports", *,
         "ladder": ladder, "penumbra": penumbra, "renders": renders,
         "effect_pixels": {k: int(v.sum()) for k, v in masks.items()},
     })
-    _write_atomic(out / "report.json", json.dumps(data, indent=2) + "\n")
+    write_atomic(out / "report.json", json.dumps(data, indent=2) + "\n")
     env = Environment(loader=PackageLoader("compare", "templates"), autoescape=select_autoescape(["html", "j2"]))
-    html = env.get_template("report.html.j2").render(report=data, effects=EFFECTS,
-                                                     renders_json=json.dumps(renders))
-    _write_atomic(out / "index.html", html)
+    html = env.get_template("report.html.j2").render(report=data, renders_json=json.dumps(renders))
+    write_atomic(out / "index.html", html)
     if pdf:
         write_pdf(out / "index.html", out / "report.pdf")
     return out / "index.html"

@@ -18,6 +18,7 @@ from typing import Any, Callable
 import numpy as np
 from jinja2 import Environment, PackageLoader, select_autoescape
 
+from compare.files import write_atomic
 from compare.images import read_image, write_png
 from compare.metrics import compute_maps, compute_metrics
 from compare.tools import run_rtdemo
@@ -120,12 +121,10 @@ def run_stress(scene_files: list[Path], out_dir: Path, *, size: tuple[int, int],
             results.append(scene_result)
             progress(f"[{n}/{len(scene_files)}] {scene.name}")
     data = {"size": list(size), "unstable_flip": UNSTABLE_FLIP, "scenes": results}
-    (out_dir / "stress.json").write_text(json.dumps(data, indent=2, default=float) + "\n")
+    write_atomic(out_dir / "stress.json", json.dumps(data, indent=2, default=float) + "\n")
     env = Environment(loader=PackageLoader("compare", "templates"), autoescape=select_autoescape(["html", "j2"]))
     html = env.get_template("stress.html.j2").render(data=data)
-    tmp_html = out_dir / "index.html.tmp"
-    tmp_html.write_text(html)
-    tmp_html.replace(out_dir / "index.html")
+    write_atomic(out_dir / "index.html", html)
     return data
 
 

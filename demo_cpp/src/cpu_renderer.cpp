@@ -29,20 +29,25 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings) {
         for (int y = next_row++; y < settings.height; y = next_row++) {
             for (int x = 0; x < settings.width; ++x) {
                 const std::size_t i = static_cast<std::size_t>(y) * settings.width + x;
-                const PrimaryHit hit =
-                    tracer.primary(camera.render_from_camera(x + centre, y + centre));
+                // One sample: it is the centre ray, whose hit gives the AOVs as it is traced.
+                PrimaryHit hit;
+                color sum(0.0f);
+                if (k == 1) {
+                    sum = tracer.trace(camera.render_from_camera(x + centre, y + centre), 0, &hit);
+                } else {
+                    hit = tracer.primary(camera.render_from_camera(x + centre, y + centre));
+                    for (int sy = 0; sy < k; ++sy)
+                        for (int sx = 0; sx < k; ++sx)
+                            sum += tracer.trace(camera.render_from_camera(x + (sx + centre) / k,
+                                                                          y + (sy + centre) / k),
+                                                0);
+                }
                 image.id[i] = static_cast<float>(hit.id);
                 image.depth[i] = hit.depth;
                 image.normal[3 * i + 0] = hit.normal.x;
                 image.normal[3 * i + 1] = hit.normal.y;
                 image.normal[3 * i + 2] = hit.normal.z;
 
-                color sum(0.0f);
-                for (int sy = 0; sy < k; ++sy)
-                    for (int sx = 0; sx < k; ++sx)
-                        sum += tracer.trace(camera.render_from_camera(x + (sx + centre) / k,
-                                                                      y + (sy + centre) / k),
-                                            0);
                 color c = sum * inv_samples;
                 if (fault(Fault::double_gamma))
                     c = {std::pow(c.x, 1 / 2.2f), std::pow(c.y, 1 / 2.2f), std::pow(c.z, 1 / 2.2f)};

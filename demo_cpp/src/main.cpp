@@ -104,7 +104,8 @@ struct RenderArgs {
     bool shadows = true, reflection = true, refraction = true, quiet = false;
 };
 
-RenderArgs parse_render_args(const std::vector<std::string>& args) {
+// `view` shares these options but has no file outputs (output_required = false).
+RenderArgs parse_render_args(const std::vector<std::string>& args, bool output_required = true) {
     RenderArgs out;
     auto value = [&](std::size_t& i) -> const std::string& {
         if (i + 1 >= args.size()) throw UsageError(args[i] + ": expected a value");
@@ -145,7 +146,7 @@ RenderArgs parse_render_args(const std::vector<std::string>& args) {
         else throw UsageError("unexpected argument '" + a + "' (one scene file per call)");
     }
     if (out.scene_path.empty()) throw UsageError("missing SCENE.json (see rtdemo render --help)");
-    if (out.exr.empty() && out.png.empty() && out.ppm.empty())
+    if (output_required && out.exr.empty() && out.png.empty() && out.ppm.empty())
         throw UsageError("no output: give -o OUT.exr, --png OUT.png or --ppm OUT.ppm");
     if (strata_per_axis(out.spp) == 0)
         throw UsageError("--spp: expected a perfect square (1, 4, 9, 16, ...), got " + std::to_string(out.spp));
@@ -261,9 +262,7 @@ int run_view(const std::vector<std::string>& args) {
             rest.push_back(args[i]);
         }
     }
-    rest.push_back("--ppm");  // satisfies render's "one output" rule; nothing is written
-    rest.push_back("/dev/null");
-    const RenderArgs a = parse_render_args(rest);
+    const RenderArgs a = parse_render_args(rest, false);
     if (!screenshot.empty() && frames == 0)
         throw UsageError("--screenshot needs --frames N (press P in the window instead)");
     if (!screenshot.empty()) check_writable(screenshot);

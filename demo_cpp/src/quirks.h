@@ -18,7 +18,6 @@ public:
 
     bool has(Quirk q) const { return bits_.test(index(q)); }
     void fix(Quirk q) { bits_.reset(index(q)); }
-    bool operator==(const QuirkSet& o) const { return bits_ == o.bits_; }
     // "Q1,Q3,..." for the quirks present, "none" when all are fixed.
     std::string present_list() const;
 

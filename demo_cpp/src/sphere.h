@@ -24,7 +24,6 @@ struct Sphere {
 
     bool is_light() const { return emission.x > 0 || emission.y > 0 || emission.z > 0; }
     bool is_glass() const { return !is_light() && transparency > 0; }
-    bool is_mirror() const { return !is_light() && !is_glass() && reflection > 0; }
     // The paper's test for "shade as specular" (step 4): either flag, whatever the class.
     bool has_specular_flags() const { return transparency > 0 || reflection > 0; }
 };

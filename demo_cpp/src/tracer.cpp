@@ -55,23 +55,26 @@ bool Tracer::blocks(int j, const ray& shadow_ray, float max_t) const {
     return intersect_robust(scene_.spheres[j], shadow_ray, {0.0f, max_t}).has_value();
 }
 
+namespace {
+PrimaryHit primary_hit(const Scene& scene, const ray& r, int index, float t) {
+    vec3 n = normalize(r.at(t) - scene.spheres[index].center);
+    if (dot(r.dir, n) > 0) n = -n;
+    return {index, t, n};
+}
+}  // namespace
+
 PrimaryHit Tracer::primary(const ray& r) const {
-    PrimaryHit out;
-    if (const auto hit = nearest_hit(r, -1)) {
-        const Sphere& s = scene_.spheres[hit->index];
-        vec3 n = normalize(r.at(hit->t) - s.center);
-        if (dot(r.dir, n) > 0) n = -n;
-        out.id = hit->index;
-        out.depth = hit->t;
-        out.normal = n;
-    }
-    return out;
+    const auto hit = nearest_hit(r, -1);
+    return hit ? primary_hit(scene_, r, hit->index, hit->t) : PrimaryHit{};
 }
 
-color Tracer::trace(const ray& r, int depth) const { return trace_skipping(r, depth, -1); }
+color Tracer::trace(const ray& r, int depth, PrimaryHit* first) const {
+    return trace_skipping(r, depth, -1, first);
+}
 
-color Tracer::trace_skipping(const ray& r, int depth, int skip) const {
+color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* first) const {
     const auto hit = nearest_hit(r, skip);
+    if (first) *first = hit ? primary_hit(scene_, r, hit->index, hit->t) : PrimaryHit{};
     if (!hit) return scene_.background;
 
     const Sphere& s = scene_.spheres[hit->index];

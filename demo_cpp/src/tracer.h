@@ -30,7 +30,9 @@ public:
     // Precondition: `scene` outlives the tracer.
     Tracer(const Scene& scene, TraceOptions options);
 
-    color trace(const ray& r, int depth) const;
+    // With `first`, also reports what this ray hits (the AOVs of a camera ray), so the
+    // renderer need not trace the pixel centre a second time.
+    color trace(const ray& r, int depth, PrimaryHit* first = nullptr) const;
     PrimaryHit primary(const ray& r) const;
     // Step 5 of paper-model.md: direct light at p (normal n) on sphere `hit_index`.
     color shade_direct(int hit_index, const point3& p, const vec3& n) const;
@@ -40,7 +42,7 @@ private:
         int index;
         float t;
     };
-    color trace_skipping(const ray& r, int depth, int skip) const;
+    color trace_skipping(const ray& r, int depth, int skip, PrimaryHit* first = nullptr) const;
     // Nearest sphere along r; `skip` (or -1) is a sphere the ray cannot hit again.
     std::optional<Hit> nearest_hit(const ray& r, int skip) const;
     // Does sphere j block the shadow ray within `max_t`?

@@ -184,6 +184,19 @@ TEST(Tracer, PrimaryHitGivesIdDepthAndNormalFacingTheCamera) {
     EXPECT_EQ(t.primary({{0, 0, 0}, {0, 0, 1}}).id, -1);
 }
 
+TEST(Tracer, TraceReportsTheSameFirstHitAsPrimary) {
+    const Scene scene = mirror_scene();
+    const Tracer t(scene, options_for(Mode::paper));
+    for (const vec3 d : {vec3{0, 0, -1}, normalize(vec3{0.1f, 0.05f, -1}), vec3{0, 0, 1}}) {
+        PrimaryHit first;
+        t.trace({{0, 0, 0}, d}, 0, &first);
+        const PrimaryHit p = t.primary({{0, 0, 0}, d});
+        EXPECT_EQ(first.id, p.id);
+        EXPECT_EQ(first.depth, p.depth);
+        EXPECT_EQ(first.normal.z, p.normal.z);
+    }
+}
+
 TEST(Tracer, PaperLightSphereShowsItsEmission) {
     const Scene scene = mirror_scene();
     const Tracer t(scene, options_for(Mode::paper));
