@@ -3,8 +3,11 @@
 Mitsuba intersects in float32: a radius-1e4 sphere gives acne and black specks, and a
 flat disk moves the horizon by ~28 rows. The cap keeps the sphere's curvature: vertices
 lie on the sphere, with exact radial normals, in rings graded by distance from the camera
-so that the chord error (sagitta) stays below max(min_sagitta, rel_sagitta * distance).
-Vertex coordinates near the camera are small, so float32 is precise there.
+so that the chord error (sagitta), along rings and across them, stays below
+max(min_sagitta, rel_sagitta * distance). Vertex coordinates near the camera are small, so
+float32 is precise there. With 512 segments per ring the azimuthal chords sagged ~4e-4 at
+the paper floor's shadow edges, enough to flip shadow and horizon pixels against the demo
+(bench/NOTES.md); the segment count now follows the same rule.
 """
 
 from __future__ import annotations
@@ -40,8 +43,19 @@ def _rings(radius: float, height: float, theta_max: float, min_sagitta: float,
     return thetas
 
 
-def build_cap(center: Vec3, radius: float, eye: Vec3, *, azimuth: int = 512,
-              min_sagitta: float = 1e-4, rel_sagitta: float = 2e-5,
+def _azimuth_segments(radius: float, height: float, thetas: list[float], min_sagitta: float,
+                      rel_sagitta: float) -> int:
+    # A ring of radius rho cut into n chords sags rho * (1 - cos(pi / n)) ~ rho (pi/n)^2 / 2.
+    need = 3
+    for theta in thetas[1:]:
+        rho = radius * math.sin(theta)
+        sagitta = max(min_sagitta, rel_sagitta * math.hypot(radius * theta, height))
+        need = max(need, math.ceil(math.pi * math.sqrt(rho / (2.0 * sagitta))))
+    return -(-need // 64) * 64
+
+
+def build_cap(center: Vec3, radius: float, eye: Vec3, *, azimuth: int | None = None,
+              min_sagitta: float = 1e-5, rel_sagitta: float = 2e-6,
               extra_angle: float = 0.05) -> CapMesh:
     """Cap around the point of the sphere nearest to `eye`, reaching past its horizon.
 
@@ -56,7 +70,10 @@ def build_cap(center: Vec3, radius: float, eye: Vec3, *, azimuth: int = 512,
     height = dist - radius
     horizon = math.acos(radius / dist)
     theta_max = min(math.pi / 2, 2.0 * horizon + extra_angle)
-    thetas = np.array(_rings(radius, height, theta_max, min_sagitta, rel_sagitta))
+    ring_list = _rings(radius, height, theta_max, min_sagitta, rel_sagitta)
+    thetas = np.array(ring_list)
+    if azimuth is None:
+        azimuth = _azimuth_segments(radius, height, ring_list, min_sagitta, rel_sagitta)
 
     # Orthonormal frame around the axis.
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])

@@ -137,6 +137,26 @@ def test_cap_mesh_removes_the_acne_mitsuba_shows_on_the_huge_floor() -> None:
     assert specks_kept > 100 and specks_kept > 10 * specks_cap, (specks_kept, specks_cap)
 
 
+def test_cap_mesh_chords_stay_within_the_sagitta_rule() -> None:
+    # Every edge midpoint (along rings, across them, and the quads' diagonals) lies within
+    # max(min_sagitta, rel_sagitta * distance to the eye) of the sphere, times 1.1 for the
+    # diagonal (which spans both directions). With the old fixed 512 segments per ring the
+    # ring chords sagged 4e-4 at the paper floor's shadow edges (bench/NOTES.md).
+    from mitsuba_ref.cap_mesh import build_cap
+
+    center, radius, eye = np.array([0.0, -10004.0, -20.0]), 10000.0, np.array([0.0, 0.0, 0.0])
+    min_s, rel_s = 1e-5, 2e-6
+    cap = build_cap(tuple(center), radius, tuple(eye), min_sagitta=min_s, rel_sagitta=rel_s)  # type: ignore[arg-type]
+    p = cap.positions.astype(np.float64)
+    f = cap.faces.astype(np.int64)
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        mid = 0.5 * (p[f[:, a]] + p[f[:, b]])
+        sag = radius - np.linalg.norm(mid - center, axis=1)
+        allowed = np.maximum(min_s, rel_s * np.linalg.norm(mid - eye, axis=1))
+        assert (sag <= 1.1 * allowed + 2e-6).all(), (a, b, float((sag / allowed).max()))
+    assert np.abs(np.linalg.norm(cap.normals, axis=1) - 1).max() < 1e-6
+
+
 def test_cap_mesh_keeps_the_horizon(demo_physical: dict, whitted_point: dict) -> None:  # type: ignore[type-arg]
     def horizon(ids: np.ndarray) -> np.ndarray:
         """First floor row from the top in each column."""

@@ -39,16 +39,16 @@ def test_physical_matches_whitted_reference_with_centre_rays(scene: str, backend
     assert compute_metrics(ref.rgb, demo, maps).ssim >= 0.995
     masks = effect_masks(s, ref.aovs["id"], ref.aovs["depth"])
     rel = ((ref.rgb.astype(np.float64) - demo) ** 2 / (ref.rgb.astype(np.float64) ** 2 + 0.01)).mean(-1)
+    # Issue 7's criterion in every effect mask, no pixel left out. Measured at 320x240
+    # (2026-11-22): worst mask relMSE 2.3e-5 (paper, edges), SSIM >= 0.9998; before the cap
+    # mesh's ring chords followed the sagitta rule and the robust test ran in double, a few
+    # shadow-edge and horizon pixels flipped and carried a relMSE of 0.25.
     for name, mask in masks.items():
         if not mask.any():
             continue
-        # A few isolated pixels where a secondary silhouette (the cap's horizon, the reflected
-        # light of radiance ~275, a shadow boundary) falls the other way in float32 carry the
-        # whole relative MSE; without them it is below 1e-3 (see bench/bench_physical.py).
-        worst_dropped = np.sort(rel[mask])[::-1][10:]
-        assert worst_dropped.mean() <= 1e-3, (name, worst_dropped.mean())
-        if name != "edges":
-            assert compute_metrics(ref.rgb, demo, maps, mask=mask).ssim >= 0.99, name
+        assert rel.mean() <= 1e-3
+        assert rel[mask].mean() <= 1e-3, (name, rel[mask].mean())
+        assert compute_metrics(ref.rgb, demo, maps, mask=mask).ssim >= 0.995, name
 
 
 @pytest.fixture(scope="module")

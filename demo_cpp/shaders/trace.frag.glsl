@@ -61,22 +61,25 @@ bool intersect_paper(int i, vec3 o, vec3 d, out float t) {
     return true;
 }
 
-// Haines et al.'s robust quadratic; nearest root in (t_min, t_max).
+// Haines et al.'s robust quadratic, in double as in sphere.h (float32 loses the origin's
+// position relative to the huge floor's centre); nearest root in (t_min, t_max).
 bool intersect_robust(int i, vec3 o, vec3 d, float t_min, float t_max, out float t) {
-    vec3 oc = o - center(i);
-    float b = dot(oc, d);
-    vec3 perpendicular = oc - d * b;
-    float r2 = radius(i) * radius(i);
-    float disc = r2 - dot(perpendicular, perpendicular);
+    dvec3 oc = dvec3(o) - dvec3(center(i));
+    dvec3 dd = dvec3(d);
+    double b = dot(oc, dd);
+    dvec3 perpendicular = oc - dd * b;
+    double r2 = double(radius(i)) * double(radius(i));
+    double disc = r2 - dot(perpendicular, perpendicular);
     t = 0.0;
     if (disc < 0.0) return false;
-    float c = dot(oc, oc) - r2;
-    float q = -b - (b < 0.0 ? -sqrt(disc) : sqrt(disc));
-    float t0 = q != 0.0 ? c / q : 0.0;
-    float t1 = q;
-    if (t0 > t1) { float s = t0; t0 = t1; t1 = s; }
-    if (t_min < t0 && t0 < t_max) { t = t0; return true; }
-    if (t_min < t1 && t1 < t_max) { t = t1; return true; }
+    double c = dot(oc, oc) - r2;
+    double q = -b - (b < 0.0 ? -sqrt(disc) : sqrt(disc));
+    double t0 = q != 0.0 ? c / q : 0.0;
+    double t1 = q;
+    if (t0 > t1) { double s = t0; t0 = t1; t1 = s; }
+    float f0 = float(t0), f1 = float(t1);
+    if (t_min < f0 && f0 < t_max) { t = f0; return true; }
+    if (t_min < f1 && f1 < t_max) { t = f1; return true; }
     return false;
 }
 

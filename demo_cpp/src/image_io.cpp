@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <stdexcept>
 #include <thread>
 #include <vector>
 
@@ -79,16 +80,27 @@ void check_writable(const std::string& path) {
     if (fs::is_directory(path, ec)) throw OutputError(path + ": cannot write: it is a directory");
 }
 
+ExrCompression parse_exr_compression(const std::string& text) {
+    if (text == "none") return ExrCompression::none;
+    if (text == "rle") return ExrCompression::rle;
+    if (text == "zip") return ExrCompression::zip;
+    throw std::invalid_argument("expected none, rle or zip, got '" + text + "'");
+}
+
 void write_exr(const std::string& path, const RenderedImage& image,
-               const std::map<std::string, std::string>& attributes) {
+               const std::map<std::string, std::string>& attributes, ExrCompression compression) {
     check_writable(path);
     AtomicFile file(path);
     try {
-        // Compress scanline blocks on every core: ZIP dominated the process time.
-        Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
         Imf::Header header(image.width, image.height);
-        header.compression() = Imf::ZIP_COMPRESSION;
-        header.zipCompressionLevel() = 1;  // level 1: ~same size here, several times faster
+        header.compression() = compression == ExrCompression::zip   ? Imf::ZIP_COMPRESSION
+                               : compression == ExrCompression::rle ? Imf::RLE_COMPRESSION
+                                                                    : Imf::NO_COMPRESSION;
+        if (compression == ExrCompression::zip) {
+            // Compress scanline blocks on every core; level 1: about the same size, far faster.
+            Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+            header.zipCompressionLevel() = 1;
+        }
         for (const auto& [key, value] : attributes)
             header.insert(key, Imf::StringAttribute(value));
         const char* names[] = {"R", "G", "B", "id", "depth", "N.X", "N.Y", "N.Z"};

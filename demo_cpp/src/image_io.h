@@ -19,10 +19,16 @@ public:
 // Throws OutputError when the file's directory does not exist or is not writable.
 void check_writable(const std::string& path);
 
+enum class ExrCompression { none, rle, zip };
+// "none" | "rle" | "zip"; throws std::invalid_argument naming the bad value.
+ExrCompression parse_exr_compression(const std::string& text);
+
 // Float32 EXR: R, G, B (linear, unclamped), id, depth, N.X, N.Y, N.Z; `attributes`
-// become string attributes of the header.
+// become string attributes of the header. Uncompressed by default: ZIP made writing the
+// file cost more than rendering it (bench/NOTES.md).
 void write_exr(const std::string& path, const RenderedImage& image,
-               const std::map<std::string, std::string>& attributes);
+               const std::map<std::string, std::string>& attributes,
+               ExrCompression compression = ExrCompression::none);
 // 8-bit PNG for people: clamped to [0, 1], sRGB-encoded. NaN is written as 0.
 void write_png(const std::string& path, const RenderedImage& image);
 // 8-bit RGB bytes (row-major, y down) that are already display-encoded, as a PNG.

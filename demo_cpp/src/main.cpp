@@ -63,6 +63,7 @@ outputs (at least one):
                          (normal facing the camera); scene, mode, quirks, time in the header
   --png OUT.png          8-bit, clamped to [0,1], sRGB-encoded (for people)
   --ppm OUT.ppm          8-bit binary P6, linear, clamped: the paper's own output
+  --exr-compression C    none (default: fastest, ~10 MB at 640x480), rle or zip (~4 MB)
 
 algorithm:
   --mode MODE            paper (default): the paper's program, quirks Q1-Q10 all present
@@ -94,6 +95,7 @@ image:
 struct RenderArgs {
     std::string scene_path;
     std::string exr, png, ppm;
+    ExrCompression compression = ExrCompression::none;
     Mode mode = Mode::paper;
     std::vector<Quirk> fixes;
     std::optional<int> width, height, max_depth;
@@ -116,6 +118,10 @@ RenderArgs parse_render_args(const std::vector<std::string>& args, bool output_r
         if (a == "-o" || a == "--output") out.exr = value(i);
         else if (a == "--png") out.png = value(i);
         else if (a == "--ppm") out.ppm = value(i);
+        else if (a == "--exr-compression") {
+            try { out.compression = parse_exr_compression(value(i)); }
+            catch (const std::invalid_argument& e) { throw UsageError(std::string("--exr-compression: ") + e.what()); }
+        }
         else if (a == "--mode") {
             try { out.mode = parse_mode(value(i)); }
             catch (const std::invalid_argument& e) { throw UsageError(std::string("--mode: ") + e.what()); }
@@ -227,7 +233,7 @@ int run_render(const std::vector<std::string>& args) {
     } else {
         attributes["rtval.threads"] = std::to_string(settings.threads);
     }
-    if (!a.exr.empty()) write_exr(a.exr, image, attributes);
+    if (!a.exr.empty()) write_exr(a.exr, image, attributes, a.compression);
     if (!a.png.empty()) write_png(a.png, image);
     if (!a.ppm.empty()) write_ppm(a.ppm, image);
     if (!a.quiet && a.gl)
@@ -256,6 +262,7 @@ int run_view(const std::vector<std::string>& args) {
             if (args[i] == "--screenshot") screenshot = args[++i];
             else frames = parse_int_arg("--frames", args[++i], 1, 100000);
         } else if (args[i] == "-o" || args[i] == "--output" || args[i] == "--png" || args[i] == "--ppm" ||
+                   args[i] == "--exr-compression" ||
                    args[i] == "--backend" || args[i] == "--spp") {
             throw UsageError(args[i] + " is not an option of view (see rtdemo view --help)");
         } else {

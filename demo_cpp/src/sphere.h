@@ -44,22 +44,26 @@ inline std::optional<float> intersect_paper(const Sphere& s, const ray& r) {
 }
 
 // Robust quadratic (Haines et al., Ray Tracing Gems ch. 7): discriminant from
-// r^2 - |oc - (oc.d)d|^2 and the second root from c/q. Returns the nearest t in `range`.
-// Precondition: r.dir is unit length.
+// r^2 - |oc - (oc.d)d|^2 and the second root from c/q, evaluated in double: in float32,
+// oc = origin - centre of a huge sphere (the floor, r = 10^4) keeps only ~1e-3 of the
+// origin's position, which moved floor hits by that much and flipped shadow and horizon
+// pixels against Mitsuba. Returns the nearest t in `range`. Precondition: |r.dir| = 1.
 inline std::optional<float> intersect_robust(const Sphere& s, const ray& r, interval range) {
-    const vec3 oc = r.origin - s.center;
-    const float b = dot(oc, r.dir);
-    const vec3 perpendicular = oc - r.dir * b;
-    const float r2 = s.radius * s.radius;
-    const float disc = r2 - dot(perpendicular, perpendicular);
+    const double ox = double(r.origin.x) - s.center.x, oy = double(r.origin.y) - s.center.y,
+                 oz = double(r.origin.z) - s.center.z;
+    const double dx = r.dir.x, dy = r.dir.y, dz = r.dir.z;
+    const double b = ox * dx + oy * dy + oz * dz;
+    const double px = ox - dx * b, py = oy - dy * b, pz = oz - dz * b;
+    const double r2 = double(s.radius) * s.radius;
+    const double disc = r2 - (px * px + py * py + pz * pz);
     if (disc < 0) return std::nullopt;
-    const float c = dot(oc, oc) - r2;
-    const float q = -b - std::copysign(std::sqrt(disc), b);
-    float t0 = (q != 0.0f) ? c / q : 0.0f;
-    float t1 = q;
+    const double c = ox * ox + oy * oy + oz * oz - r2;
+    const double q = -b - std::copysign(std::sqrt(disc), b);
+    double t0 = (q != 0.0) ? c / q : 0.0;
+    double t1 = q;
     if (t0 > t1) std::swap(t0, t1);
-    if (range.surrounds(t0)) return t0;
-    if (range.surrounds(t1)) return t1;
+    if (range.surrounds(float(t0))) return float(t0);
+    if (range.surrounds(float(t1))) return float(t1);
     return std::nullopt;
 }
 
