@@ -28,6 +28,7 @@ from compare.compare_images import json_safe as _json_safe
 from compare.files import sha256_file, write_atomic
 from compare.images import Image, ImageError, read_image, write_png
 from compare.metrics import compute_maps, compute_metrics
+from compare.penumbra import penumbra_numbers
 from compare.render_cache import RenderJob, run_jobs
 from compare.report_plan import EFFECT_SWITCHES, QUIRKS, REFERENCE_KEY, REFERENCE_SPP, plan
 from compare.tools import ToolError, rtdemo_path
@@ -97,19 +98,6 @@ def _machine() -> str:
     except OSError:
         pass
     return f"{cpu or platform.processor()} x {os.cpu_count()} cores, {platform.system()} {platform.release()}"
-
-
-def _penumbra_numbers(point_ref: Image, area_ref: Image, demo: Image) -> dict[str, Any]:
-    """Where the demo (point lights) differs from the area-light reference: is it penumbrae?"""
-    soft = np.abs(area_ref.rgb - point_ref.rgb).max(-1) > 2.0 / 255.0
-    err = np.abs(np.nan_to_num(demo.rgb) - area_ref.rgb).mean(-1)
-    total = float(err.sum())
-    inside = float(err[soft].sum())
-    outside_px = int(((np.abs(np.clip(np.nan_to_num(demo.rgb), 0, 1) - np.clip(area_ref.rgb, 0, 1)).max(-1)
-                       > 2.0 / 255.0) & ~soft).sum())
-    return {"penumbra_pixels": int(soft.sum()), "penumbra_share": float(soft.mean()),
-            "error_share_in_penumbra": inside / total if total > 0 else 0.0,
-            "differing_pixels_outside_penumbra": outside_px}
 
 
 def build_report(scene_path: str | Path, reports_dir: str | Path = "reports", *,
@@ -209,7 +197,7 @@ def build_report(scene_path: str | Path, reports_dir: str | Path = "reports", *,
     test_effects = results[test_key]["per_effect"]
     verdict = grade(test_effects)
     sentences = difference_sentences(ref.rgb, imgs[test_key].rgb, masks, test_effects, label)
-    penumbra = _penumbra_numbers(ref, imgs["ref-area"], imgs["demo-physical-cpu-16spp"])
+    penumbra = penumbra_numbers(ref.rgb, imgs["ref-area"].rgb, imgs["demo-physical-cpu-16spp"].rgb)
 
     renders = [{"key": j.key, "label": j.label, "png": f"images/{j.key}.png", "exr": f"images/{j.key}.exr",
                 "command": j.command_text(images_dir / f"{j.key}.exr"), "family": j.family,

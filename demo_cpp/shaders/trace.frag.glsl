@@ -1,10 +1,14 @@
 // The paper's tracer (paper-model.md) as a fragment shader: the GLSL twin of tracer.cpp.
-// `#version` and STACK_SIZE (= max_depth + 2) are prepended by gl_tracer.cpp.
+// gl_program.cpp prepends `#version` and the specialisation: QUIRKS (bit q-1: quirk Qq
+// present), EFFECTS (bit 0 shadows, 1 reflection, 2 refraction), MAX_DEPTH, STACK_SIZE
+// (= MAX_DEPTH + 2), SPHERE_COUNT, and for small scenes SCENE_SPHERES (the spheres as
+// constants). Constant switches let the compiler drop every path the options rule out and
+// unroll the sphere loops: on llvmpipe that is most of a frame (bench/NOTES.md).
 //
 // GLSL has no recursion. A pixel's colour is linear in its children's colours
 // (c = local + wR * c_reflected + wT * c_refracted), so a depth-first walk over an explicit
 // stack of (ray, weight) items, summing weight * local, gives the same value. Each pop
-// pushes at most two children one level deeper, so max_depth + 2 entries always suffice.
+// pushes at most two children one level deeper, so MAX_DEPTH + 2 entries always suffice.
 
 layout(location = 0) out vec4 out_color;   // linear RGB (or display-encoded in the window)
 layout(location = 1) out vec4 out_aov;     // id, depth
@@ -17,12 +21,12 @@ struct Sphere {
     vec4 ior;               // x: ior
     vec4 light_intensity;   // xyz: I = pi E d0^2 (light_units.h), w: 1 for a light
 };
+#ifdef SCENE_SPHERES
+const Sphere spheres[SPHERE_COUNT] = Sphere[SPHERE_COUNT](SCENE_SPHERES);
+#else
 layout(std430, binding = 0) readonly buffer Spheres { Sphere spheres[]; };
+#endif
 
-uniform int u_sphere_count;
-uniform int u_quirks;   // bit q-1 set: quirk Qq present
-uniform int u_effects;  // bit 0 shadows, bit 1 reflection, bit 2 refraction
-uniform int u_max_depth;
 uniform float u_bias;
 uniform vec3 u_background;
 uniform vec3 u_cam_origin;
@@ -37,8 +41,8 @@ uniform int u_display;        // 1: clamp and sRGB-encode (window), 0: linear (h
 const float PI = 3.14159265358979;
 const float INF = uintBitsToFloat(0x7F800000u);
 
-bool quirk(int q) { return (u_quirks & (1 << (q - 1))) != 0; }
-bool effect(int bit) { return (u_effects & (1 << bit)) != 0; }
+bool quirk(int q) { return (QUIRKS & (1 << (q - 1))) != 0; }
+bool effect(int bit) { return (EFFECTS & (1 << bit)) != 0; }
 vec3 center(int i) { return spheres[i].center_radius.xyz; }
 float radius(int i) { return spheres[i].center_radius.w; }
 bool is_light(int i) { return spheres[i].light_intensity.w > 0.0; }
@@ -87,7 +91,7 @@ bool nearest_hit(vec3 o, vec3 d, int skip, out int index, out float t_near) {
     index = -1;
     t_near = INF;
     bool paper = quirk(1);
-    for (int i = 0; i < u_sphere_count; ++i) {
+    for (int i = 0; i < SPHERE_COUNT; ++i) {
         if (i == skip) continue;
         float t;
         bool hit = paper ? intersect_paper(i, o, d, t) : intersect_robust(i, o, d, 0.0, t_near, t);
@@ -132,7 +136,7 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
     vec3 aim_from = quirk(1) ? p : origin;
     float shared_shadow = 1.0;  // Q4
     vec3 c = vec3(0.0);
-    for (int light = 0; light < u_sphere_count; ++light) {
+    for (int light = 0; light < SPHERE_COUNT; ++light) {
         if (!is_light(light)) continue;
         vec3 to_light = center(light) - aim_from;
         float dist = length(to_light);
@@ -141,7 +145,7 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
         float transmission = 1.0;
         if (effect(0) && (quirk(4) || cos_theta > 0.0)) {
             float max_t = quirk(5) ? INF : dist;
-            for (int j = 0; j < u_sphere_count; ++j) {
+            for (int j = 0; j < SPHERE_COUNT; ++j) {
                 if (j == light) continue;
                 if (j == hit && !quirk(1)) continue;
                 if (!blocks(j, origin, l, max_t)) continue;
@@ -175,7 +179,16 @@ struct Item {
     int skip;
 };
 
+// What the root ray hit, for the AOVs (id -1 on a miss): set by trace().
+int g_first_id;
+float g_first_t;
+vec3 g_first_n;
+
 vec3 trace(vec3 origin, vec3 dir) {
+    g_first_id = -1;
+    g_first_t = 0.0;
+    g_first_n = vec3(0.0);
+    bool root = true;
     Item stack[STACK_SIZE];
     int sp = 0;
     stack[sp++] = Item(origin, dir, vec3(1.0), 0, -1);
@@ -184,7 +197,15 @@ vec3 trace(vec3 origin, vec3 dir) {
         Item it = stack[--sp];
         int idx;
         float t;
-        if (!nearest_hit(it.origin, it.dir, it.skip, idx, t)) {
+        bool hit = nearest_hit(it.origin, it.dir, it.skip, idx, t);
+        if (root && hit) {
+            g_first_id = idx;
+            g_first_t = t;
+            vec3 n0 = normalize(it.origin + it.dir * t - center(idx));
+            g_first_n = dot(it.dir, n0) > 0.0 ? -n0 : n0;
+        }
+        root = false;
+        if (!hit) {
             total += it.weight * u_background;
             continue;
         }
@@ -198,7 +219,7 @@ vec3 trace(vec3 origin, vec3 dir) {
         bool inside = false;
         if (dot(it.dir, n) > 0.0) { n = -n; inside = true; }
         bool spec = specular_flags(idx);
-        if (spec && it.depth < u_max_depth) {
+        if (spec && it.depth < MAX_DEPTH) {
             float d_dot_n = dot(it.dir, n);
             float facing = max(0.0, -d_dot_n);
             float offset = offset_at(p);
@@ -261,24 +282,30 @@ void main() {
     float x = floor(gl_FragCoord.x);
     float y = u_size.y - 1.0 - floor(gl_FragCoord.y);
 
-    vec3 d0 = camera_dir(x + 0.5, y + 0.5);
-    int id;
-    float t;
-    if (nearest_hit(u_cam_origin, d0, -1, id, t)) {
-        vec3 n = normalize(u_cam_origin + d0 * t - center(id));
-        if (dot(d0, n) > 0.0) n = -n;
-        out_aov = vec4(float(id), t, 0.0, 1.0);
-        out_normal = vec4(n, 1.0);
+    vec3 c;
+    if (u_strata == 1) {
+        c = trace(u_cam_origin, camera_dir(x + 0.5, y + 0.5));  // the centre ray: AOVs as it goes
     } else {
-        out_aov = vec4(-1.0, 0.0, 0.0, 1.0);
-        out_normal = vec4(0.0, 0.0, 0.0, 1.0);
+        vec3 sum = vec3(0.0);
+        float k = float(u_strata);
+        for (int sy = 0; sy < u_strata; ++sy)
+            for (int sx = 0; sx < u_strata; ++sx)
+                sum += trace(u_cam_origin, camera_dir(x + (float(sx) + 0.5) / k, y + (float(sy) + 0.5) / k));
+        c = sum / (k * k);
+        vec3 d0 = camera_dir(x + 0.5, y + 0.5);
+        int id;
+        float t;
+        g_first_id = -1;
+        g_first_t = 0.0;
+        g_first_n = vec3(0.0);
+        if (nearest_hit(u_cam_origin, d0, -1, id, t)) {
+            vec3 n = normalize(u_cam_origin + d0 * t - center(id));
+            g_first_id = id;
+            g_first_t = t;
+            g_first_n = dot(d0, n) > 0.0 ? -n : n;
+        }
     }
-
-    vec3 sum = vec3(0.0);
-    float k = float(u_strata);
-    for (int sy = 0; sy < u_strata; ++sy)
-        for (int sx = 0; sx < u_strata; ++sx)
-            sum += trace(u_cam_origin, camera_dir(x + (float(sx) + 0.5) / k, y + (float(sy) + 0.5) / k));
-    vec3 c = sum / (k * k);
+    out_aov = vec4(float(g_first_id), g_first_t, 0.0, 1.0);
+    out_normal = vec4(g_first_n, 1.0);
     out_color = vec4(u_display == 1 ? srgb_encode(c) : c, 1.0);
 }

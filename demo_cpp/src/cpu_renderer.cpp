@@ -16,7 +16,7 @@ int strata_per_axis(int spp) {
     return k * k == spp ? k : 0;
 }
 
-RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings) {
+RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, RayCounts* rays) {
     RenderedImage image(settings.width, settings.height);
     const CameraRays camera(scene.camera, settings.width, settings.height);
     const Tracer tracer(scene, settings.trace);
@@ -28,7 +28,8 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings) {
     // it reads per ray: shared read data next to another thread's stack writes cost 70 % more
     // CPU time on two threads (false sharing, measured with perf).
     alignas(64) std::atomic<int> next_row{0};
-    auto worker = [&, shared_camera = camera, shared_tracer = tracer] {
+    std::vector<RayCounts> counts(static_cast<std::size_t>(settings.threads));
+    auto worker = [&, shared_camera = camera, shared_tracer = tracer](int thread) {
         const CameraRays camera = shared_camera;
         const Tracer tracer = shared_tracer;
         const int width = settings.width, height = settings.height;
@@ -62,11 +63,16 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings) {
                 image.rgb[3 * i + 2] = c.z;
             }
         }
+        counts[static_cast<std::size_t>(thread)] = tracer.ray_counts();
     };
     std::vector<std::thread> pool;
-    for (int t = 1; t < settings.threads; ++t) pool.emplace_back(worker);
-    worker();
+    for (int t = 1; t < settings.threads; ++t) pool.emplace_back(worker, t);
+    worker(0);
     for (auto& t : pool) t.join();
+    if (rays) {
+        *rays = {};
+        for (const RayCounts& c : counts) *rays += c;
+    }
     return image;
 }
 

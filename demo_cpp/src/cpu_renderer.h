@@ -15,8 +15,10 @@ struct RenderSettings {
     int threads = 1;  // >= 1
 };
 
-// Precondition: settings were validated (sizes >= 1, spp a perfect square).
-RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings);
+// Precondition: settings were validated (sizes >= 1, spp a perfect square). With `rays`,
+// also reports how many rays of each kind were traced.
+RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings,
+                         RayCounts* rays = nullptr);
 
 // k with k*k == spp, or 0 when spp is not a perfect square >= 1.
 int strata_per_axis(int spp);

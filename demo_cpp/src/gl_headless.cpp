@@ -116,7 +116,7 @@ RenderedImage render_gl(const Scene& scene, const RenderSettings& settings, int 
     t.renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
 
     const int w = settings.width, h = settings.height;
-    TraceProgram program(scene, settings.trace.max_depth);
+    TraceProgram program(scene, settings.trace);
     t.compile_seconds = program.compile_seconds();
     FloatTarget target(w, h);
     const int strata = strata_per_axis(settings.spp);

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "embedded_shaders.h"
@@ -47,34 +49,7 @@ struct GpuSphere {
     float light_intensity[4];
 };
 
-}  // namespace
-
-GlView view_of(const Camera& c) { return {c.position, c.look_at, c.up, c.fov_y}; }
-
-TraceProgram::TraceProgram(const Scene& scene, int max_depth) : scene_(scene), max_depth_(max_depth) {
-    const auto start = std::chrono::steady_clock::now();
-    GLint64 max_block = 0;
-    glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
-    const long long needed = static_cast<long long>(scene.spheres.size()) * sizeof(GpuSphere);
-    if (needed > max_block)
-        throw GlError("scene has " + std::to_string(scene.spheres.size()) +
-                      " spheres; this GL's storage-buffer limit holds " +
-                      std::to_string(max_block / sizeof(GpuSphere)));
-
-    const std::string header = "#version 430 core\n#define STACK_SIZE " +
-                               std::to_string(max_depth + 2) + "\n";
-    const unsigned vs = compile(GL_VERTEX_SHADER, kFullscreenVertSource, "fullscreen.vert.glsl");
-    const unsigned fs = compile(GL_FRAGMENT_SHADER, header + kTraceFragSource, "trace.frag.glsl");
-    program_ = glCreateProgram();
-    glAttachShader(program_, vs);
-    glAttachShader(program_, fs);
-    glLinkProgram(program_);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    int ok = 0;
-    glGetProgramiv(program_, GL_LINK_STATUS, &ok);
-    if (!ok) throw GlError("cannot link the tracer program:\n" + info_log(program_, glGetProgramiv, glGetProgramInfoLog));
-
+std::vector<GpuSphere> gpu_spheres(const Scene& scene) {
     std::vector<GpuSphere> data(std::max<std::size_t>(scene.spheres.size(), 1));
     for (std::size_t i = 0; i < scene.spheres.size(); ++i) {
         const Sphere& s = scene.spheres[i];
@@ -85,41 +60,107 @@ TraceProgram::TraceProgram(const Scene& scene, int max_depth) : scene_(scene), m
                    {s.ior, 0, 0, 0},
                    {intensity.x, intensity.y, intensity.z, s.is_light() ? 1.0f : 0.0f}};
     }
-    glGenBuffers(1, &ssbo_);
-    glBindBuffer(GL_SHADER_STORAGE_BUFFER, ssbo_);
-    glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(GpuSphere)),
-                 data.data(), GL_STATIC_DRAW);
+    return data;
+}
+
+// The spheres as a GLSL constructor list, each float by its bit pattern so the constants
+// are exactly the CPU's floats (no decimal round trip).
+std::string sphere_constants(const Scene& scene) {
+    std::string out;
+    auto vec4_of = [](const float (&v)[4]) {
+        std::string s = "vec4(";
+        for (int c = 0; c < 4; ++c) {
+            std::uint32_t bits;
+            std::memcpy(&bits, &v[c], sizeof bits);
+            s += "uintBitsToFloat(" + std::to_string(bits) + "u)" + (c < 3 ? "," : ")");
+        }
+        return s;
+    };
+    for (const GpuSphere& g : gpu_spheres(scene)) {
+        if (!out.empty()) out += ",";
+        out += "Sphere(" + vec4_of(g.center_radius) + "," + vec4_of(g.color_reflection) + "," +
+               vec4_of(g.emission_transparency) + "," + vec4_of(g.ior) + "," +
+               vec4_of(g.light_intensity) + ")";
+    }
+    return out;
+}
+
+}  // namespace
+
+GlView view_of(const Camera& c) { return {c.position, c.look_at, c.up, c.fov_y}; }
+
+TraceProgram::TraceProgram(const Scene& scene, const TraceOptions& options) : scene_(scene) {
+    const auto start = std::chrono::steady_clock::now();
+    if (scene.spheres.size() > kMaxConstantSpheres) {
+        GLint64 max_block = 0;
+        glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
+        const long long needed = static_cast<long long>(scene.spheres.size()) * sizeof(GpuSphere);
+        if (needed > max_block)
+            throw GlError("scene has " + std::to_string(scene.spheres.size()) +
+                          " spheres; this GL's storage-buffer limit holds " +
+                          std::to_string(max_block / sizeof(GpuSphere)));
+        const std::vector<GpuSphere> data = gpu_spheres(scene);
+        glGenBuffers(1, &ssbo_);
+        glBindBuffer(GL_SHADER_STORAGE_BUFFER, ssbo_);
+        glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(GpuSphere)),
+                     data.data(), GL_STATIC_DRAW);
+    }
     glGenVertexArrays(1, &vao_);
+    program_for(options);
     compile_seconds_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-TraceProgram::~TraceProgram() {
-    if (vao_) glDeleteVertexArrays(1, &vao_);
-    if (ssbo_) glDeleteBuffers(1, &ssbo_);
-    if (program_) glDeleteProgram(program_);
-}
-
-void TraceProgram::draw(const TraceOptions& options, const GlView& view, int width, int height,
-                        int strata, bool display_encode) const {
-    if (options.max_depth > max_depth_)
-        throw GlError("max depth " + std::to_string(options.max_depth) +
-                      " exceeds the compiled stack (" + std::to_string(max_depth_) + ")");
-    const vec3 forward = normalize(view.look_at - view.position);
-    const vec3 right = normalize(cross(forward, view.up));
-    const vec3 up = cross(right, forward);
+unsigned TraceProgram::program_for(const TraceOptions& options) {
     int quirks = 0;
     for (int q = 1; q <= kQuirkCount; ++q)
         if (options.quirks.has(static_cast<Quirk>(q))) quirks |= 1 << (q - 1);
     const int effects = (options.shadows ? 1 : 0) | (options.reflection ? 2 : 0) |
                         (options.refraction ? 4 : 0);
+    std::string header = "#define QUIRKS " + std::to_string(quirks) + "\n#define EFFECTS " +
+                         std::to_string(effects) + "\n#define MAX_DEPTH " +
+                         std::to_string(options.max_depth) + "\n#define STACK_SIZE " +
+                         std::to_string(options.max_depth + 2) + "\n";
+    if (const auto found = programs_.find(header); found != programs_.end()) return found->second;
 
-    glUseProgram(program_);
-    auto loc = [&](const char* name) { return glGetUniformLocation(program_, name); };
-    glUniform1i(loc("u_sphere_count"), static_cast<int>(scene_.spheres.size()));
-    glUniform1i(loc("u_quirks"), quirks);
-    glUniform1i(loc("u_effects"), effects);
-    glUniform1i(loc("u_max_depth"), options.max_depth);
+    const std::string key = header;
+    header += "#define SPHERE_COUNT " + std::to_string(std::max<std::size_t>(scene_.spheres.size(), 1)) + "\n";
+    if (scene_.spheres.size() <= kMaxConstantSpheres) header += "#define SCENE_SPHERES " + sphere_constants(scene_) + "\n";
+    const unsigned vs = compile(GL_VERTEX_SHADER, kFullscreenVertSource, "fullscreen.vert.glsl");
+    const unsigned fs = compile(GL_FRAGMENT_SHADER, "#version 430 core\n" + header + kTraceFragSource,
+                                "trace.frag.glsl");
+    const unsigned program = glCreateProgram();
+    glAttachShader(program, vs);
+    glAttachShader(program, fs);
+    glLinkProgram(program);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    int ok = 0;
+    glGetProgramiv(program, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        const std::string log = info_log(program, glGetProgramiv, glGetProgramInfoLog);
+        glDeleteProgram(program);
+        throw GlError("cannot link the tracer program:\n" + log);
+    }
+    programs_.emplace(key, program);
+    return program;
+}
+
+TraceProgram::~TraceProgram() {
+    if (vao_) glDeleteVertexArrays(1, &vao_);
+    if (ssbo_) glDeleteBuffers(1, &ssbo_);
+    for (const auto& [key, program] : programs_) glDeleteProgram(program);
+}
+
+void TraceProgram::draw(const TraceOptions& options, const GlView& view, int width, int height,
+                        int strata, bool display_encode) {
+    const unsigned program = program_for(options);
+    const vec3 forward = normalize(view.look_at - view.position);
+    const vec3 right = normalize(cross(forward, view.up));
+    const vec3 up = cross(right, forward);
+
+    glUseProgram(program);
+    auto loc = [&](const char* name) { return glGetUniformLocation(program, name); };
     glUniform1f(loc("u_bias"), scene_.bias);
     glUniform3f(loc("u_background"), scene_.background.x, scene_.background.y, scene_.background.z);
     glUniform3f(loc("u_cam_origin"), view.position.x, view.position.y, view.position.z);
@@ -130,7 +171,7 @@ void TraceProgram::draw(const TraceOptions& options, const GlView& view, int wid
     glUniform2f(loc("u_size"), static_cast<float>(width), static_cast<float>(height));
     glUniform1i(loc("u_strata"), strata);
     glUniform1i(loc("u_display"), display_encode ? 1 : 0);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, ssbo_);
+    if (ssbo_) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, ssbo_);
     glBindVertexArray(vao_);
     glViewport(0, 0, width, height);
     glDrawArrays(GL_TRIANGLES, 0, 3);

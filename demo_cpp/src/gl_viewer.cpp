@@ -125,7 +125,7 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
         s->distance *= std::pow(0.9f, static_cast<float>(dy));
     });
 
-    const TraceProgram program(scene, options.trace.max_depth);
+    TraceProgram program(scene, options.trace);
     if (options.frames == 0) std::fputs(kKeys, stdout);
     int frame = 0;
     double smoothed_ms = 0;

@@ -200,12 +200,13 @@ int run_render(const std::vector<std::string>& args) {
     RenderedImage image;
     double seconds = 0;
     GlTiming gl;
+    RayCounts rays;
     if (a.gl) {
         image = render_gl(scene, settings, a.frames, &gl);
         seconds = gl.frame_seconds;
     } else {
         const auto start = std::chrono::steady_clock::now();
-        image = render_cpu(scene, settings);
+        image = render_cpu(scene, settings, &rays);
         seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
 
@@ -232,6 +233,9 @@ int run_render(const std::vector<std::string>& args) {
         attributes["rtval.gl_frames"] = std::to_string(gl.frames);
     } else {
         attributes["rtval.threads"] = std::to_string(settings.threads);
+        attributes["rtval.rays_camera"] = std::to_string(rays.camera);
+        attributes["rtval.rays_secondary"] = std::to_string(rays.secondary);
+        attributes["rtval.rays_shadow"] = std::to_string(rays.shadow);
     }
     if (!a.exr.empty()) write_exr(a.exr, image, attributes, a.compression);
     if (!a.png.empty()) write_png(a.png, image);
@@ -244,10 +248,12 @@ int run_render(const std::vector<std::string>& args) {
                      gl.compile_seconds, gl.first_frame_seconds, gl.frame_seconds,
                      std::max(gl.frames - 1, 1));
     else if (!a.quiet)
-        std::fprintf(stderr, "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: %.3f s on %d threads\n",
+        std::fprintf(stderr, "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: %.3f s on %d threads, "
+                     "%.2f M rays (%.1f M rays/s)\n",
                      scene.name.c_str(), settings.width, settings.height, mode_name(a.mode),
                      settings.trace.quirks.present_list().c_str(), settings.spp, seconds,
-                     settings.threads);
+                     settings.threads, rays.total() * 1e-6,
+                     seconds > 0 ? rays.total() * 1e-6 / seconds : 0.0);
     return 0;
 }
 

@@ -15,7 +15,9 @@ namespace {
 constexpr float kInf = std::numeric_limits<float>::infinity();
 }
 
-Tracer::Tracer(const Scene& scene, TraceOptions options) : scene_(scene), opt_(options) {
+Tracer::Tracer(const Scene& scene, TraceOptions options)
+    : scene_(scene), opt_(options), lanes_(scene.spheres),
+      use_lanes_(opt_.quirks.has(Quirk::Q1) && lanes_.usable()) {
     if (fault(Fault::depth_cut)) opt_.max_depth -= 1;
     for (int i = 0; i < static_cast<int>(scene.spheres.size()); ++i) {
         if (scene.spheres[i].is_light()) {
@@ -32,6 +34,11 @@ float Tracer::offset_at(const point3& p) const {
 }
 
 std::optional<Tracer::Hit> Tracer::nearest_hit(const ray& r, int skip) const {
+    if (use_lanes_) {
+        float t = 0;
+        const int index = lanes_.nearest_paper(r, skip, &t);
+        return index >= 0 ? std::optional<Hit>(Hit{index, t}) : std::nullopt;
+    }
     std::optional<Hit> best;
     float t_near = kInf;
     const bool paper = opt_.quirks.has(Quirk::Q1);
@@ -64,6 +71,7 @@ PrimaryHit primary_hit(const Scene& scene, const ray& r, int index, float t) {
 }  // namespace
 
 PrimaryHit Tracer::primary(const ray& r) const {
+    ++counts_.camera;
     const auto hit = nearest_hit(r, -1);
     return hit ? primary_hit(scene_, r, hit->index, hit->t) : PrimaryHit{};
 }
@@ -73,6 +81,7 @@ color Tracer::trace(const ray& r, int depth, PrimaryHit* first) const {
 }
 
 color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* first) const {
+    ++(depth == 0 ? counts_.camera : counts_.secondary);
     const auto hit = nearest_hit(r, skip);
     if (first) *first = hit ? primary_hit(scene_, r, hit->index, hit->t) : PrimaryHit{};
     if (!hit) return scene_.background;
@@ -164,13 +173,16 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
         const float cos_theta = std::max(0.0f, dot(n, l));
         float transmission = 1.0f;
         if (opt_.shadows && !fault(Fault::no_shadows) && (q.has(Quirk::Q4) || cos_theta > 0)) {
+            ++counts_.shadow;
             const ray shadow_ray{origin, l};
             const float max_t = q.has(Quirk::Q5) ? kInf : dist;
+            // With lanes, every sphere is tested at once and the blockers are walked in order.
+            const std::uint64_t blockers = use_lanes_ ? lanes_.blockers_paper(shadow_ray, max_t) : 0;
             for (int j = 0; j < static_cast<int>(scene_.spheres.size()); ++j) {
                 if (j == light) continue;
                 // Q1 fixed: a ray leaving a convex sphere outward cannot hit it again.
                 if (j == hit_index && !q.has(Quirk::Q1)) continue;
-                if (!blocks(j, shadow_ray, max_t)) continue;
+                if (use_lanes_ ? !(blockers >> j & 1) : !blocks(j, shadow_ray, max_t)) continue;
                 const float opacity =
                     q.has(Quirk::Q9) ? 1.0f - scene_.spheres[j].transparency : 1.0f;
                 if (q.has(Quirk::Q4)) {

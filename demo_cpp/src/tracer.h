@@ -1,11 +1,13 @@
 // The paper's recursive Whitted tracer (paper-model.md), each quirk a switch.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <vector>
 
 #include "quirks.h"
 #include "scene.h"
+#include "sphere_lanes.h"
 
 namespace rt {
 
@@ -16,6 +18,20 @@ struct TraceOptions {
     bool shadows = true;
     bool reflection = true;
     bool refraction = true;
+};
+
+// Rays traced, for rays/s in the benchmark: camera rays (one per sample, plus the centre ray
+// for the AOVs when spp > 1), secondary (reflection, refraction) and shadow rays (one per
+// light per shaded point whose light is tested).
+struct RayCounts {
+    std::uint64_t camera = 0, secondary = 0, shadow = 0;
+    std::uint64_t total() const { return camera + secondary + shadow; }
+    RayCounts& operator+=(const RayCounts& o) {
+        camera += o.camera;
+        secondary += o.secondary;
+        shadow += o.shadow;
+        return *this;
+    }
 };
 
 // What the camera ray saw at a pixel, for the EXR's AOV channels.
@@ -36,6 +52,9 @@ public:
     PrimaryHit primary(const ray& r) const;
     // Step 5 of paper-model.md: direct light at p (normal n) on sphere `hit_index`.
     color shade_direct(int hit_index, const point3& p, const vec3& n) const;
+    // Rays traced by this tracer so far. A tracer is not shared between threads (each
+    // render thread has its own copy), so counting needs no atomics.
+    const RayCounts& ray_counts() const { return counts_; }
 
 private:
     struct Hit {
@@ -57,6 +76,9 @@ private:
     TraceOptions opt_;
     std::vector<int> lights_;
     std::vector<color> light_intensity_;  // physical: I = pi E d0^2 per light
+    mutable RayCounts counts_;
+    SphereLanes lanes_;
+    bool use_lanes_;  // Q1 present and at most SphereLanes::kMaxSpheres spheres
 };
 
 }  // namespace rt
