@@ -154,8 +154,9 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
                     shared_shadow = max(0.0, shared_shadow - opacity);
                     transmission *= shared_shadow;
                 } else {
+                    // No early break once fully shadowed (0 stays 0): a loop without exits
+                    // unrolls, so each sphere's data is a constant instead of a gather.
                     transmission *= 1.0 - opacity;
-                    if (transmission == 0.0) break;
                 }
             }
         }
@@ -189,12 +190,16 @@ vec3 trace(vec3 origin, vec3 dir) {
     g_first_t = 0.0;
     g_first_n = vec3(0.0);
     bool root = true;
+    // The walk follows the reflected ray in registers and stacks only refracted ones: a
+    // stack indexed by a varying sp costs per-lane scatter and gather on llvmpipe.
     Item stack[STACK_SIZE];
     int sp = 0;
-    stack[sp++] = Item(origin, dir, vec3(1.0), 0, -1);
+    Item it = Item(origin, dir, vec3(1.0), 0, -1);
+    bool have_current = true;
     vec3 total = vec3(0.0);
-    while (sp > 0) {
-        Item it = stack[--sp];
+    while (have_current || sp > 0) {
+        if (!have_current) it = stack[--sp];
+        have_current = false;
         int idx;
         float t;
         bool hit = nearest_hit(it.origin, it.dir, it.skip, idx, t);
@@ -252,11 +257,14 @@ vec3 trace(vec3 origin, vec3 dir) {
                 stack[sp++] = Item(p - n * offset, t_dir,
                                    it.weight * surface * ((1.0 - fresnel) * tr * t_weight),
                                    it.depth + 1, -1);
-            if (effect(1) && sp < STACK_SIZE) {
+            if (effect(1)) {
                 vec3 r_dir = normalize(it.dir - n * (2.0 * d_dot_n));
                 int skip = (!quirk(1) && !inside) ? idx : -1;
-                stack[sp++] = Item(p + n * offset, r_dir, it.weight * surface * fresnel,
-                                   it.depth + 1, skip);
+                vec3 emission = quirk(7) ? spheres[idx].emission_transparency.rgb : vec3(0.0);
+                total += it.weight * emission;  // Q7's emission, added before `it` is reused
+                it = Item(p + n * offset, r_dir, it.weight * surface * fresnel, it.depth + 1, skip);
+                have_current = true;
+                continue;
             }
         } else if (!(spec && !quirk(6))) {
             total += it.weight * shade_direct(idx, p, n);

@@ -51,18 +51,25 @@ TEST(SphereLanes, NearestMatchesTheScalarLoopBitForBit) {
     std::uniform_real_distribution<float> u(-1.0f, 1.0f), o(-3.0f, 3.0f);
     for (int n : {1, 3, 7, 8, 9, 16, 64}) {
         const std::vector<Sphere> spheres = random_spheres(rng, n);
-        const SphereLanes lanes(spheres);
+        SphereLanes lanes(spheres);
+        SphereLanes scalar(spheres);
+        scalar.force_scalar_for_testing();
         ASSERT_TRUE(lanes.usable());
         int hits = 0;
         for (int k = 0; k < 4000; ++k) {
             const ray r{{o(rng), o(rng), o(rng)}, normalize(vec3{u(rng), u(rng), -1.0f})};
             const int skip = k % 5 == 0 ? k % n : -1;
-            float t_loop = -1, t_lanes = -1;
+            float t_loop = -1;
             const int a = nearest_by_loop(spheres, r, skip, &t_loop);
-            const int b = lanes.nearest_paper(r, skip, &t_lanes);
-            ASSERT_EQ(a, b) << "n " << n << " ray " << k;
+            const SphereHit b = lanes.nearest_paper(r, skip);
+            ASSERT_EQ(a, b.index) << "n " << n << " ray " << k;
             if (a >= 0) {
-                ASSERT_EQ(bits(t_loop), bits(t_lanes)) << "n " << n << " ray " << k;
+                ASSERT_EQ(bits(t_loop), bits(b.t)) << "n " << n << " ray " << k;
+            }
+            const SphereHit c = scalar.nearest_paper(r, skip);
+            ASSERT_EQ(a, c.index) << "scalar path, n " << n << " ray " << k;
+            if (a >= 0) {
+                ASSERT_EQ(bits(t_loop), bits(c.t)) << "scalar path, n " << n << " ray " << k;
             }
             hits += a >= 0;
         }
@@ -75,6 +82,8 @@ TEST(SphereLanes, BlockersMatchTheScalarTest) {
     std::uniform_real_distribution<float> u(-1.0f, 1.0f), o(-3.0f, 3.0f), far(0.5f, 40.0f);
     const std::vector<Sphere> spheres = random_spheres(rng, 12);
     const SphereLanes lanes(spheres);
+    SphereLanes scalar(spheres);
+    scalar.force_scalar_for_testing();
     for (int k = 0; k < 4000; ++k) {
         const ray r{{o(rng), o(rng), o(rng)}, normalize(vec3{u(rng), u(rng), -1.0f})};
         const float max_t = k % 3 == 0 ? std::numeric_limits<float>::infinity() : far(rng);
@@ -84,6 +93,7 @@ TEST(SphereLanes, BlockersMatchTheScalarTest) {
             if (t && *t < max_t) expected |= std::uint64_t{1} << j;
         }
         ASSERT_EQ(lanes.blockers_paper(r, max_t), expected) << "ray " << k;
+        ASSERT_EQ(scalar.blockers_paper(r, max_t), expected) << "scalar path, ray " << k;
     }
 }
 
@@ -94,8 +104,8 @@ TEST(SphereLanes, NanRayHitsNothingAsInTheLoop) {
     const float nan = std::numeric_limits<float>::quiet_NaN();
     const ray r{{0, 0, 0}, {nan, nan, nan}};  // classic mode's Q3 can make such rays
     float t = 7;
-    EXPECT_EQ(lanes.nearest_paper(r, -1, &t), nearest_by_loop(spheres, r, -1, &t));
-    EXPECT_EQ(lanes.nearest_paper(r, -1, &t), -1);
+    EXPECT_EQ(lanes.nearest_paper(r, -1).index, nearest_by_loop(spheres, r, -1, &t));
+    EXPECT_EQ(lanes.nearest_paper(r, -1).index, -1);
     EXPECT_EQ(lanes.blockers_paper(r, std::numeric_limits<float>::infinity()), 0u);
 }
 

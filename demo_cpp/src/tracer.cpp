@@ -33,13 +33,9 @@ float Tracer::offset_at(const point3& p) const {
     return scene_.bias * (1.0f + max_abs_component(p));
 }
 
-std::optional<Tracer::Hit> Tracer::nearest_hit(const ray& r, int skip) const {
-    if (use_lanes_) {
-        float t = 0;
-        const int index = lanes_.nearest_paper(r, skip, &t);
-        return index >= 0 ? std::optional<Hit>(Hit{index, t}) : std::nullopt;
-    }
-    std::optional<Hit> best;
+Tracer::Hit Tracer::nearest_hit(const ray& r, int skip) const {
+    if (use_lanes_) return lanes_.nearest_paper(r, skip);
+    Hit best{-1, kInf};
     float t_near = kInf;
     const bool paper = opt_.quirks.has(Quirk::Q1);
     for (int i = 0; i < static_cast<int>(scene_.spheres.size()); ++i) {
@@ -73,7 +69,7 @@ PrimaryHit primary_hit(const Scene& scene, const ray& r, int index, float t) {
 PrimaryHit Tracer::primary(const ray& r) const {
     ++counts_.camera;
     const auto hit = nearest_hit(r, -1);
-    return hit ? primary_hit(scene_, r, hit->index, hit->t) : PrimaryHit{};
+    return hit ? primary_hit(scene_, r, hit.index, hit.t) : PrimaryHit{};
 }
 
 color Tracer::trace(const ray& r, int depth, PrimaryHit* first) const {
@@ -83,14 +79,14 @@ color Tracer::trace(const ray& r, int depth, PrimaryHit* first) const {
 color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* first) const {
     ++(depth == 0 ? counts_.camera : counts_.secondary);
     const auto hit = nearest_hit(r, skip);
-    if (first) *first = hit ? primary_hit(scene_, r, hit->index, hit->t) : PrimaryHit{};
+    if (first) *first = hit ? primary_hit(scene_, r, hit.index, hit.t) : PrimaryHit{};
     if (!hit) return scene_.background;
 
-    const Sphere& s = scene_.spheres[hit->index];
+    const Sphere& s = scene_.spheres[hit.index];
     const bool paper_light = opt_.quirks.has(Quirk::Q7);
     if (!paper_light && s.is_light()) return sphere_radiance(scene_, s);
 
-    const point3 p = r.at(hit->t);
+    const point3 p = r.at(hit.t);
     vec3 n = normalize(p - s.center);
     bool inside = false;
     if (dot(r.dir, n) > 0) {
@@ -101,11 +97,11 @@ color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* firs
 
     color c;
     if (s.has_specular_flags() && depth < opt_.max_depth) {
-        c = shade_specular(hit->index, r, p, n, inside, depth);
+        c = shade_specular(hit.index, r, p, n, inside, depth);
     } else if (s.has_specular_flags() && !opt_.quirks.has(Quirk::Q6)) {
         c = color(0.0f);  // a specular chain cut at max_depth carries nothing, as in Mitsuba
     } else {
-        c = shade_direct(hit->index, p, n);
+        c = shade_direct(hit.index, p, n);
     }
     return paper_light ? c + s.emission : c;
 }

@@ -57,13 +57,12 @@ public:
     const RayCounts& ray_counts() const { return counts_; }
 
 private:
-    struct Hit {
-        int index;
-        float t;
-    };
+    using Hit = SphereHit;
     color trace_skipping(const ray& r, int depth, int skip, PrimaryHit* first = nullptr) const;
     // Nearest sphere along r; `skip` (or -1) is a sphere the ray cannot hit again.
-    std::optional<Hit> nearest_hit(const ray& r, int skip) const;
+    // (A plain struct, not std::optional: storing its flag byte and reloading the whole
+    // value stalled store forwarding; it was the hottest line of trace_skipping in perf.)
+    Hit nearest_hit(const ray& r, int skip) const;
     // Does sphere j block the shadow ray within `max_t`?
     bool blocks(int j, const ray& shadow_ray, float max_t) const;
     color shade_specular(int hit_index, const ray& r, const point3& p, const vec3& n,
