@@ -25,12 +25,13 @@ from jinja2 import Environment, PackageLoader, select_autoescape
 from compare import report_figures as figs
 from compare.effects import EFFECTS, effect_masks
 from compare.compare_images import json_safe as _json_safe
+from compare.convergence import time_to_converged
 from compare.files import sha256_file, write_atomic
 from compare.images import Image, ImageError, read_image, write_png
 from compare.metrics import compute_maps, compute_metrics
 from compare.penumbra import penumbra_numbers
 from compare.render_cache import RenderJob, run_jobs
-from compare.report_plan import EFFECT_SWITCHES, QUIRKS, REFERENCE_KEY, REFERENCE_SPP, plan
+from compare.report_plan import DEMO_YARDSTICK_SPP, EFFECT_SWITCHES, QUIRKS, REFERENCE_KEY, REFERENCE_SPP, plan
 from compare.tools import ToolError, rtdemo_path
 from compare.verdict import contribution_sentence, difference_sentences, grade
 from mitsuba_ref.scene import load_scene
@@ -198,6 +199,8 @@ def build_report(scene_path: str | Path, reports_dir: str | Path = "reports", *,
     verdict = grade(test_effects)
     sentences = difference_sentences(ref.rgb, imgs[test_key].rgb, masks, test_effects, label)
     penumbra = penumbra_numbers(ref.rgb, imgs["ref-area"].rgb, imgs["demo-physical-cpu-16spp"].rgb)
+    converged = time_to_converged(ref, {spp: imgs[f"demo-physical-cpu-{spp}spp"]
+                                        for spp in (1, 4, 16, DEMO_YARDSTICK_SPP)})
 
     renders = [{"key": j.key, "label": j.label, "png": f"images/{j.key}.png", "exr": f"images/{j.key}.exr",
                 "command": j.command_text(images_dir / f"{j.key}.exr"), "family": j.family,
@@ -223,7 +226,7 @@ def build_report(scene_path: str | Path, reports_dir: str | Path = "reports", *,
         "verdict": verdict, "sentences": sentences, "contributions": contributions,
         "featured": [{"key": k, "label": l, **results[k]} for k, l in featured],
         "maps": maps_info, "speed_accuracy": chart_rows, "convergence_slopes": slopes,
-        "ladder": ladder, "penumbra": penumbra, "renders": renders,
+        "ladder": ladder, "penumbra": penumbra, "time_to_converged": converged, "renders": renders,
         "effect_pixels": {k: int(v.sum()) for k, v in masks.items()},
     })
     write_atomic(out / "report.json", json.dumps(data, indent=2) + "\n")

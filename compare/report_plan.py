@@ -12,6 +12,7 @@ from compare.render_cache import RenderJob
 REFERENCE_KEY = "ref-converged"
 REFERENCE_SPP = 32
 AREA_SPP = 16  # soft shadows only need to show where the penumbrae are
+DEMO_YARDSTICK_SPP = 64  # the demo's own finest render: its error at fewer spp (convergence.py)
 QUIRKS = [f"Q{i}" for i in range(1, 11)]
 EFFECT_SWITCHES = ("shadows", "reflection", "refraction")
 
@@ -36,9 +37,11 @@ def plan(scene: str, size: tuple[int, int] | None) -> list[RenderJob]:
         demo("demo-classic-cpu", "demo classic mode, CPU", "demo classic cpu", "--mode", "classic"),
         demo("demo-paper-gl", "demo paper mode, GL", "demo paper gl", "--mode", "paper", "--backend", "gl"),
     ]
-    for spp in (1, 4, 16):
+    for spp in (1, 4, 16, DEMO_YARDSTICK_SPP):
         jobs.append(demo(f"demo-physical-cpu-{spp}spp", f"demo physical mode, CPU, {spp} spp",
                          "demo physical cpu", "--mode", "physical", "--spp", str(spp), spp=spp))
+        if spp == DEMO_YARDSTICK_SPP:
+            continue
         jobs.append(demo(f"demo-physical-gl-{spp}spp", f"demo physical mode, GL, {spp} spp",
                          "demo physical gl", "--mode", "physical", "--backend", "gl", "--spp", str(spp),
                          spp=spp))

@@ -95,7 +95,13 @@ def test_report_json_holds_every_section(report: tuple[Path, subprocess.Complete
     assert all(r["command"].startswith(("rtdemo ", "rtval ")) for r in data["renders"])
     assert len(data["contributions"]) == 6
     assert data["versions"]["mitsuba"] != "not installed"
-    assert "[40/40]" in proc.stderr  # progress
+    assert "[41/41]" in proc.stderr  # progress
+    c = data["time_to_converged"]
+    assert c["reference_spp"] == 32 and c["target_error"] > 0 and c["reference_seconds"] > 0
+    assert set(c["demo_errors"]) == {"1", "4", "16"} and c["demo_yardstick_spp"] == 64
+    # stratified sampling converges: each level is closer to the 64-spp render
+    assert c["demo_errors"]["1"] > c["demo_errors"]["4"] > c["demo_errors"]["16"]
+    assert "Time to the converged error" in (folder / "index.html").read_text()
 
 
 def test_rerun_renders_nothing(report: tuple[Path, object]) -> None:
@@ -104,7 +110,7 @@ def test_rerun_renders_nothing(report: tuple[Path, object]) -> None:
                 "--size", "160x120", "--no-pdf"])
     assert proc.returncode == 0, proc.stderr
     lines = [l for l in proc.stderr.splitlines() if l.startswith("[")]
-    assert len(lines) == 40 and all(l.endswith(": cached") for l in lines), lines
+    assert len(lines) == 41 and all(l.endswith(": cached") for l in lines), lines
 
 
 def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtdemo: str) -> None:

@@ -1,0 +1,31 @@
+"""compare.convergence: the time each renderer takes to reach the reference's own error."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from compare.convergence import time_to_converged
+from compare.images import Image
+
+
+def _image(value: float, seconds: float, **header: str) -> Image:
+    rgb = np.full((4, 4, 3), value, np.float32)
+    return Image(rgb=rgb, aovs={}, header={"rtval.render_seconds": str(seconds), **header})
+
+
+def test_the_first_spp_within_the_reference_error_is_timed() -> None:
+    ref = _image(0.5, 40.0, **{"rtval.mean_stderr": "0.01", "rtval.spp": "32"})
+    demo = {1: _image(0.55, 0.1), 4: _image(0.52, 0.3), 16: _image(0.505, 1.0), 64: _image(0.5, 4.0)}
+    c = time_to_converged(ref, demo)
+    assert set(c["demo_errors"]) == {"1", "4", "16"}
+    assert abs(c["demo_errors"]["4"] - 0.02) < 1e-6 and abs(c["demo_errors"]["16"] - 0.005) < 1e-6
+    assert c["demo_spp"] == 16 and c["demo_seconds"] == 1.0
+    assert c["reference_seconds"] == 40.0 and c["reference_spp"] == 32
+    assert abs(c["speedup"] - 40.0) < 1e-9
+
+
+def test_not_reached_is_said_not_guessed() -> None:
+    ref = _image(0.5, 40.0, **{"rtval.mean_stderr": "0.001", "rtval.spp": "32"})
+    demo = {1: _image(0.6, 0.1), 4: _image(0.55, 0.3), 64: _image(0.5, 4.0)}
+    c = time_to_converged(ref, demo)
+    assert c["demo_spp"] is None and np.isnan(c["speedup"])
