@@ -31,16 +31,19 @@ struct Sphere {
 // The paper's geometric test, quirk Q1 included: a sphere whose centre lies behind the
 // origin is missed even when the origin is inside it. Returns the paper's chosen t
 // (t0, or t1 when t0 < 0), which may be negative exactly as in the original.
-inline std::optional<float> intersect_paper(const Sphere& s, const ray& r) {
-    const vec3 l = s.center - r.origin;
+inline std::optional<float> intersect_paper(const point3& center, float radius2, const ray& r) {
+    const vec3 l = center - r.origin;
     const float tca = dot(l, r.dir);
     if (tca < 0) return std::nullopt;  // Q1
     const float d2 = dot(l, l) - tca * tca;
-    const float r2 = s.radius * s.radius;
-    if (d2 > r2) return std::nullopt;
-    const float thc = std::sqrt(r2 - d2);
+    if (d2 > radius2) return std::nullopt;
+    const float thc = std::sqrt(radius2 - d2);
     const float t0 = tca - thc;
     return t0 < 0 ? tca + thc : t0;
+}
+
+inline std::optional<float> intersect_paper(const Sphere& s, const ray& r) {
+    return intersect_paper(s.center, s.radius * s.radius, r);
 }
 
 // Robust quadratic (Haines et al., Ray Tracing Gems ch. 7): discriminant from

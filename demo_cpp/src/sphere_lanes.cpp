@@ -101,13 +101,7 @@ SphereLanes::SphereLanes(const std::vector<Sphere>& spheres)
 }
 
 float SphereLanes::scalar_t(int i, const ray& r) const {
-    const vec3 l = vec3{cx_[i], cy_[i], cz_[i]} - r.origin;
-    const float tca = dot(l, r.dir);
-    const float d2 = dot(l, l) - tca * tca;
-    if (tca < 0 || d2 > r2_[i]) return kInf;
-    const float thc = std::sqrt(r2_[i] - d2);
-    const float t0 = tca - thc;
-    return t0 < 0 ? tca + thc : t0;
+    return intersect_paper(point3{cx_[i], cy_[i], cz_[i]}, r2_[i], r).value_or(kInf);
 }
 
 SphereHit SphereLanes::nearest_paper(const ray& r, int skip) const {
