@@ -42,6 +42,40 @@ def test_exr_has_colour_aovs_and_header(rtdemo: str, tmp_path: Path) -> None:
     assert img.header["rtval.mode"] == "classic"
     assert img.header["rtval.quirks"] == "Q1,Q3,Q5,Q6,Q7,Q8,Q10"
     assert float(img.header["rtval.render_seconds"]) > 0
+    # Ray counts: one camera ray per pixel at 1 spp; glass and mirrors spawn secondary rays.
+    assert int(img.header["rtval.rays_camera"]) == 64 * 48
+    assert int(img.header["rtval.rays_secondary"]) > 0 and int(img.header["rtval.rays_shadow"]) > 0
+
+
+def test_ray_counts_follow_the_options(rtdemo: str, tmp_path: Path) -> None:
+    def rays(*args: str) -> dict[str, int]:
+        out = tmp_path / "r.exr"
+        assert run([rtdemo, "render", CLASSIC, "-o", str(out), "--width", "40", "--height", "30", *args]).returncode == 0
+        h = read_image(out).header
+        return {k: int(h[f"rtval.rays_{k}"]) for k in ("camera", "secondary", "shadow")}
+
+    base = rays()
+    assert rays("--threads", "1") == base == rays("--threads", "2")  # counting is exact per thread
+    assert rays("--no-shadows")["shadow"] == 0
+    assert rays("--max-depth", "0")["secondary"] == 0
+    # 4 spp: four camera rays per pixel plus the centre ray for the AOVs.
+    assert rays("--spp", "4", "--fix", "Q10")["camera"] == 5 * 40 * 30
+
+
+def test_exr_compression_is_lossless_and_checked(rtdemo: str, tmp_path: Path) -> None:
+    images = {}
+    for c in ("none", "rle", "zip"):
+        out = tmp_path / f"{c}.exr"
+        assert run([rtdemo, "render", CLASSIC, "-o", str(out), "--width", "80", "--height", "60",
+                    "--exr-compression", c]).returncode == 0
+        images[c] = read_image(out)
+    for c in ("rle", "zip"):
+        np.testing.assert_array_equal(images[c].rgb, images["none"].rgb)
+        np.testing.assert_array_equal(images[c].aovs["depth"], images["none"].aovs["depth"])
+    assert (tmp_path / "zip.exr").stat().st_size < (tmp_path / "none.exr").stat().st_size
+    proc = run([rtdemo, "render", CLASSIC, "-o", str(tmp_path / "bad.exr"), "--exr-compression", "lz4"])
+    assert proc.returncode == 2 and "--exr-compression" in proc.stderr
+    assert not (tmp_path / "bad.exr").exists()
 
 
 def test_ppm_is_linear_and_png_is_srgb_of_the_same_render(rtdemo: str, tmp_path: Path) -> None:

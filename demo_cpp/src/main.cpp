@@ -60,7 +60,8 @@ Renders SCENE.json (format rtval-scene/1) with the paper's algorithm.
 outputs (at least one):
   -o, --output OUT.exr   float32 EXR: R,G,B linear and unclamped; AOVs id (sphere index,
                          -1 on a miss), depth (camera-ray distance, 0 on a miss), N.X N.Y N.Z
-                         (normal facing the camera); scene, mode, quirks, time in the header
+                         (normal facing the camera); scene, mode, quirks, time and ray
+                         counts (camera, secondary, shadow) in the header
   --png OUT.png          8-bit, clamped to [0,1], sRGB-encoded (for people)
   --ppm OUT.ppm          8-bit binary P6, linear, clamped: the paper's own output
   --exr-compression C    none (default: fastest, ~10 MB at 640x480), rle or zip (~4 MB)
