@@ -91,11 +91,12 @@ bool nearest_hit(vec3 o, vec3 d, int skip, out int index, out float t_near) {
     index = -1;
     t_near = INF;
     bool paper = quirk(1);
+    // Loops without `continue` or `break`, so that the compiler unrolls them and each
+    // sphere's data is a constant rather than a per-lane load.
     for (int i = 0; i < SPHERE_COUNT; ++i) {
-        if (i == skip) continue;
         float t;
         bool hit = paper ? intersect_paper(i, o, d, t) : intersect_robust(i, o, d, 0.0, t_near, t);
-        if (hit && t < t_near) { t_near = t; index = i; }
+        if (i != skip && hit && t < t_near) { t_near = t; index = i; }
     }
     return index >= 0;
 }
@@ -136,8 +137,9 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
     vec3 aim_from = quirk(1) ? p : origin;
     float shared_shadow = 1.0;  // Q4
     vec3 c = vec3(0.0);
+    vec3 surface = spheres[hit].color_reflection.rgb;
     for (int light = 0; light < SPHERE_COUNT; ++light) {
-        if (!is_light(light)) continue;
+        if (!is_light(light)) continue;  // constant per unrolled iteration: folded away
         vec3 to_light = center(light) - aim_from;
         float dist = length(to_light);
         vec3 l = to_light / dist;
@@ -146,21 +148,18 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
         if (effect(0) && (quirk(4) || cos_theta > 0.0)) {
             float max_t = quirk(5) ? INF : dist;
             for (int j = 0; j < SPHERE_COUNT; ++j) {
-                if (j == light) continue;
-                if (j == hit && !quirk(1)) continue;
-                if (!blocks(j, origin, l, max_t)) continue;
-                float opacity = quirk(9) ? 1.0 - transparency(j) : 1.0;
-                if (quirk(4)) {
-                    shared_shadow = max(0.0, shared_shadow - opacity);
-                    transmission *= shared_shadow;
-                } else {
-                    // No early break once fully shadowed (0 stays 0): a loop without exits
-                    // unrolls, so each sphere's data is a constant instead of a gather.
-                    transmission *= 1.0 - opacity;
+                bool candidate = j != light && !(j == hit && !quirk(1));
+                if (candidate && blocks(j, origin, l, max_t)) {
+                    float opacity = quirk(9) ? 1.0 - transparency(j) : 1.0;
+                    if (quirk(4)) {
+                        shared_shadow = max(0.0, shared_shadow - opacity);
+                        transmission *= shared_shadow;
+                    } else {
+                        transmission *= 1.0 - opacity;  // 0 stays 0: no early exit needed
+                    }
                 }
             }
         }
-        vec3 surface = spheres[hit].color_reflection.rgb;
         if (quirk(7)) {
             c += surface * spheres[light].emission_transparency.rgb * (transmission * cos_theta);
         } else {
