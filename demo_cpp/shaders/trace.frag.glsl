@@ -27,6 +27,19 @@ const Sphere spheres[SPHERE_COUNT] = Sphere[SPHERE_COUNT](SCENE_SPHERES);
 layout(std430, binding = 0) readonly buffer Spheres { Sphere spheres[]; };
 #endif
 
+// The sphere a lane hit. With constant spheres, a chain of selects over them (each lane's
+// index differs) instead of a per-lane load from the constant array.
+Sphere sphere_at(int i) {
+#ifdef SCENE_SPHERES
+    Sphere s = spheres[0];
+    for (int k = 1; k < SPHERE_COUNT; ++k)
+        if (i == k) s = spheres[k];
+    return s;
+#else
+    return spheres[max(i, 0)];
+#endif
+}
+
 uniform float u_bias;
 uniform vec3 u_background;
 uniform vec3 u_cam_origin;
@@ -137,7 +150,7 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
     vec3 aim_from = quirk(1) ? p : origin;
     float shared_shadow = 1.0;  // Q4
     vec3 c = vec3(0.0);
-    vec3 surface = spheres[hit].color_reflection.rgb;
+    vec3 surface = sphere_at(hit).color_reflection.rgb;
     for (int light = 0; light < SPHERE_COUNT; ++light) {
         if (!is_light(light)) continue;  // constant per unrolled iteration: folded away
         vec3 to_light = center(light) - aim_from;
@@ -202,10 +215,11 @@ vec3 trace(vec3 origin, vec3 dir) {
         int idx;
         float t;
         bool hit = nearest_hit(it.origin, it.dir, it.skip, idx, t);
+        Sphere S = sphere_at(idx);
         if (root && hit) {
             g_first_id = idx;
             g_first_t = t;
-            vec3 n0 = normalize(it.origin + it.dir * t - center(idx));
+            vec3 n0 = normalize(it.origin + it.dir * t - S.center_radius.xyz);
             g_first_n = dot(it.dir, n0) > 0.0 ? -n0 : n0;
         }
         root = false;
@@ -213,22 +227,22 @@ vec3 trace(vec3 origin, vec3 dir) {
             total += it.weight * u_background;
             continue;
         }
-        if (!quirk(7) && is_light(idx)) {
-            float r = radius(idx);
-            total += it.weight * spheres[idx].light_intensity.rgb / (PI * r * r);
+        if (!quirk(7) && (S.light_intensity.w > 0.0)) {
+            float r = S.center_radius.w;
+            total += it.weight * S.light_intensity.rgb / (PI * r * r);
             continue;
         }
         vec3 p = it.origin + it.dir * t;
-        vec3 n = normalize(p - center(idx));
+        vec3 n = normalize(p - S.center_radius.xyz);
         bool inside = false;
         if (dot(it.dir, n) > 0.0) { n = -n; inside = true; }
-        bool spec = specular_flags(idx);
+        bool spec = (S.emission_transparency.w > 0.0 || S.color_reflection.w > 0.0);
         if (spec && it.depth < MAX_DEPTH) {
             float d_dot_n = dot(it.dir, n);
             float facing = max(0.0, -d_dot_n);
             float offset = offset_at(p);
-            float tr = transparency(idx);
-            float ior = spheres[idx].ior.x;
+            float tr = S.emission_transparency.w;
+            float ior = S.ior.x;
             bool total_internal = false;
             float eta_ti_sq = 1.0;
             bool refract_child = false;
@@ -250,7 +264,7 @@ vec3 trace(vec3 origin, vec3 dir) {
             else if (quirk(8)) fresnel = paper_fresnel(facing);
             else if (tr > 0.0) fresnel = dielectric_fresnel(inside ? -facing : facing, ior);
             else fresnel = 1.0;
-            vec3 surface = spheres[idx].color_reflection.rgb;
+            vec3 surface = S.color_reflection.rgb;
             float t_weight = quirk(8) ? 1.0 : eta_ti_sq;
             if (refract_child && sp < STACK_SIZE)
                 stack[sp++] = Item(p - n * offset, t_dir,
@@ -259,7 +273,7 @@ vec3 trace(vec3 origin, vec3 dir) {
             if (effect(1)) {
                 vec3 r_dir = normalize(it.dir - n * (2.0 * d_dot_n));
                 int skip = (!quirk(1) && !inside) ? idx : -1;
-                vec3 emission = quirk(7) ? spheres[idx].emission_transparency.rgb : vec3(0.0);
+                vec3 emission = quirk(7) ? S.emission_transparency.rgb : vec3(0.0);
                 total += it.weight * emission;  // Q7's emission, added before `it` is reused
                 it = Item(p + n * offset, r_dir, it.weight * surface * fresnel, it.depth + 1, skip);
                 have_current = true;
@@ -268,7 +282,7 @@ vec3 trace(vec3 origin, vec3 dir) {
         } else if (!(spec && !quirk(6))) {
             total += it.weight * shade_direct(idx, p, n);
         }
-        if (quirk(7)) total += it.weight * spheres[idx].emission_transparency.rgb;
+        if (quirk(7)) total += it.weight * S.emission_transparency.rgb;
     }
     return total;
 }
