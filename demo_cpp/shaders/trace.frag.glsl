@@ -63,19 +63,17 @@ float transparency(int i) { return spheres[i].emission_transparency.w; }
 bool specular_flags(int i) { return transparency(i) > 0.0 || spheres[i].color_reflection.w > 0.0; }
 
 // The paper's geometric test with Q1's early-out; false = miss. t may be NaN for a NaN
-// ray, exactly as on the CPU (every comparison with NaN is false).
+// ray, exactly as on the CPU (every comparison with NaN is false). Branch-free: the early
+// outs become the returned condition (a divergent branch costs both sides on SIMD lanes).
 bool intersect_paper(int i, vec3 o, vec3 d, out float t) {
     vec3 l = center(i) - o;
     float tca = dot(l, d);
-    t = 0.0;
-    if (tca < 0.0) return false;
     float d2 = dot(l, l) - tca * tca;
     float r2 = radius(i) * radius(i);
-    if (d2 > r2) return false;
-    float thc = sqrt(r2 - d2);
+    float thc = sqrt(max(r2 - d2, 0.0));
     float t0 = tca - thc;
     t = t0 < 0.0 ? tca + thc : t0;
-    return true;
+    return !(tca < 0.0) && !(d2 > r2);
 }
 
 // Haines et al.'s robust quadratic, in double as in sphere.h (float32 loses the origin's
