@@ -159,15 +159,16 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
         if (effect(0) && (quirk(4) || cos_theta > 0.0)) {
             float max_t = quirk(5) ? INF : dist;
             for (int j = 0; j < SPHERE_COUNT; ++j) {
-                bool candidate = j != light && !(j == hit && !quirk(1));
-                if (candidate && blocks(j, origin, l, max_t)) {
-                    float opacity = quirk(9) ? 1.0 - transparency(j) : 1.0;
-                    if (quirk(4)) {
-                        shared_shadow = max(0.0, shared_shadow - opacity);
-                        transmission *= shared_shadow;
-                    } else {
-                        transmission *= 1.0 - opacity;  // 0 stays 0: no early exit needed
-                    }
+                // Evaluated for every sphere and applied by select: no divergent branch.
+                bool blocked = blocks(j, origin, l, max_t);
+                bool counts = blocked && j != light && !(j == hit && !quirk(1));
+                float opacity = quirk(9) ? 1.0 - transparency(j) : 1.0;
+                if (quirk(4)) {
+                    float next = max(0.0, shared_shadow - opacity);
+                    shared_shadow = counts ? next : shared_shadow;
+                    transmission *= counts ? shared_shadow : 1.0;
+                } else {
+                    transmission *= counts ? 1.0 - opacity : 1.0;  // 0 stays 0: no early exit needed
                 }
             }
         }
