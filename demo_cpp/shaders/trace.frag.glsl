@@ -1,14 +1,15 @@
 // The paper's tracer (paper-model.md) as a fragment shader: the GLSL twin of tracer.cpp.
 // gl_program.cpp prepends `#version` and the specialisation: QUIRKS (bit q-1: quirk Qq
 // present), EFFECTS (bit 0 shadows, 1 reflection, 2 refraction), MAX_DEPTH, STACK_SIZE
-// (= MAX_DEPTH + 2), SPHERE_COUNT, and for small scenes SCENE_SPHERES (the spheres as
+// (= max(MAX_DEPTH, 1)), SPHERE_COUNT, and for small scenes SCENE_SPHERES (the spheres as
 // constants). Constant switches let the compiler drop every path the options rule out and
 // unroll the sphere loops: on llvmpipe that is most of a frame (bench/NOTES.md).
 //
 // GLSL has no recursion. A pixel's colour is linear in its children's colours
-// (c = local + wR * c_reflected + wT * c_refracted), so a depth-first walk over an explicit
-// stack of (ray, weight) items, summing weight * local, gives the same value. Each pop
-// pushes at most two children one level deeper, so MAX_DEPTH + 2 entries always suffice.
+// (c = local + wR * c_reflected + wT * c_refracted), so a depth-first walk over (ray, weight)
+// items, summing weight * local, gives the same value. The walk follows each reflected ray
+// at once and stacks the refracted one; along a chain depths rise, so the stack holds at
+// most one item per depth: MAX_DEPTH entries suffice.
 
 layout(location = 0) out vec4 out_color;   // linear RGB (or display-encoded in the window)
 layout(location = 1) out vec4 out_aov;     // id, depth

@@ -120,7 +120,7 @@ unsigned TraceProgram::program_for(const TraceOptions& options) {
     std::string header = "#define QUIRKS " + std::to_string(quirks) + "\n#define EFFECTS " +
                          std::to_string(effects) + "\n#define MAX_DEPTH " +
                          std::to_string(options.max_depth) + "\n#define STACK_SIZE " +
-                         std::to_string(options.max_depth + 2) + "\n";
+                         std::to_string(std::max(options.max_depth, 1)) + "\n";
     if (const auto found = programs_.find(header); found != programs_.end()) return found->second;
 
     const std::string key = header;
