@@ -16,6 +16,7 @@ Usage: python bench/bench_performance.py
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -123,8 +124,6 @@ def judge_times(rtdemo: str, tmp: str) -> dict:
 def main() -> None:
     rtdemo = tool("rtdemo")
     with tempfile.TemporaryDirectory() as tmp:
-        import os
-
         peak = peak_tests_per_second(os.cpu_count() or 1)
         cpu = cpu_rows(rtdemo, tmp, peak)
         print(f"CPU demo against the seed baseline (whole processes, median of 7); machine peak "

@@ -61,7 +61,8 @@ vec3 center(int i) { return spheres[i].center_radius.xyz; }
 float radius(int i) { return spheres[i].center_radius.w; }
 bool is_light(int i) { return spheres[i].light_intensity.w > 0.0; }
 float transparency(int i) { return spheres[i].emission_transparency.w; }
-bool specular_flags(int i) { return transparency(i) > 0.0 || spheres[i].color_reflection.w > 0.0; }
+// The paper's test for "shade as specular": either flag, whatever the class.
+bool specular_flags(Sphere s) { return s.emission_transparency.w > 0.0 || s.color_reflection.w > 0.0; }
 
 // The paper's geometric test with Q1's early-out; false = miss. t may be NaN for a NaN
 // ray, exactly as on the CPU (every comparison with NaN is false). Branch-free: the early
@@ -236,7 +237,7 @@ vec3 trace(vec3 origin, vec3 dir) {
         vec3 n = normalize(p - S.center_radius.xyz);
         bool inside = false;
         if (dot(it.dir, n) > 0.0) { n = -n; inside = true; }
-        bool spec = (S.emission_transparency.w > 0.0 || S.color_reflection.w > 0.0);
+        bool spec = specular_flags(S);
         if (spec && it.depth < MAX_DEPTH) {
             float d_dot_n = dot(it.dir, n);
             float facing = max(0.0, -d_dot_n);

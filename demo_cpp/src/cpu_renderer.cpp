@@ -18,8 +18,8 @@ int strata_per_axis(int spp) {
 
 RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, RayCounts* rays) {
     RenderedImage image(settings.width, settings.height);
-    const CameraRays camera(scene.camera, settings.width, settings.height);
-    const Tracer tracer(scene, settings.trace);
+    const CameraRays shared_camera(scene.camera, settings.width, settings.height);
+    const Tracer shared_tracer(scene, settings.trace);
     const int k = strata_per_axis(settings.spp);
     const float inv_samples = 1.0f / static_cast<float>(k * k);
     const float centre = fault(Fault::half_pixel_offset) ? 0.0f : 0.5f;
@@ -29,7 +29,7 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
     // CPU time on two threads (false sharing, measured with perf).
     alignas(64) std::atomic<int> next_row{0};
     std::vector<RayCounts> counts(static_cast<std::size_t>(settings.threads));
-    auto worker = [&, shared_camera = camera, shared_tracer = tracer](int thread) {
+    auto worker = [&](int thread) {
         const CameraRays camera = shared_camera;
         const Tracer tracer = shared_tracer;
         const int width = settings.width, height = settings.height;
