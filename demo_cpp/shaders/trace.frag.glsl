@@ -1,15 +1,22 @@
 // The paper's tracer (paper-model.md) as a fragment shader: the GLSL twin of tracer.cpp.
 // gl_program.cpp prepends `#version` and the specialisation: QUIRKS (bit q-1: quirk Qq
 // present), EFFECTS (bit 0 shadows, 1 reflection, 2 refraction), MAX_DEPTH, STACK_SIZE
-// (= max(MAX_DEPTH, 1)), SPHERE_COUNT, and for small scenes SCENE_SPHERES (the spheres as
-// constants). Constant switches let the compiler drop every path the options rule out and
-// unroll the sphere loops: on llvmpipe that is most of a frame (bench/NOTES.md).
+// (= max(MAX_DEPTH, 1)), SPHERE_COUNT, LIGHT_COUNT and LIGHT_INDICES, BIAS, BACKGROUND, and
+// for small scenes SCENE_SPHERES (the spheres as constants). Constant switches let the
+// compiler drop every path the options rule out and unroll the sphere loops.
+//
+// Written for llvmpipe (Mesa's CPU driver, 8 lanes per SIMD instruction), where most of a
+// frame goes, and measured there (bench/NOTES.md): an `if` does not skip its body when no
+// lane takes it, it only masks the writes, so every statement in the walk's loop costs on
+// every step; only a loop ends early, once all its lanes are done. Hence the walk is
+// straight-line selects, one ray per step; uniforms are read lane by lane (a gather), so
+// the scene's values are constants and the view comes in as flat inputs.
 //
 // GLSL has no recursion. A pixel's colour is linear in its children's colours
-// (c = local + wR * c_reflected + wT * c_refracted), so a depth-first walk over (ray, weight)
-// items, summing weight * local, gives the same value. The walk follows each reflected ray
+// (c = local + wR * c_reflected + wT * c_refracted), so a depth-first walk over rays with
+// weights, summing weight * local, gives the same value. The walk follows each reflected ray
 // at once and stacks the refracted one; along a chain depths rise, so the stack holds at
-// most one item per depth: MAX_DEPTH entries suffice.
+// most one ray per depth: MAX_DEPTH entries suffice.
 
 layout(location = 0) out vec4 out_color;   // linear RGB (or display-encoded in the window)
 layout(location = 1) out vec4 out_aov;     // id, depth
@@ -41,16 +48,19 @@ Sphere sphere_at(int i) {
 #endif
 }
 
-uniform float u_bias;
-uniform vec3 u_background;
-uniform vec3 u_cam_origin;
-uniform vec3 u_cam_forward;
-uniform vec3 u_cam_right;
-uniform vec3 u_cam_up;
-uniform float u_half_height;  // tan(fov_y / 2)
-uniform vec2 u_size;          // width, height in pixels
-uniform int u_strata;         // k: k x k stratum centres per pixel
-uniform int u_display;        // 1: clamp and sRGB-encode (window), 0: linear (headless)
+#if LIGHT_COUNT > 0
+const int LIGHTS[LIGHT_COUNT] = int[LIGHT_COUNT](LIGHT_INDICES);
+#endif
+
+// The view, from the vertex shader (fullscreen.vert.glsl).
+flat in vec3 cam_origin;
+flat in vec3 cam_forward;
+flat in vec3 cam_right;
+flat in vec3 cam_up;
+flat in float half_height;
+flat in vec2 size;
+flat in int strata;
+flat in int display;
 
 const float PI = 3.14159265358979;
 const float INF = uintBitsToFloat(0x7F800000u);
@@ -59,7 +69,6 @@ bool quirk(int q) { return (QUIRKS & (1 << (q - 1))) != 0; }
 bool effect(int bit) { return (EFFECTS & (1 << bit)) != 0; }
 vec3 center(int i) { return spheres[i].center_radius.xyz; }
 float radius(int i) { return spheres[i].center_radius.w; }
-bool is_light(int i) { return spheres[i].light_intensity.w > 0.0; }
 float transparency(int i) { return spheres[i].emission_transparency.w; }
 // The paper's test for "shade as specular": either flag, whatever the class.
 bool specular_flags(Sphere s) { return s.emission_transparency.w > 0.0 || s.color_reflection.w > 0.0; }
@@ -121,8 +130,8 @@ bool blocks(int j, vec3 o, vec3 d, float max_t) {
 }
 
 float offset_at(vec3 p) {
-    if (quirk(1)) return u_bias;
-    return u_bias * (1.0 + max(abs(p.x), max(abs(p.y), abs(p.z))));
+    if (quirk(1)) return BIAS;
+    return BIAS * (1.0 + max(abs(p.x), max(abs(p.y), abs(p.z))));
 }
 
 float paper_fresnel(float facing) {
@@ -151,8 +160,9 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
     float shared_shadow = 1.0;  // Q4
     vec3 c = vec3(0.0);
     vec3 surface = sphere_at(hit).color_reflection.rgb;
-    for (int light = 0; light < SPHERE_COUNT; ++light) {
-        if (!is_light(light)) continue;  // constant per unrolled iteration: folded away
+#if LIGHT_COUNT > 0
+    for (int li = 0; li < LIGHT_COUNT; ++li) {
+        int light = LIGHTS[li];
         vec3 to_light = center(light) - aim_from;
         float dist = length(to_light);
         vec3 l = to_light / dist;
@@ -182,16 +192,9 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
             c += surface * spheres[light].light_intensity.rgb * (scale / PI);
         }
     }
+#endif
     return c;
 }
-
-struct Item {
-    vec3 origin;
-    vec3 dir;
-    vec3 weight;
-    int depth;
-    int skip;
-};
 
 // What the root ray hit, for the AOVs (id -1 on a miss): set by trace().
 int g_first_id;
@@ -202,96 +205,108 @@ vec3 trace(vec3 origin, vec3 dir) {
     g_first_id = -1;
     g_first_t = 0.0;
     g_first_n = vec3(0.0);
-    bool root = true;
-    // The walk follows the reflected ray in registers and stacks only refracted ones: a
-    // stack indexed by a varying sp costs per-lane scatter and gather on llvmpipe.
-    Item stack[STACK_SIZE];
+    // The current ray, and the stack of refracted rays waiting (slots written and read by
+    // selects over constant indices: a per-lane index into an array costs a scatter).
+    vec3 o = origin, d = dir, w = vec3(1.0);
+    int depth = 0, skip = -1;
+    vec3 stack_o[STACK_SIZE], stack_d[STACK_SIZE], stack_w[STACK_SIZE];
+    int stack_depth[STACK_SIZE];
+    for (int k = 0; k < STACK_SIZE; ++k) {
+        stack_o[k] = vec3(0.0);
+        stack_d[k] = vec3(0.0);
+        stack_w[k] = vec3(0.0);
+        stack_depth[k] = 0;
+    }
     int sp = 0;
-    Item it = Item(origin, dir, vec3(1.0), 0, -1);
-    bool have_current = true;
+    bool root = true;
+    bool walking = true;
     vec3 total = vec3(0.0);
-    while (have_current || sp > 0) {
-        if (!have_current) it = stack[--sp];
-        have_current = false;
+    while (walking) {
         int idx;
         float t;
-        bool hit = nearest_hit(it.origin, it.dir, it.skip, idx, t);
+        bool hit = nearest_hit(o, d, skip, idx, t);
         Sphere S = sphere_at(idx);
-        if (root && hit) {
-            g_first_id = idx;
-            g_first_t = t;
-            vec3 n0 = normalize(it.origin + it.dir * t - S.center_radius.xyz);
-            g_first_n = dot(it.dir, n0) > 0.0 ? -n0 : n0;
-        }
+        vec3 p = o + d * t;
+        vec3 n0 = normalize(p - S.center_radius.xyz);
+        bool inside = dot(d, n0) > 0.0;
+        vec3 n = inside ? -n0 : n0;
+        bool first = root && hit;
+        g_first_id = first ? idx : g_first_id;
+        g_first_t = first ? t : g_first_t;
+        g_first_n = first ? n : g_first_n;
         root = false;
-        if (!hit) {
-            total += it.weight * u_background;
-            continue;
-        }
-        if (!quirk(7) && (S.light_intensity.w > 0.0)) {
-            float r = S.center_radius.w;
-            total += it.weight * S.light_intensity.rgb / (PI * r * r);
-            continue;
-        }
-        vec3 p = it.origin + it.dir * t;
-        vec3 n = normalize(p - S.center_radius.xyz);
-        bool inside = false;
-        if (dot(it.dir, n) > 0.0) { n = -n; inside = true; }
+
+        // What this ray adds: the background, a light's radiance, or the surface's direct
+        // light (Q6: specular surfaces at the depth limit get none) and Q7's emission.
+        bool light_hit = hit && !quirk(7) && S.light_intensity.w > 0.0;
+        bool surface = hit && !light_hit;
         bool spec = specular_flags(S);
-        if (spec && it.depth < MAX_DEPTH) {
-            float d_dot_n = dot(it.dir, n);
-            float facing = max(0.0, -d_dot_n);
-            float offset = offset_at(p);
-            float tr = S.emission_transparency.w;
-            float ior = S.ior.x;
-            bool total_internal = false;
-            float eta_ti_sq = 1.0;
-            bool refract_child = false;
-            vec3 t_dir = vec3(0.0);
-            if (tr > 0.0) {
-                float eta = (quirk(2) || !inside) ? 1.0 / ior : ior;
-                float cosi = -d_dot_n;
-                float k = 1.0 - eta * eta * (1.0 - cosi * cosi);
-                total_internal = k < 0.0 && !quirk(3);
-                if (!total_internal && effect(2)) {
-                    // With Q3 present and k < 0 this is NaN, like the original's sqrt(k).
-                    t_dir = normalize(it.dir * eta + n * (eta * cosi - sqrt(k)));
-                    refract_child = true;
-                }
-                eta_ti_sq = eta * eta;
-            }
-            float fresnel;
-            if (total_internal) fresnel = 1.0;
-            else if (quirk(8)) fresnel = paper_fresnel(facing);
-            else if (tr > 0.0) fresnel = dielectric_fresnel(inside ? -facing : facing, ior);
-            else fresnel = 1.0;
-            vec3 surface = S.color_reflection.rgb;
-            float t_weight = quirk(8) ? 1.0 : eta_ti_sq;
-            if (refract_child && sp < STACK_SIZE)
-                stack[sp++] = Item(p - n * offset, t_dir,
-                                   it.weight * surface * ((1.0 - fresnel) * tr * t_weight),
-                                   it.depth + 1, -1);
-            if (effect(1)) {
-                vec3 r_dir = normalize(it.dir - n * (2.0 * d_dot_n));
-                int skip = (!quirk(1) && !inside) ? idx : -1;
-                vec3 emission = quirk(7) ? S.emission_transparency.rgb : vec3(0.0);
-                total += it.weight * emission;  // Q7's emission, added before `it` is reused
-                it = Item(p + n * offset, r_dir, it.weight * surface * fresnel, it.depth + 1, skip);
-                have_current = true;
-                continue;
-            }
-        } else if (!(spec && !quirk(6))) {
-            total += it.weight * shade_direct(idx, p, n);
+        bool recurse = surface && spec && depth < MAX_DEPTH;
+        bool direct = surface && !recurse && !(spec && !quirk(6));
+        float r = S.center_radius.w;
+        total += !hit ? w * BACKGROUND : vec3(0.0);
+        total += light_hit ? w * S.light_intensity.rgb / (PI * r * r) : vec3(0.0);
+        vec3 direct_light = shade_direct(idx, p, n);
+        total += direct ? w * direct_light : vec3(0.0);
+        total += (surface && quirk(7)) ? w * S.emission_transparency.rgb : vec3(0.0);
+
+        // Its children (step 4 of paper-model.md).
+        float d_dot_n = dot(d, n);
+        float facing = max(0.0, -d_dot_n);
+        float offset = offset_at(p);
+        float tr = S.emission_transparency.w;
+        float ior = S.ior.x;
+        bool refractive = tr > 0.0;
+        float eta = (quirk(2) || !inside) ? 1.0 / ior : ior;
+        float cosi = -d_dot_n;
+        float k = 1.0 - eta * eta * (1.0 - cosi * cosi);
+        bool total_internal = refractive && k < 0.0 && !quirk(3);
+        // With Q3 present and k < 0 this is NaN, like the original's sqrt(k).
+        vec3 t_dir = normalize(d * eta + n * (eta * cosi - sqrt(k)));
+        float fresnel = total_internal ? 1.0
+                      : quirk(8) ? paper_fresnel(facing)
+                      : refractive ? dielectric_fresnel(inside ? -facing : facing, ior) : 1.0;
+        vec3 surface_colour = S.color_reflection.rgb;
+        float t_weight = quirk(8) ? 1.0 : (refractive ? eta * eta : 1.0);
+        bool push = recurse && refractive && !total_internal && effect(2) && sp < STACK_SIZE;
+        vec3 push_o = p - n * offset;
+        vec3 push_w = w * surface_colour * ((1.0 - fresnel) * tr * t_weight);
+        for (int slot = 0; slot < STACK_SIZE; ++slot) {
+            bool here = push && sp == slot;
+            stack_o[slot] = here ? push_o : stack_o[slot];
+            stack_d[slot] = here ? t_dir : stack_d[slot];
+            stack_w[slot] = here ? push_w : stack_w[slot];
+            stack_depth[slot] = here ? depth + 1 : stack_depth[slot];
         }
-        if (quirk(7)) total += it.weight * S.emission_transparency.rgb;
+        sp += push ? 1 : 0;
+
+        // The next ray: the reflected one, else the top of the stack, else the walk ends.
+        bool reflect = recurse && effect(1);
+        int top = sp - 1;
+        vec3 pop_o = stack_o[0], pop_d = stack_d[0], pop_w = stack_w[0];
+        int pop_depth = stack_depth[0];
+        for (int slot = 1; slot < STACK_SIZE; ++slot) {
+            bool here = top == slot;
+            pop_o = here ? stack_o[slot] : pop_o;
+            pop_d = here ? stack_d[slot] : pop_d;
+            pop_w = here ? stack_w[slot] : pop_w;
+            pop_depth = here ? stack_depth[slot] : pop_depth;
+        }
+        o = reflect ? p + n * offset : pop_o;
+        d = reflect ? normalize(d - n * (2.0 * d_dot_n)) : pop_d;
+        w = reflect ? w * surface_colour * fresnel : pop_w;
+        depth = reflect ? depth + 1 : pop_depth;
+        skip = (reflect && !quirk(1) && !inside) ? idx : -1;
+        walking = reflect || sp > 0;
+        sp -= (!reflect && sp > 0) ? 1 : 0;
     }
     return total;
 }
 
 vec3 camera_dir(float px, float py) {
-    float xx = (2.0 * px / u_size.x - 1.0) * u_half_height * (u_size.x / u_size.y);
-    float yy = (1.0 - 2.0 * py / u_size.y) * u_half_height;
-    return normalize(u_cam_right * xx + u_cam_up * yy + u_cam_forward);
+    float xx = (2.0 * px / size.x - 1.0) * half_height * (size.x / size.y);
+    float yy = (1.0 - 2.0 * py / size.y) * half_height;
+    return normalize(cam_right * xx + cam_up * yy + cam_forward);
 }
 
 vec3 srgb_encode(vec3 linear) {
@@ -302,17 +317,17 @@ vec3 srgb_encode(vec3 linear) {
 void main() {
     // Pixel (x, y) with y down, as the CPU numbers them.
     float x = floor(gl_FragCoord.x);
-    float y = u_size.y - 1.0 - floor(gl_FragCoord.y);
+    float y = size.y - 1.0 - floor(gl_FragCoord.y);
 
     vec3 c;
-    if (u_strata == 1) {
-        c = trace(u_cam_origin, camera_dir(x + 0.5, y + 0.5));  // the centre ray: AOVs as it goes
+    if (strata == 1) {
+        c = trace(cam_origin, camera_dir(x + 0.5, y + 0.5));  // the centre ray: AOVs as it goes
     } else {
         vec3 sum = vec3(0.0);
-        float k = float(u_strata);
-        for (int sy = 0; sy < u_strata; ++sy)
-            for (int sx = 0; sx < u_strata; ++sx)
-                sum += trace(u_cam_origin, camera_dir(x + (float(sx) + 0.5) / k, y + (float(sy) + 0.5) / k));
+        float k = float(strata);
+        for (int sy = 0; sy < strata; ++sy)
+            for (int sx = 0; sx < strata; ++sx)
+                sum += trace(cam_origin, camera_dir(x + (float(sx) + 0.5) / k, y + (float(sy) + 0.5) / k));
         c = sum / (k * k);
         vec3 d0 = camera_dir(x + 0.5, y + 0.5);
         int id;
@@ -320,8 +335,8 @@ void main() {
         g_first_id = -1;
         g_first_t = 0.0;
         g_first_n = vec3(0.0);
-        if (nearest_hit(u_cam_origin, d0, -1, id, t)) {
-            vec3 n = normalize(u_cam_origin + d0 * t - center(id));
+        if (nearest_hit(cam_origin, d0, -1, id, t)) {
+            vec3 n = normalize(cam_origin + d0 * t - center(id));
             g_first_id = id;
             g_first_t = t;
             g_first_n = dot(d0, n) > 0.0 ? -n : n;
@@ -329,5 +344,5 @@ void main() {
     }
     out_aov = vec4(float(g_first_id), g_first_t, 0.0, 1.0);
     out_normal = vec4(g_first_n, 1.0);
-    out_color = vec4(u_display == 1 ? srgb_encode(c) : c, 1.0);
+    out_color = vec4(display == 1 ? srgb_encode(c) : c, 1.0);
 }

@@ -63,18 +63,21 @@ std::vector<GpuSphere> gpu_spheres(const Scene& scene) {
     return data;
 }
 
-// The spheres as a GLSL constructor list, each float by its bit pattern so the constants
-// are exactly the CPU's floats (no decimal round trip).
+// A float as a GLSL constant by its bit pattern: exactly the CPU's float, no decimal round
+// trip. The scene's values are constants rather than uniforms: on llvmpipe a fragment
+// shader reads a uniform lane by lane.
+std::string float_constant(float v) {
+    std::uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    return "uintBitsToFloat(" + std::to_string(bits) + "u)";
+}
+
+// The spheres as a GLSL constructor list.
 std::string sphere_constants(const Scene& scene) {
     std::string out;
     auto vec4_of = [](const float (&v)[4]) {
-        std::string s = "vec4(";
-        for (int c = 0; c < 4; ++c) {
-            std::uint32_t bits;
-            std::memcpy(&bits, &v[c], sizeof bits);
-            s += "uintBitsToFloat(" + std::to_string(bits) + "u)" + (c < 3 ? "," : ")");
-        }
-        return s;
+        return "vec4(" + float_constant(v[0]) + "," + float_constant(v[1]) + "," + float_constant(v[2]) +
+               "," + float_constant(v[3]) + ")";
     };
     for (const GpuSphere& g : gpu_spheres(scene)) {
         if (!out.empty()) out += ",";
@@ -83,6 +86,18 @@ std::string sphere_constants(const Scene& scene) {
                vec4_of(g.light_intensity) + ")";
     }
     return out;
+}
+
+// The lights' indices as constants, so that direct light loops over the lights only, not
+// over every sphere of the scene (a thousand, read from the storage buffer, in a stress scene).
+std::string light_indices(const Scene& scene) {
+    std::string list;
+    int count = 0;
+    for (std::size_t i = 0; i < scene.spheres.size(); ++i) {
+        if (!scene.spheres[i].is_light()) continue;
+        list += (count++ ? "," : "") + std::to_string(i);
+    }
+    return "#define LIGHT_COUNT " + std::to_string(count) + "\n#define LIGHT_INDICES " + list + "\n";
 }
 
 }  // namespace
@@ -126,6 +141,10 @@ unsigned TraceProgram::program_for(const TraceOptions& options) {
     const std::string key = header;
     header += "#define SPHERE_COUNT " + std::to_string(std::max<std::size_t>(scene_.spheres.size(), 1)) + "\n";
     if (scene_.spheres.size() <= kMaxConstantSpheres) header += "#define SCENE_SPHERES " + sphere_constants(scene_) + "\n";
+    header += light_indices(scene_);
+    header += "#define BIAS " + float_constant(scene_.bias) + "\n#define BACKGROUND vec3(" +
+              float_constant(scene_.background.x) + "," + float_constant(scene_.background.y) + "," +
+              float_constant(scene_.background.z) + ")\n";
     const unsigned vs = compile(GL_VERTEX_SHADER, kFullscreenVertSource, "fullscreen.vert.glsl");
     const unsigned fs = compile(GL_FRAGMENT_SHADER, "#version 430 core\n" + header + kTraceFragSource,
                                 "trace.frag.glsl");
@@ -161,8 +180,6 @@ void TraceProgram::draw(const TraceOptions& options, const GlView& view, int wid
 
     glUseProgram(program);
     auto loc = [&](const char* name) { return glGetUniformLocation(program, name); };
-    glUniform1f(loc("u_bias"), scene_.bias);
-    glUniform3f(loc("u_background"), scene_.background.x, scene_.background.y, scene_.background.z);
     glUniform3f(loc("u_cam_origin"), view.position.x, view.position.y, view.position.z);
     glUniform3f(loc("u_cam_forward"), forward.x, forward.y, forward.z);
     glUniform3f(loc("u_cam_right"), right.x, right.y, right.z);
