@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -28,6 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from common import ROOT, SCENES, print_table, time_process, tool, write_results  # noqa: E402
 
 BUILD = ROOT / "build" / "cmake"
+GL_RUNS = 5
 
 
 def built(name: str) -> str:
@@ -82,13 +84,19 @@ def gl_rows(rtdemo: str, tmp: str) -> list[dict]:
         time_process(cmd, repeats=1, env={"MESA_SHADER_CACHE_DISABLE": "true"})
         cold = read_image(out).header
         time_process(cmd, repeats=1)  # fills Mesa's on-disk shader cache
-        time_process(cmd, repeats=1)
-        warm = read_image(out).header
+        # Five processes: this machine's speed drifts by up to 2.5x between minutes, and the
+        # drift only ever adds time, so the best run is the frame's own cost; the median shows
+        # the drift.
+        frames = []
+        for _ in range(GL_RUNS):
+            time_process(cmd, repeats=1)
+            warm = read_image(out).header
+            frames.append(float(warm["rtval.render_seconds"]))
         rows.append({"scene": scene, "renderer": warm["rtval.gl_renderer"],
                      "compile_s": float(warm["rtval.gl_compile_seconds"]),
                      "first_frame_cold_s": float(cold["rtval.gl_first_frame_seconds"]),
                      "first_frame_warm_s": float(warm["rtval.gl_first_frame_seconds"]),
-                     "frame_s": float(warm["rtval.render_seconds"])})
+                     "frame_s": statistics.median(frames), "frame_best_s": min(frames), "frame_runs_s": frames})
     return rows
 
 
@@ -136,10 +144,11 @@ def main() -> None:
                      for r in cpu])
         print("  ceiling x: baseline / (untraced process time + the frame's sphere tests at the machine peak)")
         gl = gl_rows(rtdemo, tmp)
-        print("\nGL backend (10 frames, median after the first; first frame cold = Mesa shader cache off)")
-        print_table(["scene", "renderer", "compile s", "first cold s", "first warm s", "frame s"],
+        print(f"\nGL backend ({GL_RUNS} processes of 10 frames, each the median after the first; "
+              "first frame cold = Mesa shader cache off)")
+        print_table(["scene", "renderer", "compile s", "first cold s", "first warm s", "frame s median", "frame s best"],
                     [[g["scene"], g["renderer"][:34], g["compile_s"], g["first_frame_cold_s"], g["first_frame_warm_s"],
-                      g["frame_s"]] for g in gl])
+                      g["frame_s"], g["frame_best_s"]] for g in gl])
         judge = judge_times(rtdemo, tmp)
     print(f"\njudge, one 640x480 pair: all metrics incl. FLIP LDR+HDR {judge['all_metrics_s']:.3f} s "
           f"(without HDR FLIP {judge['all_but_hdr_flip_s']:.3f} s); per-effect "
