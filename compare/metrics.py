@@ -31,12 +31,21 @@ class SizeMismatch(ValueError):
 
 @dataclass
 class Maps:
-    """Per-pixel maps kept for pictures and per-region means."""
+    """Per-pixel maps kept for pictures and per-region means. The whole-image arrays below
+    them are computed once per pair, so that the metrics of each region (the per-effect
+    table asks for six) only index them."""
 
     ssim: F32  # H x W
     flip_ldr: F32  # H x W
     flip_hdr: F32 | None
     abs_display: F32  # H x W, max over channels
+    diff_display: F32  # H x W x 3, display(ref) - display(test)
+    abs_linear: NDArray[np.float64]  # H x W x 3, |ref - test|
+    finite: BOOL  # H x W, both pixels finite in every channel
+    nan_ref: BOOL  # H x W, a NaN in any channel
+    nan_test: BOOL
+    inf_ref: BOOL
+    inf_test: BOOL
 
 
 @dataclass
@@ -109,9 +118,14 @@ def compute_maps(ref: F32, test: F32, *, hdr: bool) -> Maps:
         flip_hdr = flip_evaluator.evaluate(clean(ref).astype(np.float32),
                                            clean(test).astype(np.float32), "HDR",
                                            applyMagma=False, parameters={"ppd": FLIP_PPD})[0][..., 0]
+    diff_display = a - b
     return Maps(ssim=ssim_map, flip_ldr=np.asarray(flip_ldr, np.float32),
                 flip_hdr=None if flip_hdr is None else np.asarray(flip_hdr, np.float32),
-                abs_display=np.abs(a - b).max(axis=-1))
+                abs_display=np.abs(diff_display).max(axis=-1), diff_display=diff_display,
+                abs_linear=np.abs(ref.astype(np.float64) - test),
+                finite=np.isfinite(ref).all(-1) & np.isfinite(test).all(-1),
+                nan_ref=np.isnan(ref).any(-1), nan_test=np.isnan(test).any(-1),
+                inf_ref=np.isinf(ref).any(-1), inf_test=np.isinf(test).any(-1))
 
 
 def _interior(shape: tuple[int, int]) -> BOOL:
@@ -131,10 +145,8 @@ def compute_metrics(ref: F32, test: F32, maps: Maps, *, mask: BOOL | None = None
     h, w = ref.shape[:2]
     region = np.ones((h, w), bool) if mask is None else mask
     n = int(region.sum())
-    finite = np.isfinite(ref).all(-1) & np.isfinite(test).all(-1)
-    lin = region & finite
-    a, b = display(ref)[region], display(test)[region]
-    diff_d = a - b
+    lin = region & maps.finite
+    diff_d = maps.diff_display[region]
     mse_d = float(np.mean(diff_d**2)) if n else float("nan")
     ra, tb = ref[lin].astype(np.float64), test[lin].astype(np.float64)
     dl = ra - tb
@@ -144,7 +156,7 @@ def compute_metrics(ref: F32, test: F32, maps: Maps, *, mask: BOOL | None = None
     max_at = None
     max_err = float("nan")
     if lin.any():
-        full = np.where(lin[..., None], np.abs(ref.astype(np.float64) - test), -1.0)
+        full = np.where(lin[..., None], maps.abs_linear, -1.0)
         y, x, c = np.unravel_index(int(np.argmax(full)), full.shape)
         max_at, max_err = (int(x), int(y), int(c)), float(full[y, x, c])
     return Metrics(
@@ -162,8 +174,8 @@ def compute_metrics(ref: F32, test: F32, maps: Maps, *, mask: BOOL | None = None
         max_error_at=max_at,
         over_threshold=int((maps.abs_display[region] > threshold).sum()),
         threshold=threshold,
-        nan_ref=int(np.isnan(ref).any(-1)[region].sum()),
-        nan_test=int(np.isnan(test).any(-1)[region].sum()),
-        inf_ref=int(np.isinf(ref).any(-1)[region].sum()),
-        inf_test=int(np.isinf(test).any(-1)[region].sum()),
+        nan_ref=int(maps.nan_ref[region].sum()),
+        nan_test=int(maps.nan_test[region].sum()),
+        inf_ref=int(maps.inf_ref[region].sum()),
+        inf_test=int(maps.inf_test[region].sum()),
     )
