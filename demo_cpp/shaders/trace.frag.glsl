@@ -196,15 +196,7 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
     return c;
 }
 
-// What the root ray hit, for the AOVs (id -1 on a miss): set by trace().
-int g_first_id;
-float g_first_t;
-vec3 g_first_n;
-
 vec3 trace(vec3 origin, vec3 dir) {
-    g_first_id = -1;
-    g_first_t = 0.0;
-    g_first_n = vec3(0.0);
     // The current ray, and the stack of refracted rays waiting (slots written and read by
     // selects over constant indices: a per-lane index into an array costs a scatter).
     vec3 o = origin, d = dir, w = vec3(1.0);
@@ -218,7 +210,6 @@ vec3 trace(vec3 origin, vec3 dir) {
         stack_depth[k] = 0;
     }
     int sp = 0;
-    bool root = true;
     bool walking = true;
     vec3 total = vec3(0.0);
     while (walking) {
@@ -230,11 +221,6 @@ vec3 trace(vec3 origin, vec3 dir) {
         vec3 n0 = normalize(p - S.center_radius.xyz);
         bool inside = dot(d, n0) > 0.0;
         vec3 n = inside ? -n0 : n0;
-        bool first = root && hit;
-        g_first_id = first ? idx : g_first_id;
-        g_first_t = first ? t : g_first_t;
-        g_first_n = first ? n : g_first_n;
-        root = false;
 
         // What this ray adds: the background, a light's radiance, or the surface's direct
         // light (Q6: specular surfaces at the depth limit get none) and Q7's emission.
@@ -319,9 +305,10 @@ void main() {
     float x = floor(gl_FragCoord.x);
     float y = size.y - 1.0 - floor(gl_FragCoord.y);
 
+    vec3 d0 = camera_dir(x + 0.5, y + 0.5);
     vec3 c;
     if (strata == 1) {
-        c = trace(cam_origin, camera_dir(x + 0.5, y + 0.5));  // the centre ray: AOVs as it goes
+        c = trace(cam_origin, d0);
     } else {
         vec3 sum = vec3(0.0);
         float k = float(strata);
@@ -329,20 +316,15 @@ void main() {
             for (int sx = 0; sx < strata; ++sx)
                 sum += trace(cam_origin, camera_dir(x + (float(sx) + 0.5) / k, y + (float(sy) + 0.5) / k));
         c = sum / (k * k);
-        vec3 d0 = camera_dir(x + 0.5, y + 0.5);
-        int id;
-        float t;
-        g_first_id = -1;
-        g_first_t = 0.0;
-        g_first_n = vec3(0.0);
-        if (nearest_hit(cam_origin, d0, -1, id, t)) {
-            vec3 n = normalize(cam_origin + d0 * t - center(id));
-            g_first_id = id;
-            g_first_t = t;
-            g_first_n = dot(d0, n) > 0.0 ? -n : n;
-        }
     }
-    out_aov = vec4(float(g_first_id), g_first_t, 0.0, 1.0);
-    out_normal = vec4(g_first_n, 1.0);
+
+    // The AOVs: what the centre ray hits first (id -1 on a miss), the normal facing it.
+    int id;
+    float t;
+    bool hit = nearest_hit(cam_origin, d0, -1, id, t);
+    vec3 n = normalize(cam_origin + d0 * t - sphere_at(id).center_radius.xyz);
+    n = dot(d0, n) > 0.0 ? -n : n;
+    out_aov = vec4(float(id), hit ? t : 0.0, 0.0, 1.0);
+    out_normal = vec4(hit ? n : vec3(0.0), 1.0);
     out_color = vec4(display == 1 ? srgb_encode(c) : c, 1.0);
 }
