@@ -84,7 +84,7 @@ def gl_rows(rtdemo: str, tmp: str) -> list[dict]:
         time_process(cmd, repeats=1, env={"MESA_SHADER_CACHE_DISABLE": "true"})
         cold = read_image(out).header
         time_process(cmd, repeats=1)  # fills Mesa's on-disk shader cache
-        # Five processes: this machine's speed drifts by up to 2.5x between minutes, and the
+        # Several processes: this machine's speed drifts by up to 2.5x between minutes, and the
         # drift only ever adds time, so the best run is the frame's own cost; the median shows
         # the drift.
         frames = []

@@ -119,13 +119,14 @@ def compute_maps(ref: F32, test: F32, *, hdr: bool) -> Maps:
                                            clean(test).astype(np.float32), "HDR",
                                            applyMagma=False, parameters={"ppd": FLIP_PPD})[0][..., 0]
     diff_display = a - b
+    nan_ref, nan_test = np.isnan(ref).any(-1), np.isnan(test).any(-1)
+    inf_ref, inf_test = np.isinf(ref).any(-1), np.isinf(test).any(-1)
     return Maps(ssim=ssim_map, flip_ldr=np.asarray(flip_ldr, np.float32),
                 flip_hdr=None if flip_hdr is None else np.asarray(flip_hdr, np.float32),
                 abs_display=np.abs(diff_display).max(axis=-1), diff_display=diff_display,
                 abs_linear=np.abs(ref.astype(np.float64) - test),
-                finite=np.isfinite(ref).all(-1) & np.isfinite(test).all(-1),
-                nan_ref=np.isnan(ref).any(-1), nan_test=np.isnan(test).any(-1),
-                inf_ref=np.isinf(ref).any(-1), inf_test=np.isinf(test).any(-1))
+                finite=~(nan_ref | nan_test | inf_ref | inf_test),
+                nan_ref=nan_ref, nan_test=nan_test, inf_ref=inf_ref, inf_test=inf_test)
 
 
 def _interior(shape: tuple[int, int]) -> BOOL:
