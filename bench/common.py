@@ -25,19 +25,26 @@ def tool(name: str) -> str:
     return str(path)
 
 
-def time_process(cmd: list[str], repeats: int = 3, env: dict[str, str] | None = None) -> dict[str, Any]:
+def time_process(
+    cmd: list[str], repeats: int = 3, env: dict[str, str] | None = None
+) -> dict[str, Any]:
     """Wall time of a whole process (start-up and output included), median of `repeats`."""
     times = []
     last = None
     for _ in range(repeats):
         start = time.perf_counter()
-        last = subprocess.run(cmd, capture_output=True, text=True, check=False,
-                              env={**os.environ, **(env or {})})
+        last = subprocess.run(
+            cmd, capture_output=True, text=True, check=False, env={**os.environ, **(env or {})}
+        )
         times.append(time.perf_counter() - start)
         if last.returncode != 0:
             raise SystemExit(f"{' '.join(cmd)} failed: {last.stderr}")
-    return {"median_s": statistics.median(times), "min_s": min(times), "runs": times,
-            "stderr": last.stderr.strip() if last else ""}
+    return {
+        "median_s": statistics.median(times),
+        "min_s": min(times),
+        "runs": times,
+        "stderr": last.stderr.strip() if last else "",
+    }
 
 
 def machine() -> dict[str, Any]:
@@ -49,9 +56,14 @@ def machine() -> dict[str, Any]:
                 break
     except OSError:
         pass
-    return {"host": platform.node(), "cpu": cpu, "cores": os.cpu_count(),
-            "python": platform.python_version(), "system": f"{platform.system()} {platform.release()}",
-            "date": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    return {
+        "host": platform.node(),
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "python": platform.python_version(),
+        "system": f"{platform.system()} {platform.release()}",
+        "date": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    }
 
 
 def write_results(name: str, data: dict[str, Any]) -> Path:
@@ -64,9 +76,11 @@ def write_results(name: str, data: dict[str, Any]) -> Path:
 
 
 def print_table(headers: list[str], rows: list[list[Any]]) -> None:
-    cells = [[str(h) for h in headers]] + [[f"{c:.4g}" if isinstance(c, float) else str(c) for c in r] for r in rows]
+    cells = [[str(h) for h in headers]] + [
+        [f"{c:.4g}" if isinstance(c, float) else str(c) for c in r] for r in rows
+    ]
     widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
     for i, r in enumerate(cells):
-        print("  ".join(c.rjust(w) for c, w in zip(r, widths)))
+        print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=False)))
         if i == 0:
             print("  ".join("-" * w for w in widths))

@@ -57,7 +57,7 @@ def _offset_origin(p: Any, n: Any, d: Any) -> Any:
     return p + n * (scale * side)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def integrator_class(variant: str) -> type:
     """The integrator class for one Mitsuba variant (each variant has its own base class).
     Precondition: `variant` is the active one (mitsuba_ref.drjit_env.load_mitsuba)."""
@@ -86,7 +86,7 @@ def integrator_class(variant: str) -> type:
             for e in scene.emitters():
                 eid = e.id()
                 if eid.startswith("light_"):
-                    self.point_lights.append((e, radii.get("sphere_" + eid[len("light_"):], 0.0)))
+                    self.point_lights.append((e, radii.get("sphere_" + eid[len("light_") :], 0.0)))
             if not self.point_lights:
                 self.area_lights = [e for e in scene.emitters() if e.get_shape() is not None]
             self.environment = scene.environment()
@@ -113,7 +113,9 @@ def integrator_class(variant: str) -> type:
             return self.environment.eval(si, active)
 
         # -- transport ------------------------------------------------------------------
-        def _blocked(self, scene: Any, si: Any, ds: Any, shorten: float, rel_eps: float, active: Any) -> Any:
+        def _blocked(
+            self, scene: Any, si: Any, ds: Any, shorten: float, rel_eps: float, active: Any
+        ) -> Any:
             """Is the segment from the offset hit point to ds.p blocked? It ends `shorten`
             before ds.p (the light's radius for a point at a sphere's centre), minus rel_eps."""
             o = _offset_origin(si.p, si.n, ds.d)
@@ -131,7 +133,9 @@ def integrator_class(variant: str) -> type:
                 value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
                 if self.shadows:
                     # End before the light's own sphere (the point sits at its centre).
-                    value = dr.select(self._blocked(scene, si, ds, radius, 1e-5, active), 0.0, value)
+                    value = dr.select(
+                        self._blocked(scene, si, ds, radius, 1e-5, active), 0.0, value
+                    )
                 result += dr.select(active, value, 0.0)
             for emitter in self.area_lights:
                 acc = mi.Color3f(0.0)
@@ -139,7 +143,9 @@ def integrator_class(variant: str) -> type:
                     ds, spec = emitter.sample_direction(si, draw2d(), active)
                     value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
                     if self.shadows:
-                        value = dr.select(self._blocked(scene, si, ds, 0.0, 1e-4, active), 0.0, value)
+                        value = dr.select(
+                            self._blocked(scene, si, ds, 0.0, 1e-4, active), 0.0, value
+                        )
                     acc += dr.select(active & (ds.pdf > 0), value, 0.0)
                 result += acc / self.light_samples
             return result
@@ -181,8 +187,9 @@ def integrator_class(variant: str) -> type:
                 children.append((mask, mi.Ray3f(_offset_origin(si.p, si.n, wo), wo), w))
             return result, children
 
-        def _trace_recursive(self, scene: Any, sampler: Any, ray: Any, depth: int,
-                             active: Any) -> Any:
+        def _trace_recursive(
+            self, scene: Any, sampler: Any, ray: Any, depth: int, active: Any
+        ) -> Any:
             """Scalar variants: one ray, depth-first."""
             result, children = self.shade(scene, sampler.next_2d, ray, depth, active)
             for mask, child, w in children:
@@ -204,25 +211,31 @@ def integrator_class(variant: str) -> type:
                 if width == 0:
                     break
                 draw2d = lambda idx=idx: dr.gather(mi.Point2f, sampler.next_2d(), idx)  # noqa: E731
-                contrib, children = self.shade(scene, draw2d, mi.Ray3f(origins, dirs), depth,
-                                               dr.full(mi.Bool, True, width))
+                contrib, children = self.shade(
+                    scene, draw2d, mi.Ray3f(origins, dirs), depth, dr.full(mi.Bool, True, width)
+                )
                 dr.scatter_reduce(dr.ReduceOp.Add, result, weight * contrib, idx)
                 parts = []
                 for mask, child, w in children:
                     keep = dr.compress(mask)
                     if dr.width(keep) > 0:
-                        parts.append((dr.gather(mi.Point3f, child.o, keep),
-                                      dr.gather(mi.Vector3f, child.d, keep),
-                                      dr.gather(mi.Color3f, weight * w, keep),
-                                      dr.gather(mi.UInt32, idx, keep)))
+                        parts.append(
+                            (
+                                dr.gather(mi.Point3f, child.o, keep),
+                                dr.gather(mi.Vector3f, child.d, keep),
+                                dr.gather(mi.Color3f, weight * w, keep),
+                                dr.gather(mi.UInt32, idx, keep),
+                            )
+                        )
                 if not parts:
                     break
                 origins, dirs, weight, idx = (_concat([p[k] for p in parts]) for k in range(4))
                 dr.eval(origins, dirs, weight, idx)
             return result
 
-        def sample(self, scene: Any, sampler: Any, ray: Any, medium: Any = None,
-                   active: Any = True) -> tuple[Any, Any, list[Any]]:
+        def sample(
+            self, scene: Any, sampler: Any, ray: Any, medium: Any = None, active: Any = True
+        ) -> tuple[Any, Any, list[Any]]:
             self._prepare(scene)
             ray = mi.Ray3f(ray)
             if _jit():
@@ -233,6 +246,7 @@ def integrator_class(variant: str) -> type:
 
         def to_string(self) -> str:
             return f"WhittedIntegrator[max_depth={self.max_depth}]"
+
     return WhittedIntegrator
 
 

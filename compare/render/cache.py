@@ -14,14 +14,14 @@ import shlex
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
-from typing import Callable
 
 from compare.files import sha256_file, write_atomic
-from compare.tools import ToolError, rtdemo_path
+from compare.render.runner import ToolError, rtdemo_path
 
 
 @dataclass
@@ -42,13 +42,14 @@ class RenderJob:
         return shlex.join(self.command(out))
 
 
-@lru_cache(maxsize=None)
+@cache
 def renderer_identity(tool: str) -> str:
     if tool == "rtdemo":
         return sha256_file(Path(rtdemo_path()))
     h = hashlib.sha256()
-    for pkg in ("mitsuba_ref",):  # the renderer; report code changes must not re-render
-        root = Path(__file__).resolve().parent.parent / pkg
+    # The renderer and the scene loader it reads with; report code changes must not re-render.
+    for pkg in ("mitsuba_ref", "scene_model"):
+        root = Path(__file__).resolve().parents[2] / pkg
         for p in sorted(root.glob("*.py")):
             h.update(p.read_bytes())
     for dist in ("mitsuba", "drjit"):
@@ -70,8 +71,15 @@ def _executable(tool: str) -> str:
     return str(Path(sys.executable).with_name(tool))
 
 
-def run_jobs(jobs: list[RenderJob], scene_file: Path, cache_dir: Path, out_dir: Path, *,
-             jobs_in_parallel: int = 1, progress: Callable[[str], None] = print) -> None:
+def run_jobs(
+    jobs: list[RenderJob],
+    scene_file: Path,
+    cache_dir: Path,
+    out_dir: Path,
+    *,
+    jobs_in_parallel: int = 1,
+    progress: Callable[[str], None] = print,
+) -> None:
     """Makes out_dir/<key>.exr for every job, from the cache when the key matches."""
     cache_dir.mkdir(parents=True, exist_ok=True)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -96,8 +104,10 @@ def run_jobs(jobs: list[RenderJob], scene_file: Path, cache_dir: Path, out_dir: 
             job.seconds = time.perf_counter() - start
             if proc.returncode != 0:
                 tmp.unlink(missing_ok=True)
-                raise ToolError(f"{job.label} failed (exit {proc.returncode}): "
-                                f"{job.command_text(target)}\n{proc.stderr.strip()[-2000:]}")
+                raise ToolError(
+                    f"{job.label} failed (exit {proc.returncode}): "
+                    f"{job.command_text(target)}\n{proc.stderr.strip()[-2000:]}"
+                )
             tmp.replace(cached)
         write_atomic(target, cached.read_bytes())
         done[0] += 1

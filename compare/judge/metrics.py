@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from compare.images import linear_to_srgb
+from compare.judge.images import linear_to_srgb
 
 F32 = NDArray[np.float32]
 BOOL = NDArray[np.bool_]
@@ -77,21 +77,36 @@ class Metrics:
 
 
 SPACES = {
-    "ssim": "display", "flip_ldr": "display", "flip_hdr": "linear", "psnr_db": "display",
-    "rmse_display": "display", "mae_display": "display", "rmse_linear": "linear",
-    "mae_linear": "linear", "rel_mse_linear": "linear", "max_error_linear": "linear",
+    "ssim": "display",
+    "flip_ldr": "display",
+    "flip_hdr": "linear",
+    "psnr_db": "display",
+    "rmse_display": "display",
+    "mae_display": "display",
+    "rmse_linear": "linear",
+    "mae_linear": "linear",
+    "rel_mse_linear": "linear",
+    "max_error_linear": "linear",
     "over_threshold": "display",
 }
 
 
-def check_same_size(ref: F32, test: F32, ref_name: str = "reference", test_name: str = "test") -> None:
+def check_same_size(
+    ref: F32, test: F32, ref_name: str = "reference", test_name: str = "test"
+) -> None:
     if ref.shape != test.shape:
-        raise SizeMismatch(f"size mismatch: {ref_name} is {ref.shape[1]}x{ref.shape[0]}, "
-                           f"{test_name} is {test.shape[1]}x{test.shape[0]} (never resampled)")
+        raise SizeMismatch(
+            f"size mismatch: {ref_name} is {ref.shape[1]}x{ref.shape[0]}, "
+            f"{test_name} is {test.shape[1]}x{test.shape[0]} (never resampled)"
+        )
 
 
 def display(rgb: F32) -> F32:
     return linear_to_srgb(rgb)
+
+
+def _any_channel(per_channel: BOOL) -> BOOL:
+    return np.asarray(per_channel.any(axis=-1), bool)
 
 
 def compute_maps(ref: F32, test: F32, *, hdr: bool) -> Maps:
@@ -105,42 +120,65 @@ def compute_maps(ref: F32, test: F32, *, hdr: bool) -> Maps:
         ssim_map = np.full(a.shape[:2], np.nan, np.float32)  # too small for the 11x11 window
     else:
         _, full_map = structural_similarity(
-            a, b, data_range=1.0, channel_axis=-1, gaussian_weights=True, sigma=1.5,
-            use_sample_covariance=False, full=True)
+            a,
+            b,
+            data_range=1.0,
+            channel_axis=-1,
+            gaussian_weights=True,
+            sigma=1.5,
+            use_sample_covariance=False,
+            full=True,
+        )
         ssim_map = np.asarray(full_map, np.float32).mean(axis=-1)
-    flip_ldr = flip_evaluator.evaluate(a, b, "LDR", applyMagma=False,
-                                       parameters={"ppd": FLIP_PPD})[0][..., 0]
+    flip_ldr = flip_evaluator.evaluate(a, b, "LDR", applyMagma=False, parameters={"ppd": FLIP_PPD})[
+        0
+    ][..., 0]
     flip_hdr = None
-    clean = lambda x: np.maximum(np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0), 0.0)  # noqa: E731
+
+    def clean(x: F32) -> F32:
+        return np.maximum(np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
+
     # HDR FLIP derives its exposures from the reference; on an all-black one flip-evaluator
     # exits the process, so it is left undefined (None) there.
     if hdr and float(clean(ref).max()) > 0.0:
-        flip_hdr = flip_evaluator.evaluate(clean(ref).astype(np.float32),
-                                           clean(test).astype(np.float32), "HDR",
-                                           applyMagma=False, parameters={"ppd": FLIP_PPD})[0][..., 0]
+        flip_hdr = flip_evaluator.evaluate(
+            clean(ref).astype(np.float32),
+            clean(test).astype(np.float32),
+            "HDR",
+            applyMagma=False,
+            parameters={"ppd": FLIP_PPD},
+        )[0][..., 0]
     diff_display = a - b
-    nan_ref, nan_test = np.isnan(ref).any(-1), np.isnan(test).any(-1)
-    inf_ref, inf_test = np.isinf(ref).any(-1), np.isinf(test).any(-1)
-    return Maps(ssim=ssim_map, flip_ldr=np.asarray(flip_ldr, np.float32),
-                flip_hdr=None if flip_hdr is None else np.asarray(flip_hdr, np.float32),
-                abs_display=np.abs(diff_display).max(axis=-1), diff_display=diff_display,
-                abs_linear=np.abs(ref.astype(np.float64) - test),
-                finite=~(nan_ref | nan_test | inf_ref | inf_test),
-                nan_ref=nan_ref, nan_test=nan_test, inf_ref=inf_ref, inf_test=inf_test)
+    nan_ref, nan_test = _any_channel(np.isnan(ref)), _any_channel(np.isnan(test))
+    inf_ref, inf_test = _any_channel(np.isinf(ref)), _any_channel(np.isinf(test))
+    return Maps(
+        ssim=ssim_map,
+        flip_ldr=np.asarray(flip_ldr, np.float32),
+        flip_hdr=None if flip_hdr is None else np.asarray(flip_hdr, np.float32),
+        abs_display=np.abs(diff_display).max(axis=-1),
+        diff_display=diff_display,
+        abs_linear=np.abs(ref.astype(np.float64) - test),
+        finite=~(nan_ref | nan_test | inf_ref | inf_test),
+        nan_ref=nan_ref,
+        nan_test=nan_test,
+        inf_ref=inf_ref,
+        inf_test=inf_test,
+    )
 
 
 def _interior(shape: tuple[int, int]) -> BOOL:
     m = np.zeros(shape, bool)
     h, w = shape
     if h > 2 * SSIM_BORDER and w > 2 * SSIM_BORDER:
-        m[SSIM_BORDER:h - SSIM_BORDER, SSIM_BORDER:w - SSIM_BORDER] = True
+        m[SSIM_BORDER : h - SSIM_BORDER, SSIM_BORDER : w - SSIM_BORDER] = True
     else:
         m[:] = True
     return m
 
 
-def compute_metrics(ref: F32, test: F32, maps: Maps, *, mask: BOOL | None = None,
-                    threshold: float = 1.0 / 255.0) -> Metrics:
+def compute_metrics(
+    ref: F32, test: F32, maps: Maps, *, mask: BOOL | None = None, threshold: float = 1.0 / 255.0
+) -> Metrics:
     """Every metric over `mask` (all pixels when None)."""
     check_same_size(ref, test)
     h, w = ref.shape[:2]
@@ -164,7 +202,11 @@ def compute_metrics(ref: F32, test: F32, maps: Maps, *, mask: BOOL | None = None
         pixels=n,
         ssim=float(maps.ssim[ssim_region].mean()) if n else float("nan"),
         flip_ldr=float(maps.flip_ldr[region].mean()) if n else float("nan"),
-        flip_hdr=None if maps.flip_hdr is None else float(maps.flip_hdr[region].mean()) if n else None,
+        flip_hdr=None
+        if maps.flip_hdr is None
+        else float(maps.flip_hdr[region].mean())
+        if n
+        else None,
         psnr_db=float("inf") if mse_d == 0 else float(10 * np.log10(1.0 / mse_d)),
         rmse_display=float(np.sqrt(mse_d)),
         mae_display=float(np.mean(np.abs(diff_d))) if n else float("nan"),
@@ -180,3 +222,26 @@ def compute_metrics(ref: F32, test: F32, maps: Maps, *, mask: BOOL | None = None
         inf_ref=int(maps.inf_ref[region].sum()),
         inf_test=int(maps.inf_test[region].sum()),
     )
+
+
+def metrics_from_dict(d: dict[str, Any]) -> Metrics:
+    """The inverse of Metrics.as_dict (after a JSON round trip: null -> NaN where a float)."""
+    fields = {k: v for k, v in d.items() if k in Metrics.__dataclass_fields__}
+    for k in (
+        "ssim",
+        "flip_ldr",
+        "psnr_db",
+        "rmse_display",
+        "mae_display",
+        "rmse_linear",
+        "mae_linear",
+        "rel_mse_linear",
+        "max_error_linear",
+    ):
+        if fields.get(k) is None:
+            fields[k] = float("nan")
+    if d.get("psnr_db") is None and d.get("rmse_display") == 0:
+        fields["psnr_db"] = float("inf")  # identical display values; JSON has no Infinity
+    if fields.get("max_error_at") is not None:
+        fields["max_error_at"] = tuple(fields["max_error_at"])
+    return Metrics(**fields)

@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import hashlib
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from compare.effects import EFFECTS
-from compare.verdict import FLIP_AT_ZERO_SCORE, EffectRule
+import tomllib
+
+from compare.judge.effects import EFFECTS
+from compare.judge.scoring import FLIP_AT_ZERO_SCORE, EffectRule
 
 DEFAULT_RUBRIC_TEXT = """\
 # rtval default rubric: every effect needs mean FLIP <= 0.10 and SSIM >= 0.5 to pass;
@@ -53,8 +54,10 @@ def _line_of(text: str, key: str | None, section: str | None) -> int:
     lines = text.splitlines()
     start = 0
     if section:
-        pattern = re.compile(r"^\s*\[\s*" + re.escape(section).replace(r"\.", r"\s*\.\s*") + r"\s*\]")
-        start = next((i for i, l in enumerate(lines) if pattern.match(l)), 0)
+        pattern = re.compile(
+            r"^\s*\[\s*" + re.escape(section).replace(r"\.", r"\s*\.\s*") + r"\s*\]"
+        )
+        start = next((i for i, line in enumerate(lines) if pattern.match(line)), 0)
     if key is None:
         return start + 1
     for i in range(start, len(lines)):
@@ -74,12 +77,18 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
 
     for key in raw:
         if key not in ("rubric", "effects"):
-            raise fail(f"unknown table or key '{key}' (expected [rubric] and [effects.NAME])", key, None)
+            raise fail(
+                f"unknown table or key '{key}' (expected [rubric] and [effects.NAME])", key, None
+            )
     top = raw.get("rubric", {})
     values: dict[str, float] = {}
     for key, value in top.items():
         if key not in ("pass_score", "flip_at_zero"):
-            raise fail(f"unknown key '{key}' in [rubric] (expected pass_score, flip_at_zero)", key, "rubric")
+            raise fail(
+                f"unknown key '{key}' in [rubric] (expected pass_score, flip_at_zero)",
+                key,
+                "rubric",
+            )
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise fail(f"{key} must be a number, got {value!r}", key, "rubric")
         values[key] = float(value)
@@ -91,21 +100,31 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
     for name, table in raw.get("effects", {}).items():
         section = f"effects.{name}"
         if name not in EFFECTS:
-            raise fail(f"unknown effect '{name}' (expected one of {', '.join(EFFECTS)})", None, section)
+            raise fail(
+                f"unknown effect '{name}' (expected one of {', '.join(EFFECTS)})", None, section
+            )
         if not isinstance(table, dict):
             raise fail(f"[{section}] must be a table", None, section)
         rule: dict[str, float] = {}
         for key, value in table.items():
             if key not in ("min_ssim", "max_flip", "weight"):
-                raise fail(f"unknown key '{key}' in [{section}] (expected min_ssim, max_flip, weight)", key, section)
+                raise fail(
+                    f"unknown key '{key}' in [{section}] (expected min_ssim, max_flip, weight)",
+                    key,
+                    section,
+                )
             lo = -1.0 if key == "min_ssim" else 0.0  # SSIM ranges over [-1, 1]
             if isinstance(value, bool) or not isinstance(value, (int, float)) or value < lo:
                 raise fail(f"{key} must be a number >= {lo:g}, got {value!r}", key, section)
             rule[key] = float(value)
         effects[name] = EffectRule(**rule)
-    return Rubric(pass_score=values.get("pass_score", 60.0),
-                  flip_at_zero=values.get("flip_at_zero", FLIP_AT_ZERO_SCORE), effects=effects, source=source,
-                  digest=hashlib.sha256(text.encode()).hexdigest()[:16])
+    return Rubric(
+        pass_score=values.get("pass_score", 60.0),
+        flip_at_zero=values.get("flip_at_zero", FLIP_AT_ZERO_SCORE),
+        effects=effects,
+        source=source,
+        digest=hashlib.sha256(text.encode()).hexdigest()[:16],
+    )
 
 
 def load_rubric(path: str | Path | None) -> Rubric:

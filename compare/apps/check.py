@@ -12,16 +12,17 @@ import json
 import tempfile
 import time
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
-from compare.compare_images import run_comparison
 from compare.files import write_atomic
-from compare.images import read_image, write_exr
-from compare.judge import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
-from compare.tools import run_rtdemo
-from mitsuba_ref.scene import load_scene
+from compare.judge.evaluate import evaluate_pair
+from compare.judge.images import read_image, write_exr
+from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
+from compare.render.runner import run_rtdemo
+from scene_model.scene import load_scene
 
 DEFAULT_SCENES = ("scenes/paper.json", "scenes/classic.json")
 DEFAULT_MODES = ("paper", "classic", "physical")
@@ -56,15 +57,25 @@ def load_tolerances(baseline_dir: Path) -> dict[str, Tolerances]:
         return {}
     try:
         raw = json.loads(path.read_text())
-        return {name: Tolerances(**{**DEFAULT_TOLERANCES.as_dict(), **values})
-                for name, values in raw.items()}
+        return {
+            name: Tolerances(**{**DEFAULT_TOLERANCES.as_dict(), **values})
+            for name, values in raw.items()
+        }
     except (json.JSONDecodeError, TypeError) as e:
         raise ValueError(f"{path}: invalid tolerances: {e}") from None
 
 
-def run_check(*, scenes: list[str], modes: list[str], backends: list[str], baseline_dir: Path,
-              size: tuple[int, int], update: bool = False, rtdemo: str | None = None,
-              progress: Callable[[str], None] = print) -> list[CaseResult]:
+def run_check(
+    *,
+    scenes: list[str],
+    modes: list[str],
+    backends: list[str],
+    baseline_dir: Path,
+    size: tuple[int, int],
+    update: bool = False,
+    rtdemo: str | None = None,
+    progress: Callable[[str], None] = print,
+) -> list[CaseResult]:
     tolerances = load_tolerances(baseline_dir)
     results: list[CaseResult] = []
     with tempfile.TemporaryDirectory(prefix="rtval-check-") as tmp:
@@ -74,12 +85,26 @@ def run_check(*, scenes: list[str], modes: list[str], backends: list[str], basel
             for backend in backends:
                 for mode in modes:
                     out = Path(tmp) / f"{scene.name}-{backend}-{mode}.exr"
-                    args = ["render", scene_path, "-o", str(out), "--mode", mode, "--backend",
-                            backend, "--width", str(size[0]), "--height", str(size[1]), "-q"]
+                    args = [
+                        "render",
+                        scene_path,
+                        "-o",
+                        str(out),
+                        "--mode",
+                        mode,
+                        "--backend",
+                        backend,
+                        "--width",
+                        str(size[0]),
+                        "--height",
+                        str(size[1]),
+                        "-q",
+                    ]
                     start = time.perf_counter()
                     run_rtdemo(args, executable=rtdemo)
-                    case = CaseResult(scene.name, backend, mode, "pass",
-                                      seconds=time.perf_counter() - start)
+                    case = CaseResult(
+                        scene.name, backend, mode, "pass", seconds=time.perf_counter() - start
+                    )
                     # One baseline per scene and mode: every backend must reproduce it.
                     baseline = baseline_dir / scene.name / f"{mode}.exr"
                     if not baseline.is_file():
@@ -88,10 +113,12 @@ def run_check(*, scenes: list[str], modes: list[str], backends: list[str], basel
                         ref, test = read_image(baseline), read_image(out)
                         if ref.shape != test.shape:
                             case.status = "fail"
-                            case.reasons = [f"size {test.shape[1]}x{test.shape[0]} differs from the "
-                                            f"baseline's {ref.shape[1]}x{ref.shape[0]}"]
+                            case.reasons = [
+                                f"size {test.shape[1]}x{test.shape[0]} differs from the "
+                                f"baseline's {ref.shape[1]}x{ref.shape[0]}"
+                            ]
                         else:
-                            c = run_comparison(ref, test, tolerances=tol)
+                            c = evaluate_pair(ref.rgb, test.rgb, tolerances=tol)
                             case.status, case.reasons = c.verdict.status, c.verdict.reasons
                             case.failing_pixels = c.verdict.failing_pixels
                             case.max_display_error = c.verdict.max_display_error
@@ -102,9 +129,11 @@ def run_check(*, scenes: list[str], modes: list[str], backends: list[str], basel
                         fresh = read_image(out)
                         write_exr(baseline, fresh.rgb, header=fresh.header)
                         case.updated = True
-                    progress(f"{case.name:<28} {case.status.upper():<5}"
-                             + (" (baseline updated)" if case.updated else "")
-                             + (f"  {'; '.join(case.reasons)}" if case.reasons else ""))
+                    progress(
+                        f"{case.name:<28} {case.status.upper():<5}"
+                        + (" (baseline updated)" if case.updated else "")
+                        + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
+                    )
                     results.append(case)
     return results
 
@@ -119,13 +148,17 @@ def exit_code(results: list[CaseResult]) -> int:
 
 
 def table(results: list[CaseResult]) -> str:
-    lines = [f"{'case':<28} {'status':<7} {'failing px':>10} {'max err':>8} {'SSIM':>8} {'time s':>7}"]
+    lines = [
+        f"{'case':<28} {'status':<7} {'failing px':>10} {'max err':>8} {'SSIM':>8} {'time s':>7}"
+    ]
     order = sorted(results, key=lambda r: ("fail", "warn", "pass").index(r.status))
     for r in order:
         ssim = f"{r.ssim:.5f}" if r.ssim is not None else "-"
-        lines.append(f"{r.name:<28} {r.status:<7} {r.failing_pixels:>10} "
-                     f"{r.max_display_error:>8.4f} {ssim:>8} {r.seconds:>7.2f}"
-                     + ("  updated" if r.updated else ""))
+        lines.append(
+            f"{r.name:<28} {r.status:<7} {r.failing_pixels:>10} "
+            f"{r.max_display_error:>8.4f} {ssim:>8} {r.seconds:>7.2f}"
+            + ("  updated" if r.updated else "")
+        )
     n_fail = sum(r.status == "fail" for r in results)
     lines.append(f"{len(results) - n_fail} passed, {n_fail} failed")
     return "\n".join(lines)
@@ -133,16 +166,30 @@ def table(results: list[CaseResult]) -> str:
 
 def write_json(results: list[CaseResult], path: Path) -> None:
     data: list[dict[str, Any]] = [{**r.__dict__, "name": r.name} for r in results]
-    write_atomic(path, json.dumps({"status": ("pass", "warn", "fail")[exit_code(results)],
-                                   "cases": data}, indent=2) + "\n")
+    write_atomic(
+        path,
+        json.dumps(
+            {"status": ("pass", "warn", "fail")[exit_code(results)], "cases": data}, indent=2
+        )
+        + "\n",
+    )
 
 
 def write_junit(results: list[CaseResult], path: Path) -> None:
-    suite = ET.Element("testsuite", name="rtval check", tests=str(len(results)),
-                       failures=str(sum(r.status == "fail" for r in results)))
+    suite = ET.Element(
+        "testsuite",
+        name="rtval check",
+        tests=str(len(results)),
+        failures=str(sum(r.status == "fail" for r in results)),
+    )
     for r in results:
-        case = ET.SubElement(suite, "testcase", classname=f"rtval.{r.scene}",
-                             name=f"{r.backend}-{r.mode}", time=f"{r.seconds:.3f}")
+        case = ET.SubElement(
+            suite,
+            "testcase",
+            classname=f"rtval.{r.scene}",
+            name=f"{r.backend}-{r.mode}",
+            time=f"{r.seconds:.3f}",
+        )
         if r.status == "fail":
             ET.SubElement(case, "failure", message="; ".join(r.reasons)).text = "; ".join(r.reasons)
         elif r.status == "warn":

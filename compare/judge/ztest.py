@@ -33,11 +33,14 @@ def two_sided_p(z: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.asarray(erfc(np.abs(z) / math.sqrt(2.0)))
 
 
-def z_test(test_mean: F32, test_spp: int, ref_mean: F32, ref_variance: F32, *,
-           alpha: float = 0.01) -> ZTestResult:
+def z_test(
+    test_mean: F32, test_spp: int, ref_mean: F32, ref_variance: F32, *, alpha: float = 0.01
+) -> ZTestResult:
     if test_mean.shape != ref_mean.shape or ref_variance.shape != ref_mean.shape:
-        raise ValueError(f"shapes differ: test {test_mean.shape}, reference {ref_mean.shape}, "
-                         f"variance {ref_variance.shape}")
+        raise ValueError(
+            f"shapes differ: test {test_mean.shape}, reference {ref_mean.shape}, "
+            f"variance {ref_variance.shape}"
+        )
     if test_spp < 1:
         raise ValueError(f"test_spp must be >= 1, got {test_spp}")
     var = np.maximum(ref_variance.astype(np.float64), VARIANCE_FLOOR)
@@ -48,5 +51,6 @@ def z_test(test_mean: F32, test_spp: int, ref_mean: F32, ref_variance: F32, *,
     alpha_sidak = 1.0 - (1.0 - alpha) ** (1.0 / pixels)
     ok = (p > alpha_sidak).all(axis=-1)
     frac = float(ok.mean())
-    return ZTestResult(p_values=p, alpha_sidak=alpha_sidak, pass_fraction=frac,
-                       passed=frac >= PASS_FRACTION)
+    return ZTestResult(
+        p_values=p, alpha_sidak=alpha_sidak, pass_fraction=frac, passed=frac >= PASS_FRACTION
+    )

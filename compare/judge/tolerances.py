@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.metrics import BOOL, Maps, Metrics
+from compare.judge.metrics import BOOL, Maps, Metrics
 
 EXIT_PASS, EXIT_WARN, EXIT_FAIL, EXIT_SIZE, EXIT_UNREADABLE = 0, 1, 2, 3, 4
 STATUS_CODE = {"pass": EXIT_PASS, "warn": EXIT_WARN, "fail": EXIT_FAIL}
@@ -30,8 +30,10 @@ class Tolerances:
     max_flip: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        return {k: (None if isinstance(v, float) and math.isinf(v) else v)
-                for k, v in asdict(self).items()}
+        return {
+            k: (None if isinstance(v, float) and math.isinf(v) else v)
+            for k, v in asdict(self).items()
+        }
 
 
 @dataclass
@@ -56,13 +58,17 @@ def judge(metrics: Metrics, maps: Maps, tol: Tolerances, region: BOOL | None = N
     v = Verdict("pass", failing_pixels=failing, warning_pixels=warning, max_display_error=worst)
     fails: list[str] = []
     if metrics.nan_test > metrics.nan_ref or metrics.inf_test > metrics.inf_ref:
-        fails.append(f"{metrics.nan_test} NaN and {metrics.inf_test} Inf pixels in the test image "
-                     f"(reference: {metrics.nan_ref}, {metrics.inf_ref})")
+        fails.append(
+            f"{metrics.nan_test} NaN and {metrics.inf_test} Inf pixels in the test image "
+            f"(reference: {metrics.nan_ref}, {metrics.inf_ref})"
+        )
     if worst > tol.hardfail:
         fails.append(f"max error {worst:.4g} > hardfail {tol.hardfail:g}")
     if 100.0 * failing / n > tol.failpercent:
-        fails.append(f"{failing} pixels ({100.0 * failing / n:.3f} %) over {tol.fail:.4g}, "
-                     f"allowed {tol.failpercent:g} %")
+        fails.append(
+            f"{failing} pixels ({100.0 * failing / n:.3f} %) over {tol.fail:.4g}, "
+            f"allowed {tol.failpercent:g} %"
+        )
     if tol.min_ssim is not None and not metrics.ssim >= tol.min_ssim:
         fails.append(f"SSIM {metrics.ssim:.5f} < {tol.min_ssim:g}")
     if tol.max_flip is not None and not metrics.flip_ldr <= tol.max_flip:
@@ -71,11 +77,13 @@ def judge(metrics: Metrics, maps: Maps, tol: Tolerances, region: BOOL | None = N
         v.status, v.reasons = "fail", fails
     elif 100.0 * warning / n > tol.warnpercent:
         v.status = "warn"
-        v.reasons = [f"{warning} pixels ({100.0 * warning / n:.3f} %) over {tol.warn:.4g}, "
-                     f"allowed {tol.warnpercent:g} %"]
+        v.reasons = [
+            f"{warning} pixels ({100.0 * warning / n:.3f} %) over {tol.warn:.4g}, "
+            f"allowed {tol.warnpercent:g} %"
+        ]
     return v
 
 
 def diff_image(ref_display: np.ndarray, test_display: np.ndarray, gain: float = 8.0) -> np.ndarray:
     """|ref - test| of display values times `gain`, clamped: the picture for people."""
-    return np.clip(np.abs(ref_display - test_display) * gain, 0.0, 1.0).astype(np.float32)
+    return np.asarray(np.clip(np.abs(ref_display - test_display) * gain, 0.0, 1.0), np.float32)

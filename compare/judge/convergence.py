@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.images import Image
+from compare.judge.images import Image
 
 
 def _seconds(image: Image) -> float:
@@ -29,13 +29,22 @@ def time_to_converged(reference: Image, demo_by_spp: dict[int, Image]) -> dict[s
     ref_seconds = _seconds(reference)
     finest_spp = max(demo_by_spp)
     finest = np.nan_to_num(demo_by_spp[finest_spp].rgb.astype(np.float64))
-    errors = {spp: float(np.abs(np.nan_to_num(img.rgb) - finest).mean())
-              for spp, img in sorted(demo_by_spp.items()) if spp != finest_spp}
+    errors = {
+        spp: float(np.abs(np.nan_to_num(img.rgb) - finest).mean())
+        for spp, img in sorted(demo_by_spp.items())
+        if spp != finest_spp
+    }
     reached = [spp for spp, err in errors.items() if np.isfinite(target) and err <= target]
     demo_spp = reached[0] if reached else None
     demo_seconds = _seconds(demo_by_spp[demo_spp]) if demo_spp else float("nan")
     ratio = ref_seconds / demo_seconds if demo_spp and demo_seconds > 0 else float("nan")
-    return {"target_error": target, "reference_spp": int(reference.header.get("rtval.spp", "0") or 0),
-            "reference_seconds": ref_seconds, "demo_errors": {str(k): v for k, v in errors.items()},
-            "demo_yardstick_spp": finest_spp, "demo_spp": demo_spp, "demo_seconds": demo_seconds,
-            "speedup": ratio}
+    return {
+        "target_error": target,
+        "reference_spp": int(reference.header.get("rtval.spp", "0") or 0),
+        "reference_seconds": ref_seconds,
+        "demo_errors": {str(k): v for k, v in errors.items()},
+        "demo_yardstick_spp": finest_spp,
+        "demo_spp": demo_spp,
+        "demo_seconds": demo_seconds,
+        "speedup": ratio,
+    }

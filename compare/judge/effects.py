@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from mitsuba_ref.scene import Scene
+from scene_model.scene import Scene
 
 EFFECTS = ("background", "emitter", "direct", "shadow", "reflection", "refraction", "edges")
 BOOL = NDArray[np.bool_]
@@ -45,7 +45,8 @@ def _blocked(scene: Scene, p: NDArray[np.float64], own: NDArray[np.int_], light:
     to_l = c_l - p
     dist = np.linalg.norm(to_l, axis=-1)
     d = to_l / np.maximum(dist, 1e-12)[..., None]
-    origin = p + d * (1e-4 * (1 + np.abs(p).max(axis=-1)))[..., None]
+    # The scene's bias, scaled as the demo's physical mode and the Whitted reference scale it.
+    origin = p + d * (scene.bias * (1 + np.abs(p).max(axis=-1)))[..., None]
     blocked = np.zeros(len(p), bool)
     for j, s in enumerate(scene.spheres):
         if j == light:
@@ -67,7 +68,9 @@ def _blocked(scene: Scene, p: NDArray[np.float64], own: NDArray[np.int_], light:
     return blocked
 
 
-def effect_masks(scene: Scene, ids: NDArray[np.float32], depth: NDArray[np.float32]) -> dict[str, BOOL]:
+def effect_masks(
+    scene: Scene, ids: NDArray[np.float32], depth: NDArray[np.float32]
+) -> dict[str, BOOL]:
     """Masks (H x W bool) for every effect in EFFECTS from camera AOVs."""
     h, w = ids.shape
     idx = np.rint(ids).astype(int)

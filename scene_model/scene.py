@@ -9,9 +9,10 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 Vec3 = tuple[float, float, float]
 
@@ -132,7 +133,9 @@ def _parse_camera(j: Any, c: _Checker) -> Camera:
     c.only_keys(j, "camera", ("position", "look_at", "up", "fov_y", "width", "height"))
     d = Camera()
     cam = Camera(
-        position=c.triple(j["position"], "camera.position", "", _any) if "position" in j else d.position,
+        position=c.triple(j["position"], "camera.position", "", _any)
+        if "position" in j
+        else d.position,
         look_at=c.triple(j["look_at"], "camera.look_at", "", _any) if "look_at" in j else d.look_at,
         up=c.triple(j["up"], "camera.up", "", _any) if "up" in j else d.up,
         fov_y=c.number(j["fov_y"], "camera.fov_y", "in (0, 180) degrees", lambda f: 0 < f < 180)
@@ -158,7 +161,8 @@ def _parse_sphere(j: Any, path: str, c: _Checker) -> Sphere:
     if not isinstance(j, dict):
         raise c.fail(path, "expected an object", j)
     c.only_keys(
-        j, path,
+        j,
+        path,
         ("name", "center", "radius", "color", "reflection", "transparency", "ior", "emission"),
     )
     for req in ("name", "center", "radius", "color"):
@@ -175,8 +179,9 @@ def _parse_sphere(j: Any, path: str, c: _Checker) -> Sphere:
         reflection=c.number(j["reflection"], f"{path}.reflection", ">= 0", _non_negative)
         if "reflection" in j
         else 0.0,
-        transparency=c.number(j["transparency"], f"{path}.transparency", "from 0 to 1",
-                              lambda f: 0 <= f <= 1)
+        transparency=c.number(
+            j["transparency"], f"{path}.transparency", "from 0 to 1", lambda f: 0 <= f <= 1
+        )
         if "transparency" in j
         else 0.0,
         ior=c.number(j["ior"], f"{path}.ior", ">= 1", lambda f: f >= 1) if "ior" in j else 1.1,
@@ -203,8 +208,11 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
     c = _Checker(source)
     if not isinstance(root, dict):
         raise c.fail("", "expected a JSON object")
-    c.only_keys(root, "", ("format", "name", "description", "camera", "background", "max_depth",
-                           "bias", "spheres"))
+    c.only_keys(
+        root,
+        "",
+        ("format", "name", "description", "camera", "background", "max_depth", "bias", "spheres"),
+    )
     if "format" not in root:
         raise c.fail("format", f'missing; expected "{FORMAT}"')
     if root["format"] != FORMAT:
@@ -235,8 +243,16 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
             raise c.fail(f"spheres[{i}].name", f'expected a unique name; "{s.name}" is used twice')
         seen.add(s.name)
         spheres.append(s)
-    return Scene(name=name, spheres=tuple(spheres), camera=camera, background=background,
-                 max_depth=max_depth, bias=bias, description=description, source=source)
+    return Scene(
+        name=name,
+        spheres=tuple(spheres),
+        camera=camera,
+        background=background,
+        max_depth=max_depth,
+        bias=bias,
+        description=description,
+        source=source,
+    )
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -53,8 +53,10 @@ def _read_exr(path: Path) -> Image:
         raise ImageError(f"{path}: cannot read EXR: {e}") from None
     missing = [c for c in "RGB" if c not in channels]
     if missing:
-        raise ImageError(f"{path}: EXR has no {', '.join(missing)} channel "
-                         f"(channels: {', '.join(sorted(channels)) or 'none'})")
+        raise ImageError(
+            f"{path}: EXR has no {', '.join(missing)} channel "
+            f"(channels: {', '.join(sorted(channels)) or 'none'})"
+        )
     rgb = np.stack([channels[c].astype(np.float32) for c in "RGB"], axis=-1)
     aovs = {k: v.astype(np.float32) for k, v in channels.items() if k not in ("R", "G", "B")}
     return Image(rgb=rgb, path=str(path), aovs=aovs, header=header, encoding="float")
@@ -67,7 +69,9 @@ def _read_8bit(path: Path, encoding: str) -> Image:
 
     try:
         with warnings.catch_warnings():
-            warnings.simplefilter("error", PILImage.DecompressionBombWarning)  # refuse, never allocate
+            warnings.simplefilter(
+                "error", PILImage.DecompressionBombWarning
+            )  # refuse, never allocate
             im = PILImage.open(path)
         with im:
             im.load()
@@ -76,7 +80,9 @@ def _read_8bit(path: Path, encoding: str) -> Image:
             data = np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
     except ImageError:
         raise
-    except Exception as e:  # Pillow raises OSError, ValueError, SyntaxError, DecompressionBombError ...
+    except (
+        Exception
+    ) as e:  # Pillow raises OSError, ValueError, SyntaxError, DecompressionBombError ...
         raise ImageError(f"{path}: cannot read image: {type(e).__name__}: {e}") from None
     rgb = srgb_to_linear(data) if encoding == "srgb" else data
     return Image(rgb=rgb.astype(np.float32), path=str(path), encoding=encoding)
@@ -107,7 +113,9 @@ def _read_pfm(path: Path) -> Image:
     c = 3 if kind == b"PF" else 1
     need = w * h * c * 4
     if len(raw) - pos < need:
-        raise ImageError(f"{path}: truncated PFM: {len(raw) - pos} bytes of pixels, expected {need}")
+        raise ImageError(
+            f"{path}: truncated PFM: {len(raw) - pos} bytes of pixels, expected {need}"
+        )
     px = np.frombuffer(raw[pos : pos + need], dtype="<f4" if scale < 0 else ">f4")
     px = px.reshape(h, w, c)[::-1]
     rgb = np.repeat(px, 3, axis=2) if c == 1 else px
@@ -148,14 +156,20 @@ def write_png(path: str | Path, rgb_linear: F32) -> None:
     tmp.replace(p)
 
 
-def write_exr(path: str | Path, rgb: F32, *, aovs: dict[str, F32] | None = None,
-              header: dict[str, str] | None = None) -> None:
+def write_exr(
+    path: str | Path,
+    rgb: F32,
+    *,
+    aovs: dict[str, F32] | None = None,
+    header: dict[str, str] | None = None,
+) -> None:
     """Float32 EXR with R, G, B and optional AOV channels, written atomically."""
     import OpenEXR
 
     p = Path(path)
-    channels: dict[str, np.ndarray] = {c: np.ascontiguousarray(rgb[..., i], dtype=np.float32)
-                                       for i, c in enumerate("RGB")}
+    channels: dict[str, np.ndarray] = {
+        c: np.ascontiguousarray(rgb[..., i], dtype=np.float32) for i, c in enumerate("RGB")
+    }
     for name, data in (aovs or {}).items():
         channels[name] = np.ascontiguousarray(data, dtype=np.float32)
     hdr: dict[str, object] = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}

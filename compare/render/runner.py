@@ -23,7 +23,9 @@ def rtdemo_path() -> str:
     return found
 
 
-def run_rtdemo(args: list[str], *, executable: str | None = None) -> subprocess.CompletedProcess[str]:
+def run_rtdemo(
+    args: list[str], *, executable: str | None = None
+) -> subprocess.CompletedProcess[str]:
     """Runs `rtdemo ARGS` (or `executable ARGS`); raises ToolError on a non-zero exit."""
     cmd = [executable or rtdemo_path(), *args]
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
