@@ -1,4 +1,4 @@
-"""Loader for rtval-scene/1 files (scene-format.md), the Python twin of demo_cpp's loader.
+"""Loader for rtval-scene/1 files (docs/scene-format.md), the Python twin of demo_cpp's loader.
 
 Every rule of the format is enforced; an error names the file, the JSON path and what was
 expected, e.g. ``scenes/x.json: spheres[3].radius: expected a finite number > 0, got -1``.

@@ -1,4 +1,4 @@
-"""An independent float64 numpy implementation of paper-model.md (`paper` and `classic`
+"""An independent float64 numpy implementation of docs/paper-model.md (`paper` and `classic`
 modes), written from the spec rather than from demo_cpp, to check the C++ renderer.
 
 Vectorised over rays; the recursion follows both branches for whole batches.

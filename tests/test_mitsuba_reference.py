@@ -1,6 +1,6 @@
 """The Mitsuba reference: export, light units, cap mesh, Whitted integrator, determinism.
 
-Each trap of mitsuba-notes.md has a test here.
+Each trap of docs/mitsuba-notes.md has a test here.
 """
 
 from __future__ import annotations

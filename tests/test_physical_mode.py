@@ -1,5 +1,5 @@
 """Physical mode converges to the Mitsuba Whitted reference; quirk fixes move the error the
-way paper-model.md predicts. Reduced sizes here; bench/bench_physical.py runs the full study
+way docs/paper-model.md predicts. Reduced sizes here; bench/bench_physical.py runs the full study
 at 640x480 (numbers in bench/results/physical.json)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The Python loader enforces every rule of scene-format.md, and agrees with the C++ one."""
+"""The Python loader enforces every rule of docs/scene-format.md, and agrees with the C++ one."""
 
 from __future__ import annotations
 
@@ -68,7 +68,7 @@ def _drop(path: list[Any]) -> Callable[[dict[str, Any]], None]:
     return mutate
 
 
-# (label, mutation, JSON path the error must name) — one per rule of scene-format.md.
+# (label, mutation, JSON path the error must name) — one per rule of docs/scene-format.md.
 BAD_CASES = [
     ("format missing", _drop(["format"]), "format"),
     ("format wrong", _set(["format"], "rtval-scene/2"), "format"),

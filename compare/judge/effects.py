@@ -24,7 +24,7 @@ BOOL = NDArray[np.bool_]
 
 
 def camera_directions(scene: Scene, width: int, height: int) -> NDArray[np.float64]:
-    """Unit directions through the pixel centres (paper-model.md's camera), H x W x 3."""
+    """Unit directions through the pixel centres (docs/paper-model.md's camera), H x W x 3."""
     cam = scene.camera
     pos = np.array(cam.position, np.float64)
     forward = np.array(cam.look_at, np.float64) - pos
