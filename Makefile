@@ -8,13 +8,25 @@ SHELL     := /bin/bash
 
 FUZZ_BIN  := build/fuzz/scene_loader_fuzz
 
-.PHONY: report test test-cpp test-py test-fuzz fuzz bench setup clean
+.PHONY: report test test-fast lint test-cpp test-py test-fuzz fuzz bench setup clean
 
 report: $(STAMP)
 	$(VENV)/bin/rtval report scenes/$(SCENE).json
 
+# The full run CI calls: linters first, then every test.
 test: $(STAMP)
-	$(MAKE) --no-print-directory test-cpp test-fuzz test-py
+	$(MAKE) --no-print-directory lint test-cpp test-fuzz test-py
+
+# The inner loop: linters, C++ tests and the quick Python tests (no fuzzing, no slow marks).
+test-fast: $(STAMP)
+	$(MAKE) --no-print-directory lint test-cpp
+	$(PY) -m pytest -q -m "not slow"
+
+# ruff and strict mypy as pyproject.toml configures them.
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/mypy
 
 test-cpp: $(STAMP)
 	ctest --test-dir build/cmake --output-on-failure -j2
