@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -13,7 +14,13 @@ class ToolError(RuntimeError):
 
 
 def rtdemo_path() -> str:
-    """rtdemo next to this interpreter (the venv's bin) or on PATH."""
+    """$RTVAL_RTDEMO when set (a build to test), else rtdemo next to this interpreter (the
+    venv's bin), else on PATH."""
+    chosen = os.environ.get("RTVAL_RTDEMO")
+    if chosen:
+        if not Path(chosen).is_file():
+            raise ToolError(f"RTVAL_RTDEMO={chosen}: no such file")
+        return chosen
     beside = Path(sys.executable).with_name("rtdemo")
     if beside.is_file():
         return str(beside)
