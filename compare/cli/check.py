@@ -1,32 +1,83 @@
-"""`rtval check`: the regression check against stored baselines."""
+"""`rtval check`: the regression check of rtdemo, or of any renderer, against stored baselines
+or a demo model."""
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
 from compare.cli.common import size_type
 
 
-def run_check(args: argparse.Namespace) -> int:
-    from compare.apps import check
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if not 1 <= v <= 1_000_000:
+        raise argparse.ArgumentTypeError(f"expected 1-1000000, got {text!r}")
+    return v
 
-    results = check.run_check(
+
+def _seconds(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    if not 0 < v <= 86400:
+        raise argparse.ArgumentTypeError(f"expected 0 < seconds <= 86400, got {text!r}")
+    return v
+
+
+def run_check(args: argparse.Namespace) -> int:
+    from compare.apps import check, check_output
+    from compare.render import foreign
+
+    renderer = None
+    if args.renderer is not None:
+        try:
+            renderer = foreign.parse_command(args.renderer, args.renderer_name, args.output_format)
+        except foreign.TemplateError as e:
+            raise ValueError(str(e)) from None
+        if args.backends != "cpu":
+            raise ValueError("--backends applies to rtdemo only, not to --renderer")
+        if args.rtdemo:
+            raise ValueError("--rtdemo and --renderer exclude each other")
+    elif args.renderer_name or args.output_format != "exr" or args.timeout or args.against:
+        raise ValueError(
+            "--renderer-name, --output-format, --timeout and --against need --renderer"
+        )
+    settings = check.CheckSettings(
         scenes=args.scenes,
-        modes=args.modes.split(","),
-        backends=args.backends.split(","),
         baseline_dir=Path(args.baseline),
         size=args.size,
+        modes=args.modes.split(","),
+        backends=args.backends.split(","),
         update=args.update,
         rtdemo=args.rtdemo,
-        progress=lambda m: print(m, file=sys.stderr),
+        renderer=renderer,
+        against=args.against,
+        spp=args.spp,
+        timeout=args.timeout,
+        cache_dir=Path(args.cache) if args.cache else None,
+        keep_images=bool(args.html),
     )
-    print(check.table(results))
+    results = check.run_check(settings, progress=lambda m: print(m, file=sys.stderr))
+    print(check_output.table(results))
     if args.json:
-        check.write_json(results, Path(args.json))
+        check_output.write_json(results, Path(args.json))
     if args.junit:
-        check.write_junit(results, Path(args.junit))
+        check_output.write_junit(results, Path(args.junit))
+    if args.html:
+        from compare.apps.check_html import write_html
+
+        page = write_html(results, Path(args.html))
+        print(f"failure page: {page}", file=sys.stderr)
+    summary = os.environ.get("GITHUB_STEP_SUMMARY")
+    if summary:
+        check_output.append_step_summary(results, Path(summary))
     updated = [r.name for r in results if r.updated]
     if updated:
         print(f"updated baselines: {', '.join(updated)}", file=sys.stderr)
@@ -35,18 +86,30 @@ def run_check(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     from compare.apps.check import DEFAULT_MODES, DEFAULT_SCENES, DEFAULT_SIZE
+    from compare.render.foreign import OUTPUT_FORMATS
 
     p = sub.add_parser(
         "check",
-        help="regression check of the demo against stored baselines",
-        description="Renders the demo on the scene set for every backend and mode asked for "
-        "and compares each render with its baseline under per-scene tolerances "
-        "(BASELINE/tolerances.json). A missing baseline fails. Exit 0 pass, 1 warn, "
-        "2 fail.",
+        help="regression check of rtdemo or any renderer against baselines or a demo model",
+        description="Renders the scene set with rtdemo (every backend and mode asked for) or "
+        "with any program (--renderer) and compares each render with its baseline under "
+        "per-scene tolerances (BASELINE/tolerances.json), or with a demo model rendered by "
+        "rtdemo (--against). A failure names the scene and the effect. A missing baseline "
+        "fails; so does a renderer that exits non-zero, times out, or writes no image, an "
+        "unreadable one or one of the wrong size. Exit 0 pass, 1 warn, 2 fail, 64 bad "
+        "arguments.",
+        epilog="Renderer placeholders: {scene} (scene JSON), {scene_xml} (its Mitsuba XML "
+        "export), {out} (the image to write), {width}, {height}, {spp}, {mode} (with it, one "
+        "case per --modes entry). Example: rtval check --renderer 'python3 my_tracer.py "
+        "{scene} -o {out} --size {width}x{height}' --update. Baselines: "
+        "BASELINE/<renderer-name>/<scene>/<mode or default>.exr (rtdemo: "
+        "BASELINE/<scene>/<mode>.exr).",
     )
     p.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), help="scene files")
     p.add_argument(
-        "--modes", default=",".join(DEFAULT_MODES), help="comma-separated modes (default all)"
+        "--modes",
+        default=",".join(DEFAULT_MODES),
+        help="comma-separated rtdemo modes (default all); for --renderer only with {mode}",
     )
     p.add_argument("--backends", default="cpu", help="comma-separated backends (default cpu)")
     p.add_argument(
@@ -59,12 +122,47 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         metavar="WxH",
         help=f"render size (default {DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]})",
     )
+    p.add_argument("--spp", type=_positive_int, default=1, help="samples per pixel ({spp})")
     p.add_argument(
         "--update", action="store_true", help="rewrite new or failing baselines, say which"
     )
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
-    p.add_argument("--junit", metavar="OUT.xml", help="write the results as JUnit XML")
+    p.add_argument(
+        "--junit", metavar="OUT.xml", help="write JUnit XML (one testcase per case and effect)"
+    )
+    p.add_argument("--html", metavar="DIR", help="write a page for the failures to DIR/index.html")
     p.add_argument(
         "--rtdemo", default=None, help="the rtdemo executable to check (default: the installed one)"
+    )
+    p.add_argument(
+        "--renderer",
+        metavar="'CMD ...'",
+        help="check this program instead of rtdemo: a command line with placeholders, split "
+        "like a shell would, run without one",
+    )
+    p.add_argument(
+        "--renderer-name",
+        metavar="NAME",
+        help="names the renderer's baseline folder (default: its program or script's stem)",
+    )
+    p.add_argument(
+        "--output-format",
+        choices=OUTPUT_FORMATS,
+        default="exr",
+        help="the image type the renderer writes to {out} (default exr; PNG is read as sRGB, "
+        "PPM as linear)",
+    )
+    p.add_argument("--timeout", type=_seconds, metavar="S", help="time limit per scene, in seconds")
+    p.add_argument(
+        "--against",
+        metavar="MODEL",
+        help="compare with a demo model rendered by rtdemo (e.g. classic, paper-Q8) instead "
+        "of baselines",
+    )
+    p.add_argument(
+        "--cache",
+        metavar="DIR",
+        help="cache of rtdemo renders for effect masks and models (default $RTVAL_CACHE/check "
+        "or ~/.cache/rtval/check)",
     )
     p.set_defaults(func=run_check)

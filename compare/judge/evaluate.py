@@ -49,11 +49,14 @@ def evaluate_pair(
     rules: dict[str, EffectRule] | None = None,
     flip_at_zero: float = FLIP_AT_ZERO_SCORE,
     pass_score: float | None = None,
+    flip: bool = True,
 ) -> Evaluation:
     """Every metric of `test` against `ref`, globally (over `region`) and per effect (over each
     non-empty mask, intersected with `region`), the tolerance verdicts and, with masks, the
-    score under `rules`. Raises metrics.SizeMismatch for images of different sizes."""
-    maps = compute_maps(ref, test, hdr=hdr)
+    score under `rules`. flip=False skips FLIP (its metrics are NaN, so a `max_flip` tolerance
+    fails): a cheap first look whose verdict is final when it passes without `max_flip`.
+    Raises metrics.SizeMismatch for images of different sizes."""
+    maps = compute_maps(ref, test, hdr=hdr, flip=flip)
     metrics = compute_metrics(ref, test, maps, mask=region, threshold=tolerances.fail)
     result = Evaluation(
         ref,

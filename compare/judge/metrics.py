@@ -109,8 +109,9 @@ def _any_channel(per_channel: BOOL) -> BOOL:
     return np.asarray(per_channel.any(axis=-1), bool)
 
 
-def compute_maps(ref: F32, test: F32, *, hdr: bool) -> Maps:
-    """SSIM and FLIP maps plus the display error map, for the whole image."""
+def compute_maps(ref: F32, test: F32, *, hdr: bool, flip: bool = True) -> Maps:
+    """SSIM and FLIP maps plus the display error map, for the whole image. flip=False leaves
+    the FLIP maps NaN (FLIP is most of the cost; a quick first look can skip it)."""
     import flip_evaluator
     from skimage.metrics import structural_similarity
 
@@ -130,17 +131,20 @@ def compute_maps(ref: F32, test: F32, *, hdr: bool) -> Maps:
             full=True,
         )
         ssim_map = np.asarray(full_map, np.float32).mean(axis=-1)
-    flip_ldr = flip_evaluator.evaluate(a, b, "LDR", applyMagma=False, parameters={"ppd": FLIP_PPD})[
-        0
-    ][..., 0]
     flip_hdr = None
+    if not flip:
+        flip_ldr = np.full(a.shape[:2], np.nan, np.float32)
+    else:
+        flip_ldr = flip_evaluator.evaluate(
+            a, b, "LDR", applyMagma=False, parameters={"ppd": FLIP_PPD}
+        )[0][..., 0]
 
     def clean(x: F32) -> F32:
         return np.maximum(np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
 
     # HDR FLIP derives its exposures from the reference; on an all-black one flip-evaluator
     # exits the process, so it is left undefined (None) there.
-    if hdr and float(clean(ref).max()) > 0.0:
+    if flip and hdr and float(clean(ref).max()) > 0.0:
         flip_hdr = flip_evaluator.evaluate(
             clean(ref).astype(np.float32),
             clean(test).astype(np.float32),

@@ -1,0 +1,92 @@
+"""`rtval check --html DIR`: one page for the failures only. Each failing case shows the
+reference (baseline or demo model) and the render side by side, the difference and the FLIP
+map, its per-effect numbers and, where compare.judge.diagnose exists, a diagnosis."""
+
+from __future__ import annotations
+
+import importlib
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from jinja2 import Environment, PackageLoader, select_autoescape
+
+from compare.apps.check import CaseResult
+from compare.files import write_atomic
+from compare.judge.images import linear_to_srgb
+from compare.judge.tolerances import diff_image
+
+PNGS = ("reference", "render", "difference", "flip")
+
+
+def _save_png(path: Path, display: np.ndarray) -> None:
+    from PIL import Image as PILImage
+
+    data = np.round(np.clip(np.nan_to_num(display), 0.0, 1.0) * 255.0).astype(np.uint8)
+    PILImage.fromarray(data, "RGB").save(path, format="PNG")
+
+
+def _magma(values: np.ndarray) -> np.ndarray:
+    import matplotlib
+
+    return np.asarray(matplotlib.colormaps["magma"](np.clip(np.nan_to_num(values), 0, 1)))[..., :3]
+
+
+def _diagnosis(case: CaseResult) -> str | None:
+    """The diagnose helper's explanation of the render, when that module is installed."""
+    try:
+        module = importlib.import_module("compare.judge.diagnose")
+    except ImportError:
+        return None
+    explain = getattr(module, "explain_for_check", None)
+    if explain is None or case.evaluation is None:
+        return None
+    text = explain(case.scene, case.evaluation.ref, case.evaluation.test)
+    return str(text) if text else None
+
+
+def write_html(results: list[CaseResult], out_dir: Path) -> Path:
+    """Writes out_dir/index.html (and its PNGs); returns the page's path."""
+    failures = [r for r in results if r.status == "fail" and not r.updated]
+    images = out_dir / "images"
+    if images.is_dir():
+        shutil.rmtree(images)  # images of an earlier run's failures would linger
+    images.mkdir(parents=True)
+    cases: list[dict[str, Any]] = []
+    for i, r in enumerate(failures):
+        entry: dict[str, Any] = {
+            "name": r.name,
+            "reasons": r.reasons,
+            "against": r.against or "baseline",
+            "images": {},
+            "effects": [
+                {"name": n, **e.__dict__, "failed": n in r.failed_effects}
+                for n, e in r.effects.items()
+            ],
+            "diagnosis": _diagnosis(r),
+        }
+        ev = r.evaluation
+        if ev is not None:
+            ref, test = linear_to_srgb(ev.ref), linear_to_srgb(ev.test)
+            pictures = {
+                "reference": ref,
+                "render": test,
+                "difference": diff_image(ref, test),
+                "flip": _magma(ev.maps.flip_ldr),
+            }
+            for kind, picture in pictures.items():
+                name = f"case{i:03d}-{kind}.png"  # never a user's text in a file name
+                _save_png(images / name, picture)
+                entry["images"][kind] = f"images/{name}"
+        cases.append(entry)
+    env = Environment(
+        loader=PackageLoader("compare.apps", "templates"),
+        autoescape=select_autoescape(["html", "j2"]),
+    )
+    html = env.get_template("check.html.j2").render(
+        cases=cases, total=len(results), failed=len(failures)
+    )
+    page = out_dir / "index.html"
+    write_atomic(page, html)
+    return page

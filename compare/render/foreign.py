@@ -1,0 +1,190 @@
+"""Running any renderer from a command template, one scene at a time.
+
+The template is split like a shell would (shlex) but run without one; each word may hold
+placeholders: {scene} (the scene JSON), {scene_xml} (its Mitsuba XML export, written only when
+asked for), {out} (the image to write), {width}, {height}, {spp} and {mode}. The process runs in
+its own process group, so a time limit kills whatever it started too.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import os
+import re
+import shlex
+import signal
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from compare.judge.images import Image, ImageError, read_image
+from scene_model.scene import Scene
+
+PLACEHOLDERS = ("scene", "scene_xml", "out", "width", "height", "spp", "mode")
+OUTPUT_FORMATS = ("exr", "pfm", "png", "ppm")
+_FIELD = re.compile(r"\{([^{}]*)\}")
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
+_INTERPRETERS = re.compile(r"(python[0-9.]*|pypy[0-9.]*|node|ruby|perl|julia|java|bash|sh|env)")
+STDERR_KEPT = 2000  # characters of the renderer's stderr kept for a failure message
+
+
+class RenderFailed(RuntimeError):
+    """The renderer ran but gave no usable image; the message says what happened."""
+
+
+class TemplateError(ValueError):
+    """A renderer command that cannot be used; the message names the problem."""
+
+
+@dataclass(frozen=True)
+class RendererCommand:
+    words: tuple[str, ...]
+    name: str
+    output_format: str = "exr"
+
+    @property
+    def uses_mode(self) -> bool:
+        return any("{mode}" in w for w in self.words)
+
+    @property
+    def uses_xml(self) -> bool:
+        return any("{scene_xml}" in w for w in self.words)
+
+
+def renderer_name(words: list[str]) -> str:
+    """A default name: the stem of the program, or of its script after an interpreter."""
+    picked = words[0]
+    if _INTERPRETERS.fullmatch(Path(words[0]).name):
+        scripts = [w for w in words[1:] if "{" not in w and not w.startswith("-")]
+        picked = scripts[0] if scripts else picked
+    stem = re.sub(r"[^A-Za-z0-9._-]", "_", Path(picked).stem).lstrip("._-")
+    return stem[:64] or "renderer"
+
+
+def parse_command(
+    template: str, name: str | None = None, output_format: str = "exr"
+) -> RendererCommand:
+    """Checks the template: it parses, names only known placeholders and writes {out}."""
+    try:
+        words = shlex.split(template)
+    except ValueError as e:
+        raise TemplateError(f"--renderer {template!r}: {e}") from None
+    if not words:
+        raise TemplateError("--renderer is empty")
+    for w in words:
+        for field in _FIELD.findall(w):
+            if field not in PLACEHOLDERS:
+                raise TemplateError(
+                    f"--renderer: unknown placeholder {{{field}}} in {w!r} "
+                    f"(known: {', '.join('{' + p + '}' for p in PLACEHOLDERS)})"
+                )
+    if not any("{out}" in w for w in words):
+        raise TemplateError("--renderer must write the image {out} (e.g. '... -o {out}')")
+    if "{" in words[0]:
+        raise TemplateError(f"--renderer: the program {words[0]!r} may not be a placeholder")
+    if output_format not in OUTPUT_FORMATS:
+        raise TemplateError(
+            f"--output-format {output_format!r}: expected one of {', '.join(OUTPUT_FORMATS)}"
+        )
+    chosen = name if name is not None else renderer_name(words)
+    if not _NAME.fullmatch(chosen):
+        raise TemplateError(
+            f"--renderer-name {chosen!r}: use 1-64 letters, digits, '.', '_' or '-' "
+            "(it names the baseline folder)"
+        )
+    return RendererCommand(tuple(words), chosen, output_format)
+
+
+@dataclass
+class ForeignRender:
+    image: Image
+    seconds: float  # the renderer's wall time alone
+    command: list[str]
+
+
+def _write_xml(scene: Scene, folder: Path, spp: int) -> Path:
+    from mitsuba_ref.export import ExportOptions, export_scene
+
+    path = folder / "scene.xml"
+    export_scene(scene, ExportOptions(spp=spp)).write(path)
+    return path
+
+
+def render(
+    cmd: RendererCommand,
+    *,
+    scene: Scene,
+    scene_file: Path,
+    size: tuple[int, int],
+    spp: int = 1,
+    mode: str = "default",
+    timeout: float | None = None,
+) -> ForeignRender:
+    """Runs the renderer on one scene and reads its image. Raises RenderFailed naming the
+    command, the exit status or time limit, and the end of its stderr."""
+    width, height = size
+    with tempfile.TemporaryDirectory(prefix="rtval-render-") as tmp:
+        folder = Path(tmp)
+        out = folder / f"out.{cmd.output_format}"
+        values = {
+            "scene": str(Path(scene_file).resolve()),
+            "out": str(out),
+            "width": str(width),
+            "height": str(height),
+            "spp": str(spp),
+            "mode": mode,
+            "scene_xml": "",
+        }
+        if cmd.uses_xml:
+            sized = dataclasses.replace(
+                scene, camera=dataclasses.replace(scene.camera, width=width, height=height)
+            )
+            values["scene_xml"] = str(_write_xml(sized, folder, spp))
+        argv = [_FIELD.sub(lambda m: values[m.group(1)], w) for w in cmd.words]
+        shown = shlex.join(argv)
+        start = time.perf_counter()
+        try:
+            proc = subprocess.Popen(
+                argv,
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.PIPE,
+                start_new_session=True,  # its own process group: a timeout kills its children
+            )
+        except OSError as e:
+            raise RenderFailed(f"cannot start {shown}: {e.strerror or e}") from None
+        try:
+            _, err_bytes = proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            _kill_group(proc)
+            raise RenderFailed(f"timed out after {timeout:g} s: {shown}") from None
+        except BaseException:  # interrupted: leave no renderer running
+            _kill_group(proc)
+            raise
+        seconds = time.perf_counter() - start
+        err = err_bytes.decode("utf-8", "replace").strip()[-STDERR_KEPT:]
+        tail = f"\nrenderer stderr:\n{err}" if err else ""
+        if proc.returncode != 0:
+            raise RenderFailed(f"exit status {proc.returncode}: {shown}{tail}")
+        if not out.is_file():
+            raise RenderFailed(f"wrote no image {out.name} (expected at {{out}}): {shown}{tail}")
+        try:
+            image = read_image(out)
+        except ImageError as e:
+            raise RenderFailed(f"unreadable image: {e}{tail}") from None
+        if image.shape != (height, width):
+            raise RenderFailed(
+                f"image is {image.shape[1]}x{image.shape[0]}, expected {width}x{height} "
+                f"({{width}}x{{height}}): {shown}{tail}"
+            )
+        image.path = f"{cmd.name}:{scene.name}"
+        return ForeignRender(image, seconds, argv)
+
+
+def _kill_group(proc: subprocess.Popen[bytes]) -> None:
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate()
