@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # helpers, numpy_reference
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _render_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """`rtval check` caches rtdemo's mask renders in $RTVAL_CACHE: one per test session, never
+    the user's ~/.cache (subprocesses inherit it)."""
+    os.environ.setdefault("RTVAL_CACHE", str(tmp_path_factory.mktemp("rtval-cache")))
 
 
 @pytest.fixture(scope="session")

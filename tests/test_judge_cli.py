@@ -26,6 +26,7 @@ FAULTS = [
     "fresnel_exponent",
     "depth_cut",
 ]
+FAULT_EFFECT = {"no_shadows": "shadow", "wrong_eta": "refraction"}
 
 
 def _exr(path: Path, rgb: np.ndarray, **aovs: np.ndarray) -> Path:
@@ -244,7 +245,11 @@ def test_check_passes_unchanged_renderer_repeatedly_and_writes_junit(tmp_path: P
         )
         assert code == 0, out
     suite = ET.parse(tmp_path / "j.xml").getroot()
-    assert suite.get("tests") == "6" and suite.get("failures") == "0"
+    cases = json.loads((tmp_path / "c.json").read_text())["cases"]
+    # One testcase per case and effect (those with pixels) plus the whole image.
+    assert len(cases) == 6 and all(len(c["effects"]) >= 5 for c in cases)
+    assert suite.get("tests") == str(sum(len(c["effects"]) + 1 for c in cases))
+    assert suite.get("failures") == "0"
     code, out = _check(baseline, "--backends", "gl", "--modes", "paper")
     assert code in (0, 1), (
         out
@@ -260,6 +265,9 @@ def test_check_fails_on_every_injected_fault(fault: str) -> None:
         ROOT / "tests" / "baselines", "--rtdemo", str(FAULTY), env={"RTDEMO_FAULT": fault}
     )
     assert code == 2, out
+    if fault in FAULT_EFFECT:  # the most visible failing effect is named first
+        first = next(ln for ln in out.splitlines() if ln.strip().startswith("classic/cpu-classic:"))
+        assert first.strip().startswith(f"classic/cpu-classic: {FAULT_EFFECT[fault]} FLIP"), out
 
 
 def test_missing_baseline_fails_and_update_writes_only_what_failed(tmp_path: Path) -> None:

@@ -16,7 +16,9 @@ Tolerances: BASELINE/tolerances.json, overlaid by BASELINE/<renderer-name>/toler
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 import tempfile
 import time
 from collections.abc import Callable
@@ -108,10 +110,15 @@ def load_tolerances(baseline_dir: Path, renderer: str | None = None) -> dict[str
             for name, values in raw.items():
                 if not isinstance(values, dict):
                     raise TypeError(f"{name!r}: expected an object of tolerance fields")
-                tol = Tolerances(**{**DEFAULT_TOLERANCES.as_dict(), **values})
-                for k, v in tol.as_dict().items():
-                    if isinstance(v, (int, float)) and not (v >= 0 and np.isfinite(v)):
-                        raise TypeError(f"{name}.{k}: expected a finite number >= 0, got {v}")
+                for k, v in values.items():
+                    nullable = k in ("hardfail", "min_ssim", "max_flip")
+                    number = isinstance(v, (int, float)) and not isinstance(v, bool)
+                    if not ((v is None and nullable) or (number and 0 <= v < math.inf)):
+                        raise TypeError(f"{name}.{k}: expected a finite number >= 0, got {v!r}")
+                known = {**dataclasses.asdict(DEFAULT_TOLERANCES), **values}
+                if known.get("hardfail") is None:
+                    known["hardfail"] = math.inf  # null: no hard limit
+                tol = Tolerances(**known)
                 merged[name] = tol
         except (json.JSONDecodeError, TypeError) as e:
             raise ValueError(f"{path}: invalid tolerances: {e}") from None

@@ -1,0 +1,87 @@
+"""A pytest plugin: a renderer's own test suite checks a scene in one line.
+
+    def test_classic_scene(rtval_check):
+        rtval_check("scenes/classic.json", renderer="./build/tracer {scene} {out}")
+
+The fixture runs `rtval check --renderer ...` in-process on one scene and fails the test with
+the failures named by scene and effect. Baselines live in `rtval-baselines/` under pytest's
+rootdir (ini option `rtval_baseline`); `pytest --rtval-update` writes new or failing ones.
+Installed with rtval as the `rtval` pytest11 entry point; elsewhere `-p compare.pytest_plugin`.
+Imports nothing heavy until the fixture is used.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import pytest
+
+if TYPE_CHECKING:
+    from compare.apps.check import CaseResult
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("rtval", "rtval regression check")
+    group.addoption(
+        "--rtval-update",
+        action="store_true",
+        default=False,
+        help="rtval_check: write new or failing baselines instead of failing",
+    )
+    parser.addini(
+        "rtval_baseline",
+        "rtval_check: the baseline folder, relative to the rootdir (default rtval-baselines)",
+        default="rtval-baselines",
+    )
+
+
+@pytest.fixture
+def rtval_check(request: pytest.FixtureRequest) -> Callable[..., CaseResult]:
+    """check(scene, *, renderer, name=None, size=(320, 240), output_format="exr",
+    against=None, mode=None, spp=1, timeout=None, baseline=None) -> CaseResult; fails the
+    test when the check fails."""
+    config = request.config
+
+    def check(
+        scene: str | Path,
+        *,
+        renderer: str,
+        name: str | None = None,
+        size: tuple[int, int] = (320, 240),
+        output_format: str = "exr",
+        against: str | None = None,
+        mode: str | None = None,
+        spp: int = 1,
+        timeout: float | None = None,
+        baseline: str | Path | None = None,
+    ) -> CaseResult:
+        from compare.apps import check as app
+        from compare.render import foreign
+
+        root = Path(config.rootpath)
+        folder = Path(baseline) if baseline else root / str(config.getini("rtval_baseline"))
+        cmd = foreign.parse_command(renderer, name, output_format)
+        settings = app.CheckSettings(
+            scenes=[str(root / scene if not Path(scene).is_absolute() else scene)],
+            baseline_dir=folder if folder.is_absolute() else root / folder,
+            size=size,
+            modes=[mode] if mode else list(app.DEFAULT_MODES),
+            update=bool(config.getoption("--rtval-update")) and against is None,
+            renderer=cmd,
+            against=against,
+            spp=spp,
+            timeout=timeout,
+        )
+        lines: list[str] = []
+        results = app.run_check(settings, progress=lines.append)
+        failed = [r for r in results if r.status == "fail" and not r.updated]
+        if failed:
+            message: list[Any] = [m for r in failed for m in r.reasons]
+            if any("no baseline" in str(m) for m in message):
+                message.append("(run pytest --rtval-update once to write the baselines)")
+            pytest.fail("rtval check failed:\n" + "\n".join(map(str, message)), pytrace=False)
+        return results[0]
+
+    return check

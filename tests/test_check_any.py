@@ -1,0 +1,283 @@
+"""`rtval check --renderer`: two foreign programs under the regression check, one in Python
+(tests/foreign/pytracer.py, the classic algorithm in numpy) and one in C++
+(tests/foreign/classic_tracer.cpp, compiled here), each with a switch that breaks shadows."""
+
+from __future__ import annotations
+
+import json
+import os
+import shlex
+import shutil
+import sys
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+from helpers import ROOT, SCENES, run
+
+from compare.apps import check
+from compare.render import foreign
+
+RTVAL = str(Path(sys.executable).with_name("rtval"))
+FOREIGN = ROOT / "tests" / "foreign"
+PYTRACER = f"{shlex.quote(sys.executable)} {FOREIGN / 'pytracer.py'} {{scene}} {{out}} {{width}} {{height}}"
+SIZE = "160x120"
+BREAK = {"RTVAL_TEST_BREAK": "shadows"}
+
+
+def _rtval(*args: str, env: dict[str, str] | None = None) -> tuple[int, str]:
+    proc = run([RTVAL, "check", "--size", SIZE, *args], env={**os.environ, **(env or {})})
+    return proc.returncode, proc.stdout + proc.stderr
+
+
+@pytest.fixture(scope="module")
+def cpp_tracer(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    compiler = shutil.which("g++") or shutil.which("c++")
+    if compiler is None:
+        pytest.fail("no C++ compiler (g++) on PATH: the C++ foreign renderer cannot be built")
+    exe = tmp_path_factory.mktemp("cpp") / "classic_tracer"
+    proc = run([compiler, "-O2", "-std=c++17", "-o", str(exe), str(FOREIGN / "classic_tracer.cpp")])
+    assert proc.returncode == 0, proc.stderr
+    return exe
+
+
+def _junit_failures(path: Path) -> dict[tuple[str, str], str]:
+    suite = ET.parse(path).getroot()
+    out = {}
+    for case in suite.iter("testcase"):
+        failure = case.find("failure")
+        if failure is not None:
+            out[(case.get("classname", ""), case.get("name", ""))] = failure.get("message", "")
+    return out
+
+
+def _regression_cycle(tmp_path: Path, renderer: list[str], name: str, scenes: list[str]) -> None:
+    """--update writes baselines, an unchanged re-run passes, a build without shadows fails
+    with exit 2 naming scene and effect in the terminal, JSON, JUnit, HTML and the summary."""
+    base = tmp_path / "baselines"
+    code, out = _rtval("--baseline", str(base), "--scenes", *scenes, *renderer, "--update")
+    assert code == 0, out
+    stems = [Path(s).stem for s in scenes]
+    assert f"updated baselines: {', '.join(f'{name}/{s}' for s in stems)}" in out
+    written = {s: (base / name / s / "default.exr").stat().st_mtime_ns for s in stems}
+
+    code, out = _rtval("--baseline", str(base), "--scenes", *scenes, *renderer, "--update")
+    assert code == 0 and "updated" not in out, out
+    assert {s: (base / name / s / "default.exr").stat().st_mtime_ns for s in stems} == written
+
+    junit, html, js, summary = (
+        tmp_path / "j.xml",
+        tmp_path / "html",
+        tmp_path / "c.json",
+        tmp_path / "summary.md",
+    )
+    summary.write_text("earlier step\n")
+    code, out = _rtval(
+        "--baseline",
+        str(base),
+        "--scenes",
+        *scenes,
+        *renderer,
+        "--junit",
+        str(junit),
+        "--html",
+        str(html),
+        "--json",
+        str(js),
+        env={**BREAK, "GITHUB_STEP_SUMMARY": str(summary)},
+    )
+    assert code == 2, out
+    assert "classic: shadow FLIP" in out
+    failures = _junit_failures(junit)
+    assert failures[(f"rtval.{name}.classic", "shadow")].startswith("classic: shadow FLIP")
+    # Direct light and the background are untouched by a missing shadow test.
+    assert (f"rtval.{name}.classic", "direct") not in failures
+    assert (f"rtval.{name}.classic", "background") not in failures
+    data = json.loads(js.read_text())
+    assert data["status"] == "fail"
+    case = next(c for c in data["cases"] if c["scene"] == "classic")
+    assert case["failed_effects"][0] == "shadow" and case["effects"]["shadow"]["flip"] > 0.3
+    assert case["effects"]["direct"]["status"] == "pass"
+    page = (html / "index.html").read_text()
+    assert f"{name}/classic" in page and "classic: shadow FLIP" in page
+    for kind in ("reference", "render", "difference", "flip"):
+        assert (html / "images" / f"case000-{kind}.png").stat().st_size > 100
+    text = summary.read_text()
+    assert text.startswith("earlier step\n") and "rtval check: FAIL" in text and "shadow" in text
+
+
+def test_python_renderer_under_check(tmp_path: Path) -> None:
+    scenes = [str(SCENES / "classic.json"), str(SCENES / "paper.json")]
+    _regression_cycle(
+        tmp_path, ["--renderer", PYTRACER, "--output-format", "pfm"], "pytracer", scenes
+    )
+
+
+def test_cpp_renderer_under_check(tmp_path: Path, cpp_tracer: Path) -> None:
+    renderer = [
+        "--renderer",
+        f"{cpp_tracer} {{out}} {{width}} {{height}}",
+        "--output-format",
+        "ppm",
+    ]
+    _regression_cycle(
+        tmp_path,
+        [*renderer, "--renderer-name", "cpp-classic"],
+        "cpp-classic",
+        [str(SCENES / "classic.json")],
+    )
+
+
+def test_against_the_classic_model_without_baselines(tmp_path: Path, cpp_tracer: Path) -> None:
+    # float64 numpy against rtdemo's float32: silhouette and shadow-edge pixels may flip
+    # (tests/test_render_matches_numpy.py allows 0.1 %); the C++ program's 8-bit PPM rounds
+    # by up to 0.5/255 in linear, 0.025 in display on the darkest values (sRGB slope 12.92).
+    # Per-pixel rules sized for both, until exact-match judging of demo models exists.
+    (tmp_path / "tolerances.json").write_text(
+        '{"default": {"fail": 0.03, "warn": 0.03, "failpercent": 0.2, "warnpercent": 0.2}}'
+    )
+    scene = str(SCENES / "classic.json")
+    for renderer in (
+        ["--renderer", PYTRACER, "--output-format", "pfm"],
+        ["--renderer", f"{cpp_tracer} {{out}} {{width}} {{height}}", "--output-format", "ppm"],
+    ):
+        args = ["--baseline", str(tmp_path), "--scenes", scene, "--against", "classic", *renderer]
+        code, out = _rtval(*args)
+        assert code == 0, out
+        code, out = _rtval(*args, env=BREAK)
+        assert code == 2 and "classic: shadow FLIP" in out, out
+    code, out = _rtval("--scenes", scene, "--against", "mitsuba", "--renderer", PYTRACER)
+    assert code == 64 and "only demo models" in out
+
+
+def _settings(tmp_path: Path, template: str, **kw: object) -> check.CheckSettings:
+    return check.CheckSettings(
+        scenes=[str(SCENES / "classic.json")],
+        baseline_dir=tmp_path,
+        size=(32, 24),
+        renderer=foreign.parse_command(template, kw.pop("name", "t"), str(kw.pop("fmt", "exr"))),
+        **kw,  # type: ignore[arg-type]
+    )
+
+
+PY = shlex.quote(sys.executable)
+
+
+@pytest.mark.parametrize(
+    "template,fmt,expected",
+    [
+        (f"{PY} -c pass {{out}}", "exr", "wrote no image"),
+        (
+            f"{PY} -c \"import sys; print('boom <script>', file=sys.stderr); sys.exit(3)\" {{out}}",
+            "exr",
+            "exit status 3",
+        ),
+        (f"{PY} -c \"open('{{out}}', 'w').write('junk')\"", "exr", "unreadable image"),
+        (
+            f"{PY} {FOREIGN / 'pytracer.py'} {{scene}} {{out}} {{height}} {{width}}",
+            "pfm",
+            "image is 24x32, expected 32x24",
+        ),
+        ("/nonexistent/renderer {out}", "exr", "cannot start"),
+    ],
+)
+def test_renderer_failures_are_clear_case_failures(
+    tmp_path: Path, template: str, fmt: str, expected: str
+) -> None:
+    results = check.run_check(_settings(tmp_path, template, fmt=fmt), progress=lambda _: None)
+    (r,) = results
+    assert r.status == "fail" and r.failed_effects == ["render"], r.reasons
+    assert expected in r.reasons[0] and r.reasons[0].startswith("classic: render failed")
+    if "boom" in template:
+        assert "renderer stderr:\nboom <script>" in r.reasons[0]
+        from compare.apps.check_html import write_html
+
+        page = write_html(results, tmp_path / "html").read_text()
+        assert "boom &lt;script&gt;" in page and "boom <script>" not in page
+    assert check.exit_code(results) == 2
+
+
+def test_timeout_kills_the_renderer_and_its_children(tmp_path: Path) -> None:
+    marker = tmp_path / "child-survived"
+    # The renderer starts a child that would write the marker after 3 s; both must die at 1 s.
+    child = f"import time; time.sleep(3); open({str(marker)!r}, 'w')"
+    parent = f"import subprocess, sys, time; subprocess.Popen([sys.executable, '-c', {child!r}]); time.sleep(60)"
+    template = f"{PY} -c {shlex.quote(parent)} {{out}}"
+    start = time.perf_counter()
+    (r,) = check.run_check(_settings(tmp_path, template, timeout=1.0), progress=lambda _: None)
+    assert time.perf_counter() - start < 20
+    assert r.status == "fail" and "timed out after 1 s" in r.reasons[0]
+    time.sleep(3.5)
+    assert not marker.exists()
+
+
+def test_mode_placeholder_and_scene_xml(tmp_path: Path) -> None:
+    # A renderer reading the Mitsuba export: the XML exists while it runs and is gone after.
+    seen = tmp_path / "seen.txt"
+    script = (
+        "import sys, shutil; xml, out, mode = sys.argv[1:4]; "
+        f"open({str(seen)!r}, 'a').write(mode + ' ' + xml + ' ' + str('<scene' in open(xml).read()) + chr(10)); "
+        f"shutil.copy({str(ROOT / 'tests' / 'baselines' / 'classic' / 'classic.exr')!r}, out)"
+    )
+    template = f"{PY} -c {shlex.quote(script)} {{scene_xml}} {{out}} {{mode}}"
+    settings = _settings(tmp_path, template, modes=["paper", "classic"], update=True)
+    settings.size = (320, 240)
+    results = check.run_check(settings, progress=lambda _: None)
+    assert [r.mode for r in results] == ["paper", "classic"]
+    assert (tmp_path / "t" / "classic" / "paper.exr").is_file()
+    lines = seen.read_text().splitlines()
+    assert [ln.split()[0] for ln in lines] == ["paper", "classic"]
+    assert all(ln.endswith("True") for ln in lines)
+    assert not any(Path(ln.split()[1]).exists() for ln in lines)
+
+
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["--renderer", "prog {nope} {out}"], "unknown placeholder {nope}"),
+        (["--renderer", "prog {scene}"], "must write the image {out}"),
+        (["--renderer", "prog 'unclosed {out}"], "No closing quotation"),
+        (["--renderer", "prog {out}", "--renderer-name", "a/b"], "--renderer-name"),
+        (["--against", "classic"], "need --renderer"),
+        (["--renderer", "prog {out}", "--timeout", "-1"], "--timeout"),
+    ],
+)
+def test_bad_renderer_options_exit_64(args: list[str], message: str) -> None:
+    code, out = _rtval(*args)
+    assert code == 64 and message in out, out
+
+
+def test_default_renderer_names() -> None:
+    assert foreign.renderer_name(["python3", "tools/my_tracer.py", "{scene}"]) == "my_tracer"
+    assert foreign.renderer_name(["./build/tracer", "{scene}", "{out}"]) == "tracer"
+    assert foreign.renderer_name(["/usr/bin/env", "node", "{scene}"]) == "node"
+
+
+def test_pytest_fixture_checks_a_scene_in_one_line(tmp_path: Path) -> None:
+    (tmp_path / "test_render.py").write_text(
+        "def test_classic(rtval_check):\n"
+        f"    rtval_check({str(SCENES / 'classic.json')!r}, renderer={PYTRACER!r},\n"
+        "                output_format='pfm', size=(96, 72))\n"
+    )
+    env = {**os.environ, "PYTEST_DISABLE_PLUGIN_AUTOLOAD": "1", "PYTHONPATH": str(ROOT)}
+    cmd = [
+        sys.executable,
+        "-m",
+        "pytest",
+        "-p",
+        "compare.pytest_plugin",
+        "-q",
+        "-p",
+        "no:cacheprovider",
+    ]
+    first = run(cmd, cwd=tmp_path, env=env)
+    assert (
+        first.returncode == 1 and "no baseline" in first.stdout and "--rtval-update" in first.stdout
+    )
+    assert run([*cmd, "--rtval-update"], cwd=tmp_path, env=env).returncode == 0
+    assert (tmp_path / "rtval-baselines" / "pytracer" / "classic" / "default.exr").is_file()
+    again = run(cmd, cwd=tmp_path, env=env)
+    assert again.returncode == 0, again.stdout
+    broken = run(cmd, cwd=tmp_path, env={**env, **BREAK})
+    assert broken.returncode == 1 and "classic: shadow FLIP" in broken.stdout, broken.stdout
