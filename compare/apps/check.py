@@ -157,15 +157,16 @@ def judge_case(
     *,
     keep: bool,
 ) -> None:
-    """Fills the case's verdict and per-effect outcomes. FLIP is computed only when a
-    tolerance asks for it or the cheap first look does not pass."""
+    """Fills the case's verdict and per-effect outcomes. The verdict is the whole image's (as
+    check has always judged); a failing case is evaluated again with the effect masks and FLIP
+    to say which effects fail. A passing one costs no FLIP (unless a tolerance asks for it)
+    and no per-effect metrics: its effects get pixel counts only."""
     need_flip = tol.max_flip is not None
-    ev = evaluate_pair(ref, test, tolerances=tol, masks=masks, flip=need_flip)
-    looks_fine = ev.verdict.status != "fail" and all(
-        e.verdict.status != "fail" for e in ev.per_effect.values()
-    )
-    if not need_flip and not looks_fine:
+    ev = evaluate_pair(ref, test, tolerances=tol, flip=need_flip)
+    if ev.verdict.status == "fail" and masks:
         ev = evaluate_pair(ref, test, tolerances=tol, masks=masks, flip=True)
+    elif ev.verdict.status == "fail":
+        ev = evaluate_pair(ref, test, tolerances=tol, flip=True)
     v = ev.verdict
     case.status, case.reasons = v.status, list(v.reasons)
     case.failing_pixels, case.max_display_error = v.failing_pixels, v.max_display_error
@@ -180,6 +181,16 @@ def judge_case(
             flip if np.isfinite(flip) else None,
             list(r.verdict.reasons),
         )
+    if not ev.per_effect:
+        for name in EFFECTS:
+            mask = (masks or {}).get(name)
+            if mask is None or not mask.any():
+                continue
+            err = ev.maps.abs_display[mask]
+            warned = v.status == "warn" and bool((err > tol.warn).any())
+            case.effects[name] = EffectOutcome(
+                "warn" if warned else "pass", int(mask.sum()), int((err > tol.fail).sum()), None
+            )
     if case.status == "fail":
         # The image fails as a whole (the rule check has always had); name the effects whose
         # own pixels fail, or the image when the failure is spread too thin for any one.
