@@ -151,6 +151,17 @@ def test_against_the_classic_model_without_baselines(tmp_path: Path, cpp_tracer:
     assert code == 64 and "only demo models" in out
 
 
+def test_rtdemo_against_its_own_model_and_another(tmp_path: Path) -> None:
+    scene = str(SCENES / "classic.json")
+    code, out = _rtval("--baseline", str(tmp_path), "--scenes", scene, "--against", "classic")
+    assert code == 0 and "classic/cpu-classic" in out, out
+    # The paper's program is not the classic one: Q2 (eta inside glass) shows in refraction.
+    code, out = _rtval(
+        "--baseline", str(tmp_path), "--scenes", scene, "--against", "classic", "--modes", "paper"
+    )
+    assert code == 2 and "classic/cpu-paper: refraction FLIP" in out, out
+
+
 def _settings(tmp_path: Path, template: str, **kw: object) -> check.CheckSettings:
     return check.CheckSettings(
         scenes=[str(SCENES / "classic.json")],
@@ -239,7 +250,11 @@ def test_mode_placeholder_and_scene_xml(tmp_path: Path) -> None:
         (["--renderer", "prog {scene}"], "must write the image {out}"),
         (["--renderer", "prog 'unclosed {out}"], "No closing quotation"),
         (["--renderer", "prog {out}", "--renderer-name", "a/b"], "--renderer-name"),
-        (["--against", "classic"], "need --renderer"),
+        (["--timeout", "5"], "need --renderer"),
+        (
+            ["--renderer", "prog {out}", "--against", "classic", "--update"],
+            "there are none to write",
+        ),
         (["--renderer", "prog {out}", "--timeout", "-1"], "--timeout"),
     ],
 )

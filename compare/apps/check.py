@@ -30,7 +30,7 @@ import numpy as np
 
 from compare.judge.effects import BOOL, EFFECTS
 from compare.judge.evaluate import Evaluation, evaluate_pair
-from compare.judge.images import F32, ImageError, read_image, write_exr
+from compare.judge.images import F32, Image, ImageError, read_image, write_exr
 from compare.judge.target_model import ModelError, TargetModel, parse_model
 from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
 from compare.render import aov_cache, foreign
@@ -213,7 +213,7 @@ class CheckSettings:
     scenes: list[str]
     baseline_dir: Path
     size: tuple[int, int] = DEFAULT_SIZE
-    modes: list[str] = field(default_factory=lambda: list(DEFAULT_MODES))
+    modes: list[str] | None = None  # None: every demo mode, or the --against model's own
     backends: list[str] = field(default_factory=lambda: ["cpu"])
     update: bool = False
     rtdemo: str | None = None
@@ -226,17 +226,17 @@ class CheckSettings:
 
 
 def _render_rtdemo(
-    settings: CheckSettings, scene_path: str, backend: str, mode: str, tmp: Path
-) -> tuple[F32, float]:
-    out = tmp / f"render-{backend}-{mode}.exr"
-    args = ["render", scene_path, "-o", str(out), "--mode", mode, "--backend", backend]
+    settings: CheckSettings, scene_path: str, backend: str, mode_args: list[str], tmp: Path
+) -> tuple[Image, float]:
+    out = tmp / f"render-{backend}.exr"
+    args = ["render", scene_path, "-o", str(out), *mode_args, "--backend", backend]
     args += ["--width", str(settings.size[0]), "--height", str(settings.size[1]), "-q"]
     if settings.spp != 1:
         args += ["--spp", str(settings.spp)]
     start = time.perf_counter()
     run_rtdemo(args, executable=settings.rtdemo)
     seconds = time.perf_counter() - start
-    return read_image(out).rgb, seconds
+    return read_image(out), seconds
 
 
 def _target(settings: CheckSettings) -> TargetModel | None:
@@ -264,12 +264,15 @@ def run_check(
     name = cmd.name if cmd else None
     tolerances = load_tolerances(settings.baseline_dir, name)
     cache_dir = settings.cache_dir or default_cache_dir()
-    if cmd is None:
-        runs = [(b, m) for b in settings.backends for m in settings.modes]
+    modes = settings.modes or list(DEFAULT_MODES)
+    if cmd is None and model is not None and settings.modes is None:
+        # rtdemo against a model checks the model's own algorithm: a correct build matches.
+        runs = [(b, model.name) for b in settings.backends]
+    elif cmd is None:
+        runs = [(b, m) for b in settings.backends for m in modes]
     elif cmd.uses_mode:
         # Against a model, {mode} is the model's mode: one case per scene.
-        modes = [model.mode] if model and model.mode else settings.modes
-        runs = [(cmd.name, m) for m in modes]
+        runs = [(cmd.name, m) for m in ([model.mode] if model and model.mode else modes)]
     else:
         runs = [(cmd.name, FOREIGN_MODE)]
     results: list[CaseResult] = []
@@ -313,7 +316,8 @@ def _one_case(
     )
     try:
         if cmd is None:
-            test, case.seconds = _render_rtdemo(settings, scene_path, backend, mode, tmp)
+            mode_args = model.rtdemo_args() if model and mode == model.name else ["--mode", mode]
+            test, case.seconds = _render_rtdemo(settings, scene_path, backend, mode_args, tmp)
         else:
             got = foreign.render(
                 cmd,
@@ -324,7 +328,7 @@ def _one_case(
                 mode=mode,
                 timeout=settings.timeout,
             )
-            test, case.seconds = got.image.rgb, got.seconds
+            test, case.seconds = got.image, got.seconds
     except (foreign.RenderFailed, ToolError, ImageError) as e:
         case.status, case.failed_effects = "fail", ["render"]
         case.reasons = [f"{case.label}: render failed: {e}"]
@@ -341,7 +345,7 @@ def _one_case(
     if ref is None:
         case.status, case.reasons = "fail", [f"{case.label}: no baseline {baseline}"]
         case.failed_effects = ["baseline"]
-    elif ref.shape != test.shape:
+    elif ref.shape != test.rgb.shape:
         case.status = "fail"
         case.failed_effects = ["baseline"]
         case.reasons = [
@@ -350,11 +354,13 @@ def _one_case(
         ]
     else:
         masks = aov_cache.scene_masks(Path(scene_path), settings.size, cache_dir)
-        judge_case(case, ref, test, tol, masks, keep=settings.keep_images)
+        judge_case(case, ref, test.rgb, tol, masks, keep=settings.keep_images)
     if settings.update and case.status == "fail":
         baseline.parent.mkdir(parents=True, exist_ok=True)
-        # Colour only: the AOVs are not compared and would triple the size.
-        write_exr(baseline, np.asarray(test, np.float32))
+        # Colour only: the AOVs are not compared and would triple the size. rtdemo's header
+        # (mode, quirks, ray counts) says what made the baseline.
+        header = test.header if cmd is None else None
+        write_exr(baseline, np.asarray(test.rgb, np.float32), header=header)
         case.updated = True
     case.overhead_seconds = time.perf_counter() - start - case.seconds
     return case

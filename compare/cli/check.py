@@ -45,15 +45,13 @@ def run_check(args: argparse.Namespace) -> int:
             raise ValueError("--backends applies to rtdemo only, not to --renderer")
         if args.rtdemo:
             raise ValueError("--rtdemo and --renderer exclude each other")
-    elif args.renderer_name or args.output_format != "exr" or args.timeout or args.against:
-        raise ValueError(
-            "--renderer-name, --output-format, --timeout and --against need --renderer"
-        )
+    elif args.renderer_name or args.output_format != "exr" or args.timeout:
+        raise ValueError("--renderer-name, --output-format and --timeout need --renderer")
     settings = check.CheckSettings(
         scenes=args.scenes,
         baseline_dir=Path(args.baseline),
         size=args.size,
-        modes=args.modes.split(","),
+        modes=args.modes.split(",") if args.modes else None,
         backends=args.backends.split(","),
         update=args.update,
         rtdemo=args.rtdemo,
@@ -108,8 +106,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), help="scene files")
     p.add_argument(
         "--modes",
-        default=",".join(DEFAULT_MODES),
-        help="comma-separated rtdemo modes (default all); for --renderer only with {mode}",
+        default=None,
+        help=f"comma-separated rtdemo modes (default {','.join(DEFAULT_MODES)}; with "
+        "--against, the model's own options); for --renderer only with {mode}",
     )
     p.add_argument("--backends", default="cpu", help="comma-separated backends (default cpu)")
     p.add_argument(
@@ -157,7 +156,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--against",
         metavar="MODEL",
         help="compare with a demo model rendered by rtdemo (e.g. classic, paper-Q8) instead "
-        "of baselines",
+        "of baselines; rtdemo itself is then rendered with the model's options unless "
+        "--modes is given",
     )
     p.add_argument(
         "--cache",
