@@ -72,6 +72,8 @@ class CaseResult:
     updated: bool = False
     renderer: str = "rtdemo"
     against: str | None = None  # the demo model compared with, instead of a baseline
+    scene_file: str = ""
+    test_encoding: str = "float"  # how the render's file was decoded (images.Image.encoding)
     effects: dict[str, EffectOutcome] = field(default_factory=dict)
     failed_effects: list[str] = field(default_factory=list)  # failures, named by effect
     evaluation: Evaluation | None = field(default=None, repr=False)  # kept for --html
@@ -313,6 +315,7 @@ def _one_case(
         "pass",
         renderer=cmd.name if cmd else "rtdemo",
         against=model.name if model else None,
+        scene_file=str(scene_path),
     )
     try:
         if cmd is None:
@@ -334,6 +337,7 @@ def _one_case(
         case.reasons = [f"{case.label}: render failed: {e}"]
         case.overhead_seconds = time.perf_counter() - start - case.seconds
         return case
+    case.test_encoding = test.encoding
     baseline = baseline_path(settings.baseline_dir, cmd.name if cmd else None, scene.name, mode)
     ref: F32 | None = None
     if model is not None:

@@ -33,17 +33,29 @@ def _magma(values: np.ndarray) -> np.ndarray:
     return np.asarray(matplotlib.colormaps["magma"](np.clip(np.nan_to_num(values), 0, 1)))[..., :3]
 
 
-def _diagnosis(case: CaseResult) -> str | None:
-    """The diagnose helper's explanation of the render, when that module is installed."""
+def _diagnosis(case: CaseResult) -> list[str] | None:
+    """The diagnose helper's explanation of a failing render (nearest demo model, quirks,
+    named mistakes), when compare.judge.diagnose is installed; None without it."""
     try:
-        module = importlib.import_module("compare.judge.diagnose")
+        diagnose = importlib.import_module("compare.judge.diagnose")
+        candidates = importlib.import_module("compare.render.candidates")
     except ImportError:
         return None
-    explain = getattr(module, "explain_for_check", None)
-    if explain is None or case.evaluation is None:
+    if case.evaluation is None or not case.scene_file:
         return None
-    text = explain(case.scene, case.evaluation.ref, case.evaluation.test)
-    return str(text) if text else None
+    from compare.judge.images import Image
+    from scene_model.scene import load_scene
+
+    image = Image(rgb=case.evaluation.test, encoding=case.test_encoding)
+    h, w = image.shape
+    try:
+        with candidates.CandidateRenderer(case.scene_file, w, h) as render:
+            found = diagnose.diagnose(
+                image, load_scene(case.scene_file), render, progress=lambda _m: None
+            )
+        return [str(found.result), *(str(x) for x in found.sentences)]
+    except Exception as e:  # an optional slot: its failure must not lose the page
+        return [f"no diagnosis: {type(e).__name__}: {e}"]
 
 
 def write_html(results: list[CaseResult], out_dir: Path) -> Path:
