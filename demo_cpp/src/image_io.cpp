@@ -1,5 +1,12 @@
 #include "image_io.h"
 
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
+#include <ImfThreading.h>
+#include <png.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,14 +17,6 @@
 #include <stdexcept>
 #include <thread>
 #include <vector>
-
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfOutputFile.h>
-#include <ImfStringAttribute.h>
-#include <ImfThreading.h>
-#include <png.h>
 
 namespace rt {
 namespace fs = std::filesystem;
@@ -76,7 +75,8 @@ void check_writable(const std::string& path) {
     if (!fs::is_directory(dir, ec))
         throw OutputError(path + ": cannot write: directory '" + dir.string() + "' does not exist");
     if (::access(dir.c_str(), W_OK) != 0)
-        throw OutputError(path + ": cannot write: directory '" + dir.string() + "' is not writable");
+        throw OutputError(path + ": cannot write: directory '" + dir.string() +
+                          "' is not writable");
     if (fs::is_directory(path, ec)) throw OutputError(path + ": cannot write: it is a directory");
 }
 
@@ -98,11 +98,11 @@ void write_exr(const std::string& path, const RenderedImage& image,
                                                                     : Imf::NO_COMPRESSION;
         if (compression == ExrCompression::zip) {
             // Compress scanline blocks on every core; level 1: about the same size, far faster.
-            Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+            Imf::setGlobalThreadCount(
+                static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
             header.zipCompressionLevel() = 1;
         }
-        for (const auto& [key, value] : attributes)
-            header.insert(key, Imf::StringAttribute(value));
+        for (const auto& [key, value] : attributes) header.insert(key, Imf::StringAttribute(value));
         const char* names[] = {"R", "G", "B", "id", "depth", "N.X", "N.Y", "N.Z"};
         for (const char* name : names) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
 

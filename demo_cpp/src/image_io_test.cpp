@@ -14,9 +14,9 @@ namespace fs = std::filesystem;
 TEST(ImageIo, SrgbEncodingOfKnownValues) {
     EXPECT_EQ(to_srgb8(0.0f), 0);
     EXPECT_EQ(to_srgb8(1.0f), 255);
-    EXPECT_EQ(to_srgb8(2.0f), 255);      // clamped
-    EXPECT_EQ(to_srgb8(0.5f), 188);      // 1.055 * 0.5^(1/2.4) - 0.055 = 0.7354
-    EXPECT_EQ(to_srgb8(0.002f), 7);      // linear segment: 12.92 * 0.002 * 255 = 6.6
+    EXPECT_EQ(to_srgb8(2.0f), 255);  // clamped
+    EXPECT_EQ(to_srgb8(0.5f), 188);  // 1.055 * 0.5^(1/2.4) - 0.055 = 0.7354
+    EXPECT_EQ(to_srgb8(0.002f), 7);  // linear segment: 12.92 * 0.002 * 255 = 6.6
     EXPECT_EQ(to_srgb8(std::numeric_limits<float>::quiet_NaN()), 0);
 }
 
