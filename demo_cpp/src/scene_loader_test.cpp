@@ -4,7 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <nlohmann/json.hpp>
+#include <ostream>
+#include <string>
 
 namespace rt {
 namespace {
@@ -125,6 +128,9 @@ const BadCase kBadCases[] = {
     {"boolean as number", [](json& j) { j["bias"] = true; }, "bias"},
 };
 
+// GoogleTest prints a parameter in failure messages; by default as its raw bytes.
+void PrintTo(const BadCase& c, std::ostream* os) { *os << '"' << c.label << '"'; }
+
 class SceneLoaderRejects : public testing::TestWithParam<BadCase> {};
 
 TEST_P(SceneLoaderRejects, NamingFileAndPath) {
@@ -142,7 +148,17 @@ TEST_P(SceneLoaderRejects, NamingFileAndPath) {
     }
 }
 
-INSTANTIATE_TEST_SUITE_P(EveryRule, SceneLoaderRejects, testing::ValuesIn(kBadCases));
+// Test names from each case's label ("fov zero" -> .../NamingFileAndPath/fov_zero): readable
+// and stable from build to build, where the default printed the case's bytes. GoogleTest allows
+// letters, digits and underscores only, and stops at start-up on a duplicate name.
+std::string case_name(const testing::TestParamInfo<BadCase>& info) {
+    std::string name = info.param.label;
+    for (char& c : name)
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+    return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(EveryRule, SceneLoaderRejects, testing::ValuesIn(kBadCases), case_name);
 
 TEST(SceneLoader, InvalidJsonNamesLineAndColumn) {
     try {
