@@ -64,8 +64,17 @@ unsigned char to_srgb8(float linear) {
     return static_cast<unsigned char>(std::lround(s * 255.0f));
 }
 
-unsigned char to_linear8(float linear) {
-    return static_cast<unsigned char>(std::lround(clamp01(linear) * 255.0f));
+unsigned char to_linear8(float linear, PpmRounding rounding) {
+    // The float product, as the paper's program computes it: identical bytes on [0, 1].
+    const float scaled = clamp01(linear) * 255.0f;
+    return static_cast<unsigned char>(rounding == PpmRounding::truncate ? scaled
+                                                                        : std::lround(scaled));
+}
+
+PpmRounding parse_ppm_rounding(const std::string& text) {
+    if (text == "truncate") return PpmRounding::truncate;
+    if (text == "round") return PpmRounding::round;
+    throw std::invalid_argument("expected truncate or round, got '" + text + "'");
 }
 
 void check_writable(const std::string& path) {
@@ -169,10 +178,11 @@ void write_png_bytes(const std::string& path, int width, int height,
     file.commit();
 }
 
-void write_ppm(const std::string& path, const RenderedImage& image) {
+void write_ppm(const std::string& path, const RenderedImage& image, PpmRounding rounding) {
     check_writable(path);
     AtomicFile file(path);
-    const std::vector<unsigned char> bytes = to_8bit(image, to_linear8);
+    const std::vector<unsigned char> bytes =
+        to_8bit(image, [rounding](float v) { return to_linear8(v, rounding); });
     std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(file.temp().c_str(), "wb"), &std::fclose);
     if (!fp) throw OutputError(path + ": cannot open for writing");
     std::fprintf(fp.get(), "P6\n%d %d\n255\n", image.width, image.height);

@@ -65,6 +65,9 @@ outputs (at least one):
                          counts (camera, secondary, shadow) in the header
   --png OUT.png          8-bit, clamped to [0,1], sRGB-encoded (for people)
   --ppm OUT.ppm          8-bit binary P6, linear, clamped: the paper's own output
+  --ppm-rounding R       truncate (default: byte = (unsigned char)(min(1, x) * 255), as the
+                         paper's program family writes it) or round (nearest level); both
+                         clamp to [0,1] first and write NaN as 0
   --exr-compression C    none (default: fastest, ~10 MB at 640x480), rle or zip (~4 MB)
 
 algorithm:
@@ -98,6 +101,7 @@ struct RenderArgs {
     std::string scene_path;
     std::string exr, png, ppm;
     ExrCompression compression = ExrCompression::none;
+    PpmRounding ppm_rounding = PpmRounding::truncate;
     Mode mode = Mode::paper;
     std::vector<Quirk> fixes;
     std::optional<int> width, height, max_depth;
@@ -128,6 +132,12 @@ RenderArgs parse_render_args(const std::vector<std::string>& args, bool output_r
                 out.compression = parse_exr_compression(value(i));
             } catch (const std::invalid_argument& e) {
                 throw UsageError(std::string("--exr-compression: ") + e.what());
+            }
+        } else if (a == "--ppm-rounding") {
+            try {
+                out.ppm_rounding = parse_ppm_rounding(value(i));
+            } catch (const std::invalid_argument& e) {
+                throw UsageError(std::string("--ppm-rounding: ") + e.what());
             }
         } else if (a == "--mode") {
             try {
@@ -262,7 +272,7 @@ int run_render(const std::vector<std::string>& args) {
     }
     if (!a.exr.empty()) write_exr(a.exr, image, attributes, a.compression);
     if (!a.png.empty()) write_png(a.png, image);
-    if (!a.ppm.empty()) write_ppm(a.ppm, image);
+    if (!a.ppm.empty()) write_ppm(a.ppm, image, a.ppm_rounding);
     if (!a.quiet && a.gl)
         std::fprintf(stderr,
                      "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: gl on %s, compile %.3f s, "
@@ -295,8 +305,8 @@ int run_view(const std::vector<std::string>& args) {
             else
                 frames = parse_int_arg("--frames", args[++i], 1, 100000);
         } else if (args[i] == "-o" || args[i] == "--output" || args[i] == "--png" ||
-                   args[i] == "--ppm" || args[i] == "--exr-compression" || args[i] == "--backend" ||
-                   args[i] == "--spp") {
+                   args[i] == "--ppm" || args[i] == "--ppm-rounding" ||
+                   args[i] == "--exr-compression" || args[i] == "--backend" || args[i] == "--spp") {
             throw UsageError(args[i] + " is not an option of view (see rtdemo view --help)");
         } else {
             rest.push_back(args[i]);
