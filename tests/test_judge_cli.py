@@ -15,7 +15,8 @@ from PIL import Image as PILImage
 from compare.judge.images import read_image, write_exr
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
-FAULTY = ROOT / "build" / "cmake" / "rtdemo_faulty"
+# Built by make test (build/tests, with the GoogleTest suite), never by pip.
+FAULTY = ROOT / "build" / "tests" / "rtdemo_faulty"
 FAULTS = [
     "flipped_normal",
     "wrong_eta",
@@ -261,7 +262,7 @@ def test_check_passes_unchanged_renderer_repeatedly_and_writes_junit(tmp_path: P
 @pytest.mark.parametrize("fault", FAULTS)
 def test_check_fails_on_every_injected_fault(fault: str) -> None:
     if not FAULTY.is_file():
-        pytest.fail(f"{FAULTY} missing: it is built with the test suite (BUILD_TESTING)")
+        pytest.fail(f"{FAULTY} missing: run `make test` first (or `make test-build`)")
     code, out = _check(
         ROOT / "tests" / "baselines", "--rtdemo", str(FAULTY), env={"RTDEMO_FAULT": fault}
     )

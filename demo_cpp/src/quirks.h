@@ -13,7 +13,11 @@ constexpr int kQuirkCount = 10;
 // A set of quirks that are *present* (the paper's behaviour). Fixing a quirk removes it.
 class QuirkSet {
 public:
-    static QuirkSet all() { QuirkSet s; s.bits_.set(); return s; }
+    static QuirkSet all() {
+        QuirkSet s;
+        s.bits_.set();
+        return s;
+    }
     static QuirkSet none() { return {}; }
 
     bool has(Quirk q) const { return bits_.test(index(q)); }
