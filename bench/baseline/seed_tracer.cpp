@@ -1,6 +1,6 @@
 // The speed baseline of issue 10: the paper's program as the seed structures it — a plain,
 // single-threaded, scalar, per-pixel recursive trace over a vector of spheres, writing a PPM.
-// Written here from paper-model.md (paper mode), not copied. It reads the same scene files.
+// Written here from docs/paper-model.md (paper mode), not copied. It reads the same scene files.
 // Usage: seed_tracer SCENE.json OUT.ppm [classic]  (classic: the scratchapixel rules, Q2 Q4 Q9)
 #include <algorithm>
 #include <cmath>

@@ -79,7 +79,7 @@ algorithm:
                                   calibrated by the exporter's light-units rule, bounded
                                   shadow rays blocked by glass, chains cut at max depth).
                                   Lights are points: no soft shadows (no --light-samples).
-  --fix Q1,Q2,...        fix these quirks on top of --mode (see paper-model.md)
+  --fix Q1,Q2,...        fix these quirks on top of --mode (see docs/paper-model.md)
   --spp N                samples per pixel, a perfect square (1, 4, 9, 16, ...): stratum
                          centres of a sqrt(N) x sqrt(N) grid, box filter. N > 1 needs Q10
                          fixed (physical mode or --fix Q10). Default 1 (pixel centre).

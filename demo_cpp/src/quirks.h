@@ -1,4 +1,4 @@
-// The paper's quirks Q1-Q10 (paper-model.md) as switches, and the three modes as presets.
+// The paper's quirks Q1-Q10 (docs/paper-model.md) as switches, and the three modes as presets.
 #pragma once
 
 #include <bitset>

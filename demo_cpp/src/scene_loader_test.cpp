@@ -1,4 +1,4 @@
-// Every rule of scene-format.md, one case each: the error names the source, the JSON path
+// Every rule of docs/scene-format.md, one case each: the error names the source, the JSON path
 // and what was expected.
 #include "scene_loader.h"
 

@@ -1,4 +1,4 @@
-// The paper's recursive Whitted tracer (paper-model.md), each quirk a switch.
+// The paper's recursive Whitted tracer (docs/paper-model.md), each quirk a switch.
 #pragma once
 
 #include <cstdint>
@@ -50,7 +50,7 @@ public:
     // renderer need not trace the pixel centre a second time.
     color trace(const ray& r, int depth, PrimaryHit* first = nullptr) const;
     PrimaryHit primary(const ray& r) const;
-    // Step 5 of paper-model.md: direct light at p (normal n) on sphere `hit_index`.
+    // Step 5 of docs/paper-model.md: direct light at p (normal n) on sphere `hit_index`.
     color shade_direct(int hit_index, const point3& p, const vec3& n) const;
     // Rays traced by this tracer so far. A tracer is not shared between threads (each
     // render thread has its own copy), so counting needs no atomics.
