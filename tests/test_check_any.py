@@ -296,3 +296,29 @@ def test_pytest_fixture_checks_a_scene_in_one_line(tmp_path: Path) -> None:
     assert again.returncode == 0, again.stdout
     broken = run(cmd, cwd=tmp_path, env={**env, **BREAK})
     assert broken.returncode == 1 and "classic: shadow FLIP" in broken.stdout, broken.stdout
+
+
+def test_first_look_without_flip_matches_the_full_evaluation() -> None:
+    import numpy as np
+
+    from compare.judge.evaluate import evaluate_pair
+
+    rng = np.random.default_rng(3)
+    ref = rng.uniform(0, 1, (40, 48, 3)).astype(np.float32)
+    test = ref.copy()
+    test[5:9, 5:9] += 0.2
+    cheap = evaluate_pair(ref, test, flip=False)
+    full = evaluate_pair(ref, test)
+    assert np.isnan(cheap.metrics.flip_ldr) and full.metrics.flip_ldr > 0
+    assert cheap.verdict == full.verdict and cheap.metrics.ssim == full.metrics.ssim
+
+
+def test_markdown_summary_escapes_user_text() -> None:
+    from compare.apps.check_output import markdown_summary
+
+    r = check.CaseResult("classic", "t", "default", "fail", renderer="t")
+    r.reasons = ["classic: render failed: <img src=x> | a\nrenderer stderr:\nmore"]
+    r.failed_effects = ["render"]
+    text = markdown_summary([r])
+    assert "<img" not in text and "- classic: render failed: &lt;img src=x&gt; \\| a" in text
+    assert "| t/classic | ❌ fail | render |" in text
