@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from compare.judge.effects import BOOL, EFFECTS
-from compare.judge.evaluate import Evaluation, evaluate_pair
+from compare.judge.evaluate import evaluate_pair
 from compare.judge.images import F32, Image, ImageError, read_image, write_exr
 from compare.judge.target_model import ModelError, TargetModel, parse_model
 from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
@@ -45,6 +45,13 @@ DEFAULT_SIZE = (320, 240)
 DEFAULT_TOLERANCES = Tolerances(fail=2 / 255, failpercent=0.02, warn=1 / 255, warnpercent=0.0)
 FOREIGN_MODE = "default"  # the mode of a renderer whose command has no {mode}
 WHOLE_IMAGE = "image"  # the "effect" a failure is filed under when no effect mask explains it
+
+
+@dataclass(frozen=True)
+class FailurePictures:
+    ref: F32
+    test: F32
+    flip: F32  # H x W, LDR FLIP
 
 
 @dataclass
@@ -76,7 +83,9 @@ class CaseResult:
     test_encoding: str = "float"  # how the render's file was decoded (images.Image.encoding)
     effects: dict[str, EffectOutcome] = field(default_factory=dict)
     failed_effects: list[str] = field(default_factory=list)  # failures, named by effect
-    evaluation: Evaluation | None = field(default=None, repr=False)  # kept for --html
+    # For --html, failing cases only: reference, render (linear RGB) and the FLIP map; not
+    # the whole evaluation, whose maps would hold ~15 MB per 640x480 case.
+    pictures: FailurePictures | None = field(default=None, repr=False)
 
     @property
     def label(self) -> str:
@@ -90,7 +99,7 @@ class CaseResult:
         return self.label if self.renderer == "rtdemo" else f"{self.renderer}/{self.label}"
 
     def as_dict(self) -> dict[str, Any]:
-        d = {k: v for k, v in self.__dict__.items() if k != "evaluation"}
+        d = {k: v for k, v in self.__dict__.items() if k != "pictures"}
         d["effects"] = {k: v.__dict__ for k, v in self.effects.items()}
         return {**d, "name": self.name}
 
@@ -207,7 +216,7 @@ def judge_case(
             for n in case.failed_effects
         ]
         if keep:
-            case.evaluation = ev
+            case.pictures = FailurePictures(ev.ref, ev.test, ev.maps.flip_ldr)
 
 
 @dataclass

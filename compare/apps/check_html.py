@@ -41,12 +41,12 @@ def _diagnosis(case: CaseResult) -> list[str] | None:
         candidates = importlib.import_module("compare.render.candidates")
     except ImportError:
         return None
-    if case.evaluation is None or not case.scene_file:
+    if case.pictures is None or not case.scene_file:
         return None
     from compare.judge.images import Image
     from scene_model.scene import load_scene
 
-    image = Image(rgb=case.evaluation.test, encoding=case.test_encoding)
+    image = Image(rgb=case.pictures.test, encoding=case.test_encoding)
     h, w = image.shape
     try:
         with candidates.CandidateRenderer(case.scene_file, w, h) as render:
@@ -78,14 +78,14 @@ def write_html(results: list[CaseResult], out_dir: Path) -> Path:
             ],
             "diagnosis": _diagnosis(r),
         }
-        ev = r.evaluation
-        if ev is not None:
-            ref, test = linear_to_srgb(ev.ref), linear_to_srgb(ev.test)
+        pics = r.pictures
+        if pics is not None:
+            ref, test = linear_to_srgb(pics.ref), linear_to_srgb(pics.test)
             pictures = {
                 "reference": ref,
                 "render": test,
                 "difference": diff_image(ref, test),
-                "flip": _magma(ev.maps.flip_ldr),
+                "flip": _magma(pics.flip),
             }
             for kind, picture in pictures.items():
                 name = f"case{i:03d}-{kind}.png"  # never a user's text in a file name
