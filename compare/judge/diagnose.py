@@ -373,11 +373,39 @@ def diagnose(
             break
     invisible -= {q for q in range(1, 11) if any(f"Q{q} " in s.change for s in steps)}
 
+    # The same result written from the mode it differs least from (paper-Q2 --no-shadows is
+    # classic --no-shadows when Q4 and Q9 change no pixel); the steps are then retold from
+    # that mode, each change in the order that helps most.
+    simpler = _simplest(current, invisible)
+    if simpler.mode != begin.mode:
+        say(f"diagnose: {current.name} is {simpler.name} here; retelling the steps from it")
+        begin = Candidate.of_mode(simpler.mode)
+        remaining = _differences(begin, simpler, scene)
+        steps, cur = [], begin
+        evaluate([begin])
+        while remaining:
+            options = [ch.apply(cur, scene) for ch in remaining]
+            evaluate(options)
+            i = min(range(len(options)), key=lambda j: _objective(per(options[j])))
+            before, after = per(cur), per(options[i])
+            label = remaining[i].label(cur, scene)
+            steps.append(Step(label, options[i].name, before, after, _explained(before, after)))
+            cur = options[i]
+            del remaining[i]
+    current = simpler
+    evaluate([current])
+
     # 3. The report's numbers: FLIP per effect against the start and the result.
     say("diagnose: FLIP per effect for the start and the result")
-    ev_start = evaluate_pair(kept[begin].rgb, image.rgb, masks=masks)
+
+    def image_of(c: Candidate) -> Image:
+        return kept[c] if c in kept else render(c)
+
+    ev_start = evaluate_pair(image_of(begin).rgb, image.rgb, masks=masks)
     ev_final = (
-        ev_start if current == begin else evaluate_pair(kept[current].rgb, image.rgb, masks=masks)
+        ev_start
+        if current == begin
+        else evaluate_pair(image_of(current).rgb, image.rgb, masks=masks)
     )
     start_per, final_per = per(begin), per(current)
     findings: dict[str, EffectFinding] = {}
@@ -426,12 +454,6 @@ def diagnose(
 
     summary = _summary(begin, current, steps, findings, unexplained, scene)
     sentences = [summary] + [f.sentence for f in findings.values()]
-    simpler = _simplest(current, invisible)
-    if simpler != current:
-        sentences.append(
-            f"equivalently {simpler.name}: the quirks that differ change no pixel in this scene"
-        )
-        current = simpler
     if invisible:
         sentences.append(
             "not visible in this scene (toggling them changes no pixel): "
@@ -463,6 +485,21 @@ def diagnose(
         seconds=seconds,
         candidate=current,
     )
+
+
+def _differences(a: Candidate, b: Candidate, scene: Scene) -> list[Change]:
+    """The one-at-a-time changes that turn candidate a into b."""
+    out = [Change("quirk", str(q), q in b.quirks) for q in sorted(a.quirks ^ b.quirks)]
+    out += [
+        Change("effect", e, e in b.effects_off)
+        for e in SWITCHABLE_EFFECTS
+        if (e in a.effects_off) != (e in b.effects_off)
+    ]
+    da = scene.max_depth if a.max_depth is None else a.max_depth
+    db = scene.max_depth if b.max_depth is None else b.max_depth
+    out += [Change("depth", "+1" if db > da else "-1", db > da)] * abs(db - da)
+    out += [Change("mistake", m, m in b.mistakes) for m in sorted(a.mistakes ^ b.mistakes)]
+    return out
 
 
 def _simplest(c: Candidate, invisible: set[int]) -> Candidate:
