@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -42,9 +44,14 @@ def main() -> None:
             image = render_variant(scene, variant, w, h, Path(tmp) / f"{variant}.ppm")
             out = Path(tmp) / f"{variant}.json"
             cmd = [rtval, "diagnose", str(image), "--scene", str(scene_file), "--json", str(out)]
+            cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
             start = time.perf_counter()
             proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
             wall = time.perf_counter() - start
+            cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            # CPU seconds of rtval and every rtdemo it ran: on a shared machine the wall time
+            # also holds other people's work; cpu / 2 is what 2 idle cores would need at best.
+            cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
             if proc.returncode != 0:
                 raise SystemExit(f"{' '.join(cmd)} failed: {proc.stderr}")
             d = json.loads(out.read_text())
@@ -59,10 +66,12 @@ def main() -> None:
                     "renders": d["renders"],
                     "search_s": d["seconds"],
                     "wall_s": wall,
+                    "cpu_s": cpu,
+                    "load_1min": os.getloadavg()[0],
                 }
             )
-            rows.append([variant, d["result"], d["renders"], d["seconds"], wall])
-    print_table(["variant", "diagnosis", "renders", "diagnose s", "process s"], rows)
+            rows.append([variant, d["result"], d["renders"], d["seconds"], wall, cpu])
+    print_table(["variant", "diagnosis", "renders", "diagnose s", "process s", "cpu s (all)"], rows)
     print(f"wrote {write_results('diagnose', {'size': [w, h], 'results': results})}")
 
 

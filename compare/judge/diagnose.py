@@ -14,6 +14,7 @@ only for the start and the result, for the report's numbers.
 
 from __future__ import annotations
 
+import hashlib
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -158,43 +159,75 @@ class Diagnosis:
         return d
 
 
-def _encoded(rgb: F32, encoding: str) -> NDArray[np.float32]:
-    """Values in 8-bit levels in the image's own encoding: linear for a PPM read as linear,
-    display (sRGB) otherwise. NaN counts as 0, as the paper's PPM writer stores it."""
+I16 = NDArray[np.int16]
+
+
+def _encoded(rgb: F32, encoding: str) -> I16:
+    """Values in whole 8-bit levels in the image's own encoding: linear for a PPM read as
+    linear, display (sRGB) otherwise. NaN counts as 0, as the paper's PPM writer stores it.
+    Rounding a candidate moves it by at most half a level, which the one level that `excess`
+    forgives covers (a truncating writer is at most one level below)."""
     if encoding == "linear":
         c = np.clip(np.nan_to_num(rgb, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
-        return (c * 255.0).astype(np.float32)
-    return (linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0)) * 255.0).astype(np.float32)
-
-
-def _excess(a: NDArray[np.float32], b: NDArray[np.float32]) -> NDArray[np.float32]:
-    """Per pixel: the largest channel difference in levels beyond the one level that
-    truncation against rounding may take."""
-    out: NDArray[np.float32] = np.maximum(np.abs(a - b).max(axis=2) - 1.0, 0.0).astype(np.float32)
+    else:
+        c = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
+    out: I16 = np.rint(c * 255.0).astype(np.int16)
     return out
 
 
-def _per_effect(excess: NDArray[np.float32], masks: dict[str, BOOL]) -> dict[str, float]:
-    return {k: float(excess[m].mean()) for k, m in masks.items()}
+class _Regions:
+    """The effect masks as one label per pixel, so that per-region means are one bincount."""
+
+    def __init__(self, masks: dict[str, BOOL]) -> None:
+        self.names = list(masks)
+        n = len(self.names)
+        labels = np.full(next(iter(masks.values())).size, n, np.intp)  # n: in no region
+        for i, m in enumerate(masks.values()):
+            labels[m.ravel()] = i
+        self.labels = labels
+        self.counts = np.bincount(labels, minlength=n + 1)[:n].astype(np.float64)
+
+    def mean(self, values: NDArray[Any]) -> NDArray[np.float64]:
+        n = len(self.names)
+        sums = np.bincount(self.labels, weights=values.ravel(), minlength=n + 1)[:n]
+        out: NDArray[np.float64] = sums / self.counts
+        return out
+
+    def colour(self, enc: I16) -> NDArray[np.float64]:
+        """Mean colour per region, regions x 3, in levels."""
+        return np.stack([self.mean(enc[..., ch]) for ch in range(3)], axis=1)
 
 
-def _means(enc: NDArray[np.float32], masks: dict[str, BOOL]) -> dict[str, NDArray[np.float64]]:
-    return {k: enc[m].mean(axis=0, dtype=np.float64) for k, m in masks.items()}
+@dataclass(frozen=True)
+class _Score:
+    """A candidate against the image, per effect region."""
+
+    pixels: dict[str, float]  # mean levels beyond one
+    tone: dict[str, float]  # how far the mean colour is off, levels beyond one
+    off: dict[str, float]  # share of pixels off by more than OFF_LEVELS
+    digest: bytes  # of the encoded candidate: equal digests, equal images
+
+    def per_effect(self) -> dict[str, float]:
+        # The tone term: where float rounding decides each pixel (acne), two programs with the
+        # same mistake differ pixel by pixel but agree on average, so the mistake still
+        # explains its region.
+        return {k: self.pixels[k] + self.tone[k] for k in self.pixels}
 
 
-def _tone(a: dict[str, NDArray[np.float64]], b: dict[str, NDArray[np.float64]]) -> dict[str, float]:
-    """Per effect: how far the region's mean colour is off, in levels beyond one. Where float
-    rounding decides each pixel (acne), two programs with the same mistake differ pixel by
-    pixel but agree on average; this term lets such a mistake explain its region."""
-    return {k: max(0.0, float(np.abs(a[k] - b[k]).max()) - 1.0) for k in a}
+def _score(enc: I16, target: I16, regions: _Regions, target_colour: NDArray[np.float64]) -> _Score:
+    excess = np.maximum(np.abs(enc - target).max(axis=2), 1) - 1
+    tone = np.maximum(np.abs(regions.colour(enc) - target_colour).max(axis=1) - 1.0, 0.0)
+    names = regions.names
+    return _Score(
+        dict(zip(names, regions.mean(excess).tolist(), strict=True)),
+        dict(zip(names, tone.tolist(), strict=True)),
+        dict(zip(names, regions.mean(excess > OFF_LEVELS).tolist(), strict=True)),
+        hashlib.blake2b(enc.tobytes(), digest_size=16).digest(),
+    )
 
 
 def _objective(per: dict[str, float]) -> float:
     return float(sum(per.values()))  # every effect counts alike, whatever its size
-
-
-def _off_share(excess: NDArray[np.float32], mask: BOOL) -> float:
-    return float((excess[mask] > OFF_LEVELS).mean())
 
 
 def _matched(effect: str, mean: float, share: float) -> bool:
@@ -252,18 +285,21 @@ def diagnose(
     the evidence per effect. `render` must return the candidate at the image's size with the
     id and depth AOVs (the first render's give the effect masks). With `start`, the search
     begins there instead of at the nearest of the three modes. `parallel` renders run at once
-    (render must then be thread-safe). After `budget_s` no new round starts."""
+    (render must then be thread-safe). The search always follows the changes that helped to
+    the end; only the extra full sweep after it stalls is skipped once 40 % of `budget_s` is
+    spent, so a loaded machine gives the same diagnosis, later."""
     t0 = time.perf_counter()
     say = progress or (lambda _m: None)
     target = _encoded(image.rgb, image.encoding)
-    excess_of: dict[Candidate, NDArray[np.float32]] = {}
+    encoding = "linear" if image.encoding == "linear" else "srgb"
+    score_of: dict[Candidate, _Score] = {}
     kept: dict[Candidate, Image] = {}
     masks: dict[str, BOOL] = {}
-    tone_of: dict[Candidate, dict[str, float]] = {}
-    target_means: dict[str, NDArray[np.float64]] = {}
+    regions: list[_Regions] = []  # one, once the first render gives the masks
+    target_colour: list[NDArray[np.float64]] = []
 
     def evaluate(cands: list[Candidate]) -> None:
-        todo = [c for c in dict.fromkeys(cands) if c not in excess_of]
+        todo = [c for c in dict.fromkeys(cands) if c not in score_of]
         if not todo:
             return
 
@@ -277,21 +313,20 @@ def diagnose(
                         f"the renderer made {im.shape[1]}x{im.shape[0]} for "
                         f"{image.shape[1]}x{image.shape[0]} ({c.name})"
                     )
-                if not masks:
+                if not regions:
                     if "id" not in im.aovs or "depth" not in im.aovs:
                         raise DiagnoseError(f"render of {c.name} has no id/depth AOVs")
                     found = effect_masks(scene, im.aovs["id"], im.aovs["depth"])
                     masks.update({k: v for k, v in found.items() if v.any()})
-                enc = _encoded(im.rgb, "linear" if image.encoding == "linear" else "srgb")
-                excess_of[c] = _excess(enc, target)
-                if not target_means:
-                    target_means.update(_means(target, masks))
-                tone_of[c] = _tone(_means(enc, masks), target_means)
+                    regions.append(_Regions(masks))
+                    target_colour.append(regions[0].colour(target))
+                score_of[c] = _score(
+                    _encoded(im.rgb, encoding), target, regions[0], target_colour[0]
+                )
                 kept[c] = im
 
     def per(c: Candidate) -> dict[str, float]:
-        pixels = _per_effect(excess_of[c], masks)
-        return {k: pixels[k] + tone_of[c][k] for k in pixels}
+        return score_of[c].per_effect()
 
     # 1. The nearest mode (or the given start).
     if start is not None:
@@ -316,7 +351,6 @@ def diagnose(
         del kept[c]
     # 2. Greedy: one change at a time; later rounds retry only the changes that helped.
     steps: list[Step] = []
-    invisible: set[int] = set()
     promising: set[tuple[str, str]] | None = None
     full_sweep_done_after_stall = False
     for round_no in range(1, MAX_ROUNDS + 1):
@@ -331,9 +365,7 @@ def diagnose(
         base = per(current)
         base_obj = _objective(base)
         gains = []
-        for ch, c in zip(tried, cands, strict=True):
-            if ch.kind == "quirk" and np.array_equal(excess_of[c], excess_of[current]):
-                invisible.add(int(ch.key))
+        for c in cands:
             # Only a change that clearly explains some effect counts: small drops spread over
             # every effect are noise fitting (e.g. acne patterns that float rounding decides).
             gains.append(base_obj - _objective(per(c)) if _explained(base, per(c)) else 0.0)
@@ -343,7 +375,7 @@ def diagnose(
             }
         say(
             f"diagnose: round {round_no}: {len(tried)} changes of {current.name}, "
-            f"{sum(g > MIN_GAIN for g in gains)} help ({len(excess_of)} renders, "
+            f"{sum(g > MIN_GAIN for g in gains)} help ({len(score_of)} renders, "
             f"{time.perf_counter() - t0:.1f} s)"
         )
         best = int(np.argmax(gains)) if gains else -1
@@ -368,10 +400,10 @@ def diagnose(
         current = after_c
         for c in [c for c in kept if c not in (begin, current)]:
             del kept[c]  # a 640x480 render with AOVs is 10 MB: keep only what FLIP needs
-        if time.perf_counter() - t0 > budget_s:
-            say("diagnose: time budget spent; stopping the search")
-            break
-    invisible -= {q for q in range(1, 11) if any(f"Q{q} " in s.change for s in steps)}
+    # Which quirks this scene cannot tell: their toggle leaves the result's pixels unchanged.
+    toggles = {q: current.with_quirk(q, q not in current.quirks) for q in SEARCH_QUIRKS}
+    evaluate(list(toggles.values()))
+    invisible = {q for q, c in toggles.items() if score_of[c].digest == score_of[current].digest}
 
     # The same result written from the mode it differs least from (paper-Q2 --no-shadows is
     # classic --no-shadows when Q4 and Q9 change no pixel); the steps are then retold from
@@ -407,14 +439,14 @@ def diagnose(
         if current == begin
         else evaluate_pair(image_of(current).rgb, image.rgb, masks=masks)
     )
-    start_per, final_per = per(begin), per(current)
+    start_per, final_per = per(begin), per(current)  # pixels + tone
     findings: dict[str, EffectFinding] = {}
     unexplained: list[str] = []
     for k in EFFECTS:
         if k not in masks:
             continue
-        share = _off_share(excess_of[current], masks[k])
-        ok = _matched(k, final_per[k], share)
+        share = score_of[current].off[k]
+        ok = _matched(k, score_of[current].pixels[k], share)
         by = tuple(s.change for s in steps if k in s.explains)
         f_start = ev_start.per_effect[k].metrics.flip_ldr
         f_final = ev_final.per_effect[k].metrics.flip_ldr
@@ -461,7 +493,7 @@ def diagnose(
         )
     depth = scene.max_depth if current.max_depth is None else current.max_depth
     seconds = time.perf_counter() - t0
-    say(f"diagnose: {current.name} after {len(excess_of)} renders in {seconds:.1f} s")
+    say(f"diagnose: {current.name} after {len(score_of)} renders in {seconds:.1f} s")
     return Diagnosis(
         scene=scene.name,
         image=image.path,
@@ -481,7 +513,7 @@ def diagnose(
         unexplained=unexplained,
         summary=summary,
         sentences=sentences,
-        renders=len(excess_of),
+        renders=len(score_of),
         seconds=seconds,
         candidate=current,
     )
