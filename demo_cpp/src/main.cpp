@@ -104,6 +104,25 @@ image:
 mistakes (--mistake; the catalogue of compare/judge/mistakes.json):
 )";
 
+// The catalogue under --help, each explanation wrapped at 92 columns beside its name.
+void print_mistakes() {
+    for (const MistakeInfo& info : mistake_catalogue()) {
+        std::printf("  %-20s", info.name.c_str());
+        std::istringstream words(info.explanation);
+        std::string word;
+        int column = 22;
+        while (words >> word) {
+            if (column + 1 + static_cast<int>(word.size()) > 92) {
+                std::printf("\n%22s", "");
+                column = 22;
+            }
+            std::printf(" %s", word.c_str());
+            column += 1 + static_cast<int>(word.size());
+        }
+        std::printf("\n");
+    }
+}
+
 struct RenderArgs {
     std::string scene_path;
     std::string exr, png, ppm;
@@ -376,8 +395,7 @@ int main(int argc, char** argv) {
             if (a == "--help" || a == "-h") {
                 if (args[0] == "render") {
                     std::fputs(kRenderHelp, stdout);
-                    for (const MistakeInfo& info : mistake_catalogue())
-                        std::printf("  %-20s %s\n", info.name.c_str(), info.explanation.c_str());
+                    print_mistakes();
                     return 0;
                 }
                 if (args[0] == "view") {
