@@ -131,7 +131,7 @@ def test_search_finds_the_one_change_and_names_the_invisible_quirks() -> None:
     scene = load_scene(CLASSIC)
     d = diagnose(_toy_image(0.5), scene, _toy_render, start=Candidate.of_mode("classic"))
     assert d.result == "classic+Q2" and d.quirks_present == [2, 10]  # Q10: one ray a pixel
-    assert [s.change.split(" ")[0] for s in d.steps] == ["+Q2"]
+    assert d.causes == ["+Q2"] and d.reason() == "looks like classic+Q2 (+Q2)"
     assert d.effects["refraction"].state == "explained" and d.exact
     assert d.effects["refraction"].final_distance == 0.0
     assert d.effects["refraction"].start_distance > 40  # 0.2 * 255 levels, less the one allowed
@@ -150,6 +150,7 @@ def test_search_says_when_nothing_explains_a_region() -> None:
     assert d.effects["background"].state == "as start"
     assert "a new bug, not a quirk" in d.effects["refraction"].sentence
     assert "nothing explains refraction" in d.summary
+    assert d.reason() == "looks like classic; unexplained: refraction, edges"
 
 
 # --- student programs ----------------------------------------------------------------------

@@ -73,6 +73,18 @@ class Change:
         new = depth + (1 if self.present else -1)
         return c.with_depth(None if new == scene.max_depth else new)
 
+    def short(self, c: Candidate, scene: Scene) -> str:
+        """The change in a word or two, for a gradebook column ("looks like +Q2")."""
+        sign = "" if self.present else "-"
+        if self.kind == "quirk":
+            return f"{'+' if self.present else '-'}Q{self.key}"
+        if self.kind == "effect":
+            return f"--no-{self.key}" if self.present else f"+{self.key}"
+        if self.kind == "depth":
+            d = self.apply(c, scene).max_depth
+            return f"max depth {scene.max_depth if d is None else d}"
+        return f"{sign}{self.key}"
+
     def label(self, c: Candidate, scene: Scene) -> str:
         """What the change does, in words, e.g. "+Q2 (eta = 1/ior also when leaving glass)"."""
         if self.kind == "quirk":
@@ -104,6 +116,7 @@ class Step:
     """A change the search kept, with the cheap distance per effect before and after."""
 
     change: str  # Change.label
+    cause: str  # Change.short: "+Q2", "-Q8", "--no-shadows", "max depth 4", "no_offset"
     candidate: str  # the candidate after it
     before: dict[str, float]
     after: dict[str, float]
@@ -153,9 +166,26 @@ class Diagnosis:
     def exact(self) -> bool:
         return not self.unexplained
 
+    @property
+    def causes(self) -> list[str]:
+        """What differs from the start mode, shortly: ["+Q2"], ["no_offset"], []."""
+        return [s.cause for s in self.steps]
+
+    def reason(self) -> str:
+        """One line for a gradebook: "looks like classic+Q2 (+Q2)", with the regions that
+        nothing explains."""
+        text = f"looks like {self.result}"
+        if self.causes:
+            text += f" ({', '.join(self.causes)})"
+        if self.unexplained:
+            text += f"; unexplained: {', '.join(self.unexplained)}"
+        return text
+
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d.pop("candidate")
+        d["causes"] = self.causes
+        d["reason"] = self.reason()
         return d
 
 
@@ -293,7 +323,10 @@ def diagnose(
     target = _encoded(image.rgb, image.encoding)
     encoding = "linear" if image.encoding == "linear" else "srgb"
     score_of: dict[Candidate, _Score] = {}
+    # Renders kept for the FLIP numbers: the modes (one becomes the start). A 640x480 render
+    # with AOVs is 10 MB, so the search keeps none; the result is rendered once more.
     kept: dict[Candidate, Image] = {}
+    keep: set[Candidate] = set()
     masks: dict[str, BOOL] = {}
     regions: list[_Regions] = []  # one, once the first render gives the masks
     target_colour: list[NDArray[np.float64]] = []
@@ -323,7 +356,8 @@ def diagnose(
                 score_of[c] = _score(
                     _encoded(im.rgb, encoding), target, regions[0], target_colour[0]
                 )
-                kept[c] = im
+                if c in keep:
+                    kept[c] = im
 
     def per(c: Candidate) -> dict[str, float]:
         return score_of[c].per_effect()
@@ -335,6 +369,7 @@ def diagnose(
     else:
         starts = [Candidate.of_mode(m) for m in ("classic", "paper", "physical")]
     say(f"diagnose: rendering {', '.join(c.name for c in starts)}")
+    keep.update(starts)
     evaluate(starts)
     mode_objectives = {c.name: _objective(per(c)) for c in starts}
     current = min(starts, key=lambda c: _objective(per(c)))
@@ -393,13 +428,20 @@ def diagnose(
         chosen, after_c = tried[best], cands[best]
         after = per(after_c)
         explains = _explained(base, after)
-        steps.append(Step(chosen.label(current, scene), after_c.name, base, after, explains))
+        steps.append(
+            Step(
+                chosen.label(current, scene),
+                chosen.short(current, scene),
+                after_c.name,
+                base,
+                after,
+                explains,
+            )
+        )
         say(
             f"diagnose: keep {chosen.label(current, scene)}: {base_obj:.3f} -> {_objective(after):.3f}"
         )
         current = after_c
-        for c in [c for c in kept if c not in (begin, current)]:
-            del kept[c]  # a 640x480 render with AOVs is 10 MB: keep only what FLIP needs
     # Which quirks this scene cannot tell: their toggle leaves the result's pixels unchanged.
     toggles = {q: current.with_quirk(q, q not in current.quirks) for q in SEARCH_QUIRKS}
     evaluate(list(toggles.values()))
@@ -421,7 +463,16 @@ def diagnose(
             i = min(range(len(options)), key=lambda j: _objective(per(options[j])))
             before, after = per(cur), per(options[i])
             label = remaining[i].label(cur, scene)
-            steps.append(Step(label, options[i].name, before, after, _explained(before, after)))
+            steps.append(
+                Step(
+                    label,
+                    remaining[i].short(cur, scene),
+                    options[i].name,
+                    before,
+                    after,
+                    _explained(before, after),
+                )
+            )
             cur = options[i]
             del remaining[i]
     current = simpler
@@ -484,7 +535,7 @@ def diagnose(
             sentence,
         )
 
-    summary = _summary(begin, current, steps, findings, unexplained, scene)
+    summary = _summary(begin, steps, findings, unexplained)
     sentences = [summary] + [f.sentence for f in findings.values()]
     if invisible:
         sentences.append(
@@ -550,11 +601,9 @@ def _simplest(c: Candidate, invisible: set[int]) -> Candidate:
 
 def _summary(
     begin: Candidate,
-    current: Candidate,
     steps: list[Step],
     findings: dict[str, EffectFinding],
     unexplained: list[str],
-    scene: Scene,
 ) -> str:
     changed = [k for k, f in findings.items() if f.explained_by]
     parts = []
@@ -577,5 +626,4 @@ def _summary(
             f"; nothing explains {', '.join(unexplained)}: a new bug, not a quirk or a named "
             "mistake"
         )
-    del scene, current
     return text
