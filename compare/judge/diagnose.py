@@ -46,7 +46,10 @@ MATCH_SHARE_EDGES = 0.05
 # an effect is explained by a change that lowers its own distance by EXPLAINS (and 10 %).
 MIN_GAIN = 1e-3
 EXPLAINS = 0.02
-MAX_ROUNDS = 6
+MAX_RENDERS = 200  # no new full sweep of every change starts beyond this many renders
+# Mistakes that move every pixel's tone: the nearest mode is chosen with and without them, so
+# that a gamma-encoded paper image is not taken for physical mode (it starts from paper).
+TONE_MISTAKES = ("double_gamma",)
 SEARCH_QUIRKS = tuple(range(1, 10))  # Q10 only matters with --spp > 1
 
 
@@ -309,15 +312,16 @@ def diagnose(
     start: TargetModel | Candidate | None = None,
     progress: Callable[[str], None] | None = None,
     parallel: int = 1,
-    budget_s: float = 10.0,
+    max_renders: int = MAX_RENDERS,
 ) -> Diagnosis:
     """The nearest demo candidate to `image` (linear RGB as read by images.read_image) and
     the evidence per effect. `render` must return the candidate at the image's size with the
     id and depth AOVs (the first render's give the effect masks). With `start`, the search
     begins there instead of at the nearest of the three modes. `parallel` renders run at once
-    (render must then be thread-safe). The search always follows the changes that helped to
-    the end; only the extra full sweep after it stalls is skipped once 40 % of `budget_s` is
-    spent, so a loaded machine gives the same diagnosis, later."""
+    (render must then be thread-safe). When the changes that helped stop helping, every
+    change is tried once more (while fewer than `max_renders` renders were made); the search
+    ends when that finds nothing either. Nothing depends on time, so a loaded machine gives
+    the same diagnosis, later."""
     t0 = time.perf_counter()
     say = progress or (lambda _m: None)
     target = _encoded(image.rgb, image.encoding)
@@ -368,11 +372,20 @@ def diagnose(
         starts = [first]
     else:
         starts = [Candidate.of_mode(m) for m in ("classic", "paper", "physical")]
-    say(f"diagnose: rendering {', '.join(c.name for c in starts)}")
+    toned = [c.with_mistake(m, True) for c in starts for m in TONE_MISTAKES]
+    say(
+        f"diagnose: rendering {', '.join(c.name for c in starts)} (and with {', '.join(TONE_MISTAKES)})"
+    )
     keep.update(starts)
-    evaluate(starts)
+    evaluate(starts + toned)
     mode_objectives = {c.name: _objective(per(c)) for c in starts}
-    current = min(starts, key=lambda c: _objective(per(c)))
+    # Each mode counts as near as its best with a tone mistake; the search starts from the
+    # plain mode, so that the mistake is found (and named) as a step of its own.
+    nearest = {
+        c: min(_objective(per(x)) for x in [c, *(c.with_mistake(m, True) for m in TONE_MISTAKES)])
+        for c in starts
+    }
+    current = min(starts, key=lambda c: nearest[c])
     begin = current
     say(
         "diagnose: nearest mode "
@@ -386,9 +399,11 @@ def diagnose(
         del kept[c]
     # 2. Greedy: one change at a time; later rounds retry only the changes that helped.
     steps: list[Step] = []
-    promising: set[tuple[str, str]] | None = None
-    full_sweep_done_after_stall = False
-    for round_no in range(1, MAX_ROUNDS + 1):
+    promising: set[tuple[str, str]] | None = None  # None: try every change this round
+    round_no = 0
+    while True:
+        round_no += 1
+        full = promising is None
         all_changes = _changes(current, scene)
         tried = [
             ch
@@ -404,7 +419,7 @@ def diagnose(
             # Only a change that clearly explains some effect counts: small drops spread over
             # every effect are noise fitting (e.g. acne patterns that float rounding decides).
             gains.append(base_obj - _objective(per(c)) if _explained(base, per(c)) else 0.0)
-        if promising is None:
+        if full:
             promising = {
                 (ch.kind, ch.key) for ch, g in zip(tried, gains, strict=True) if g > MIN_GAIN
             }
@@ -415,15 +430,10 @@ def diagnose(
         )
         best = int(np.argmax(gains)) if gains else -1
         if best < 0 or gains[best] <= MIN_GAIN:
-            # Stuck with the promising set: one full sweep, if time allows, then stop.
-            if (
-                full_sweep_done_after_stall
-                or round_no == 1
-                or time.perf_counter() - t0 > 0.4 * budget_s
-            ):
+            # Stuck with the changes that helped: a full sweep, unless this was one.
+            if full or len(score_of) >= max_renders or round_no > 40:
                 break
-            full_sweep_done_after_stall = True
-            promising = {(ch.kind, ch.key) for ch in all_changes}
+            promising = None
             continue
         chosen, after_c = tried[best], cands[best]
         after = per(after_c)
@@ -446,6 +456,7 @@ def diagnose(
     toggles = {q: current.with_quirk(q, q not in current.quirks) for q in SEARCH_QUIRKS}
     evaluate(list(toggles.values()))
     invisible = {q for q, c in toggles.items() if score_of[c].digest == score_of[current].digest}
+    invisible.add(10)  # every candidate is one ray per pixel, where Q10 changes nothing
 
     # The same result written from the mode it differs least from (paper-Q2 --no-shadows is
     # classic --no-shadows when Q4 and Q9 change no pixel); the steps are then retold from
