@@ -318,9 +318,9 @@ def diagnose(
     the evidence per effect. `render` must return the candidate at the image's size with the
     id and depth AOVs (the first render's give the effect masks). With `start`, the search
     begins there instead of at the nearest of the three modes. `parallel` renders run at once
-    (render must then be thread-safe). When the changes that helped stop helping, every
-    change is tried once more (while fewer than `max_renders` renders were made); the search
-    ends when that finds nothing either. Nothing depends on time, so a loaded machine gives
+    (render must then be thread-safe). When the changes that helped stop helping and some
+    effect is still not reproduced, every change is tried once more (while fewer than
+    `max_renders` renders were made); the search ends when that finds nothing either. Nothing depends on time, so a loaded machine gives
     the same diagnosis, later."""
     t0 = time.perf_counter()
     say = progress or (lambda _m: None)
@@ -430,8 +430,11 @@ def diagnose(
         )
         best = int(np.argmax(gains)) if gains else -1
         if best < 0 or gains[best] <= MIN_GAIN:
-            # Stuck with the changes that helped: a full sweep, unless this was one.
-            if full or len(score_of) >= max_renders or round_no > 40:
+            # Stuck with the changes that helped: a full sweep, unless this was one or every
+            # effect is already reproduced (nothing left to explain).
+            sc = score_of[current]
+            done = all(_matched(k, sc.pixels[k], sc.off[k]) for k in sc.pixels)
+            if full or done or len(score_of) >= max_renders or round_no > 40:
                 break
             promising = None
             continue
