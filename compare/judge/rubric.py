@@ -15,6 +15,7 @@ Every error names the file and the line.
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -89,8 +90,12 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
                 key,
                 "rubric",
             )
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise fail(f"{key} must be a number, got {value!r}", key, "rubric")
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
+            raise fail(f"{key} must be a finite number, got {value!r}", key, "rubric")
         values[key] = float(value)
     if not 0 <= values.get("pass_score", 60) <= 100:
         raise fail("pass_score must be from 0 to 100", "pass_score", "rubric")
@@ -114,8 +119,15 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
                     section,
                 )
             lo = -1.0 if key == "min_ssim" else 0.0  # SSIM ranges over [-1, 1]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < lo:
-                raise fail(f"{key} must be a number >= {lo:g}, got {value!r}", key, section)
+            hi = 1.0 if key == "min_ssim" else math.inf
+            # `not lo <= v < hi` also refuses NaN (TOML has nan and inf), which compares false
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not (lo <= value <= hi and math.isfinite(value))
+            ):
+                span = f"from {lo:g} to {hi:g}" if hi < math.inf else f">= {lo:g}"
+                raise fail(f"{key} must be a finite number {span}, got {value!r}", key, section)
             rule[key] = float(value)
         effects[name] = EffectRule(**rule)
     return Rubric(
