@@ -130,6 +130,7 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
     same key on disk is returned as is."""
     from jinja2 import Environment, PackageLoader, select_autoescape
 
+    from compare.apps.page_security import with_csp
     from compare.judge.rubric import parse_rubric
 
     out = Path(task.out_dir)
@@ -172,7 +173,8 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
         loader=PackageLoader("compare.apps", "templates"),
         autoescape=select_autoescape(["html", "j2"]),
     )
-    write_atomic(page_dir / "index.html", env.get_template("student.html.j2").render(r=result))
+    page = with_csp(env.get_template("student.html.j2").render(r=result))
+    write_atomic(page_dir / "index.html", page)
     (out / "results").mkdir(exist_ok=True)
     write_atomic(result_path, json.dumps(result, indent=2, default=float))
     return result
