@@ -32,7 +32,7 @@ from compare.files import sha256_file, write_atomic
 from compare.judge.convergence import time_to_converged
 from compare.judge.effects import effect_masks
 from compare.judge.evaluate import evaluate_pair
-from compare.judge.images import Image, ImageError, read_image, write_png
+from compare.judge.images import Image, ImageError, ImageSizeError, read_image, write_png
 from compare.judge.metrics import metrics_from_dict
 from compare.judge.penumbra import penumbra_numbers
 from compare.judge.scoring import score_effects
@@ -172,12 +172,13 @@ def build_report(
     label = test_label or "the demo (paper mode)"
     featured = list(FEATURED)
     if test_image:
-        foreign = read_image(test_image, encoding=test_encoding)
-        if foreign.shape != ref.shape:
+        try:  # the size is checked in the header: a huge declared size costs nothing
+            foreign = read_image(test_image, encoding=test_encoding, expected_size=ref.shape)
+        except ImageSizeError as e:
             raise ImageError(
-                f"{test_image}: {foreign.shape[1]}x{foreign.shape[0]}, the scene renders at "
+                f"{test_image}: {e.size[1]}x{e.size[0]}, the scene renders at "
                 f"{ref.shape[1]}x{ref.shape[0]} (never resampled)"
-            )
+            ) from None
         test_key = "test-image"
         label = test_label or Path(test_image).stem
         imgs[test_key] = foreign
