@@ -222,7 +222,7 @@ def test_pfm_scale_must_be_finite_and_non_zero(tmp_path: Path, scale: bytes) -> 
         ("--min-ssim", "nan"),
         ("--max-flip", "-1"),
         ("--hardfail", "nan"),
-    ],  # fmt: skip
+    ],
 )
 def test_compare_tolerances_are_finite_and_in_range(
     tmp_path: Path, option: str, value: str

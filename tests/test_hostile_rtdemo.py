@@ -90,7 +90,7 @@ def test_full_disk_leaves_no_partial_file(
             "240",
             "-q",
             *extra,
-        ],  # fmt: skip
+        ],
         preexec_fn=_limit_file_size,
         timeout=120,
     )
