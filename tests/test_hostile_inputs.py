@@ -319,3 +319,33 @@ def test_a_full_disk_leaves_no_partial_file(tmp_path: Path) -> None:
     assert proc.stdout.startswith("error"), (proc.stdout, proc.stderr)
     assert target.read_text() == "old\n"  # untouched
     assert sorted(p.name for p in tmp_path.iterdir()) == ["gradebook.csv"]  # no temporary left
+
+
+# ---------------------------------------------------------------- temporary files
+
+
+@pytest.mark.slow
+def test_a_mitsuba_reference_leaves_nothing_in_the_temporary_folder(tmp_path: Path) -> None:
+    """The paper scene's meshes (~13 MB of PLY) go to a temporary folder for Mitsuba's
+    loader; it must be gone when the command ends. TMPDIR makes the check private."""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    env = {**os.environ, "TMPDIR": str(tmp)}
+    out = tmp_path / "ref.exr"
+    proc = run(
+        [
+            RTVAL,
+            "reference",
+            str(SCENES / "paper.json"),
+            "-o",
+            str(out),
+            "--spp",
+            "1",
+            "--size",
+            "32x24",
+        ],
+        env=env,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert out.is_file() and list(tmp.iterdir()) == []
