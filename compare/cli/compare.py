@@ -30,7 +30,7 @@ def run_compare(args: argparse.Namespace) -> int:
     if ref_size != test_size:
         print(
             f"rtval: size mismatch: reference {args.ref} is {ref_size[1]}x{ref_size[0]}, "
-            f"test {args.test} is {test_size[1]}x{test_size[0]}",
+            f"test {args.test} is {test_size[1]}x{test_size[0]} (never resampled)",
             file=sys.stderr,
         )
         return EXIT_SIZE
