@@ -349,3 +349,11 @@ def test_a_mitsuba_reference_leaves_nothing_in_the_temporary_folder(tmp_path: Pa
     )
     assert proc.returncode == 0, proc.stderr
     assert out.is_file() and list(tmp.iterdir()) == []
+
+
+def test_ztest_refuses_nan_alpha_and_an_output_over_an_input(pair: tuple[Path, Path]) -> None:
+    ref, test = pair
+    proc = _rtval("ztest", str(ref), str(test), "--alpha", "nan")
+    assert proc.returncode == 64 and "--alpha: expected a number between 0 and 1" in proc.stderr
+    proc = _rtval("ztest", str(ref), str(test), "--json", str(ref))
+    assert proc.returncode == 64 and "--json names the same file as REF" in proc.stderr
