@@ -357,3 +357,12 @@ def test_ztest_refuses_nan_alpha_and_an_output_over_an_input(pair: tuple[Path, P
     assert proc.returncode == 64 and "--alpha: expected a number between 0 and 1" in proc.stderr
     proc = _rtval("ztest", str(ref), str(test), "--json", str(ref))
     assert proc.returncode == 64 and "--json names the same file as REF" in proc.stderr
+
+
+def test_rubric_that_is_a_fifo_is_refused(tmp_path: Path) -> None:
+    from compare.judge.rubric import RubricError, load_rubric
+
+    fifo = tmp_path / "r.toml"
+    os.mkfifo(fifo)
+    with pytest.raises(RubricError, match=f"{fifo}: is a FIFO, not a regular file"):
+        load_rubric(fifo)

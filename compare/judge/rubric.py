@@ -142,9 +142,13 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
 def load_rubric(path: str | Path | None) -> Rubric:
     if path is None:
         return parse_rubric(DEFAULT_RUBRIC_TEXT, "default rubric")
+    from compare.safe_paths import read_bounded
+
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise RubricError(f"{p}: cannot read the rubric: {e}") from None
+    try:  # a regular file of at most 1 MiB: never a FIFO or a device
+        text = read_bounded(p, 1 << 20).decode("utf-8")
+    except OSError as e:  # the message names the path
+        raise RubricError(f"cannot read the rubric: {e}") from None
+    except UnicodeDecodeError as e:
+        raise RubricError(f"{p}: the rubric is not UTF-8 text: {e}") from None
     return parse_rubric(text, str(p))
