@@ -237,10 +237,19 @@ def test_compare_tolerances_are_finite_and_in_range(
 @pytest.mark.parametrize(
     ("toml", "needle"),
     [
-        ("[effects.refraction]\nweight = nan\n", "weight must be a finite number >= 0"),
-        ("[effects.refraction]\nmax_flip = inf\n", "max_flip must be a finite number >= 0"),
-        ("[effects.refraction]\nmin_ssim = 2.0\n", "min_ssim must be a finite number from -1 to 1"),
-        ("[rubric]\npass_score = nan\n", "pass_score must be a finite number"),
+        (
+            "[effects.refraction]\nweight = nan\n",
+            "weight must be a number >= 0 \\(finite\\), got nan",
+        ),
+        (
+            "[effects.refraction]\nmax_flip = inf\n",
+            "max_flip must be a number >= 0 \\(finite\\), got inf",
+        ),
+        (
+            "[effects.refraction]\nmin_ssim = 2.0\n",
+            "min_ssim must be a number from -1 to 1 \\(finite\\), got 2.0",
+        ),
+        ("[rubric]\npass_score = nan\n", "pass_score must be a number \\(finite\\), got nan"),
     ],
 )
 def test_rubric_numbers_are_finite_and_in_range(toml: str, needle: str) -> None:

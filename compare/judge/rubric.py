@@ -95,7 +95,7 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
             or not isinstance(value, (int, float))
             or not math.isfinite(value)
         ):
-            raise fail(f"{key} must be a finite number, got {value!r}", key, "rubric")
+            raise fail(f"{key} must be a number (finite), got {value!r}", key, "rubric")
         values[key] = float(value)
     if not 0 <= values.get("pass_score", 60) <= 100:
         raise fail("pass_score must be from 0 to 100", "pass_score", "rubric")
@@ -127,7 +127,7 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
                 or not (lo <= value <= hi and math.isfinite(value))
             ):
                 span = f"from {lo:g} to {hi:g}" if hi < math.inf else f">= {lo:g}"
-                raise fail(f"{key} must be a finite number {span}, got {value!r}", key, section)
+                raise fail(f"{key} must be a number {span} (finite), got {value!r}", key, section)
             rule[key] = float(value)
         effects[name] = EffectRule(**rule)
     return Rubric(
