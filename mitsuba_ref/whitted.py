@@ -37,7 +37,8 @@ def _not(mask: Any) -> Any:
 
 
 def _concat(parts: list[Any]) -> Any:
-    """Arrays of one drjit type laid end to end."""
+    """Arrays of one drjit type laid end to end. The offsets are opaque so that the scatter
+    kernels do not bake them in as literals (a new kernel to compile for every width)."""
     if len(parts) == 1:
         return parts[0]
     total = sum(dr.width(p) for p in parts)
@@ -45,7 +46,7 @@ def _concat(parts: list[Any]) -> Any:
     offset = 0
     for p in parts:
         w = dr.width(p)
-        dr.scatter(out, p, dr.arange(mi.UInt32, w) + offset)
+        dr.scatter(out, p, dr.arange(mi.UInt32, w) + dr.opaque(mi.UInt32, offset))
         offset += w
     return out
 
@@ -150,26 +151,30 @@ def integrator_class(variant: str) -> type:
             si = scene.ray_intersect(ray, active)
             hit = active & si.is_valid()
             miss = active & _not(si.is_valid())
-            result = dr.select(miss, self._background(ray, miss), 0.0)
-            children: list[tuple[Any, Any, Any]] = []
-            if not dr.any(hit):
-                return result, children
             light = self._is_light(scene, si, hit)
-            result += dr.select(light, self._emission(scene, si, light), 0.0)
             surface = hit & _not(light)
             bsdf = si.bsdf(ray)
             flags = bsdf.flags()
             diffuse = surface & mi.has_flag(flags, mi.BSDFFlags.DiffuseReflection)
-            if dr.any(diffuse):
-                result += dr.select(diffuse, self._direct(scene, draw2d, si, bsdf, diffuse), 0.0)
             specular = surface & mi.has_flag(flags, mi.BSDFFlags.Delta)
-            if depth >= self.max_depth or not dr.any(specular):
-                return result, children  # a specular chain cut at max_depth carries nothing
             lobes = []
             if self.reflection:
                 lobes.append((0, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaReflection)))
             if self.refraction:
                 lobes.append((1, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaTransmission)))
+            if _jit():
+                # Store the intersection and every mask in one kernel. Left lazy, each
+                # dr.any below and each later kernel would trace these rays again.
+                dr.eval(si, bsdf, hit, miss, light, diffuse, specular, [m for _, m in lobes])
+            result = dr.select(miss, self._background(ray, miss), 0.0)
+            children: list[tuple[Any, Any, Any]] = []
+            if not dr.any(hit):
+                return result, children
+            result += dr.select(light, self._emission(scene, si, light), 0.0)
+            if dr.any(diffuse):
+                result += dr.select(diffuse, self._direct(scene, draw2d, si, bsdf, diffuse), 0.0)
+            if depth >= self.max_depth or not dr.any(specular):
+                return result, children  # a specular chain cut at max_depth carries nothing
             for component, mask in lobes:
                 if not dr.any(mask):
                     continue
@@ -207,17 +212,31 @@ def integrator_class(variant: str) -> type:
                 contrib, children = self.shade(scene, draw2d, mi.Ray3f(origins, dirs), depth,
                                                dr.full(mi.Bool, True, width))
                 dr.scatter_reduce(dr.ReduceOp.Add, result, weight * contrib, idx)
-                parts = []
-                for mask, child, w in children:
-                    keep = dr.compress(mask)
-                    if dr.width(keep) > 0:
-                        parts.append((dr.gather(mi.Point3f, child.o, keep),
-                                      dr.gather(mi.Vector3f, child.d, keep),
-                                      dr.gather(mi.Color3f, weight * w, keep),
-                                      dr.gather(mi.UInt32, idx, keep)))
-                if not parts:
+                if not children:
                     break
-                origins, dirs, weight, idx = (_concat([p[k] for p in parts]) for k in range(4))
+                masks = [mask for mask, _, _ in children]
+                weights = [weight * w for _, _, w in children]
+                # One kernel shades the front (direct light, shadow rays), adds its share to
+                # the result (the scatter above) and stores every child ray.
+                dr.eval(masks, [c.o for _, c, _ in children], [c.d for _, c, _ in children],
+                        weights)
+                # Compact all lobes at once: lobe k's rays sit at [k * width, (k+1) * width)
+                # of the concatenated mask, so the order is lobe 0's rays, then lobe 1's.
+                keep = dr.compress(_concat(masks))
+                if dr.width(keep) == 0:
+                    break
+                lobe = keep // dr.opaque(mi.UInt32, width)
+                j = keep - lobe * dr.opaque(mi.UInt32, width)
+                o_parts = [dr.gather(mi.Point3f, c.o, j) for _, c, _ in children]
+                d_parts = [dr.gather(mi.Vector3f, c.d, j) for _, c, _ in children]
+                w_parts = [dr.gather(mi.Color3f, w, j) for w in weights]
+                origins, dirs, weight = o_parts[0], d_parts[0], w_parts[0]
+                for k in range(1, len(children)):
+                    at_k = lobe == k
+                    origins = dr.select(at_k, o_parts[k], origins)
+                    dirs = dr.select(at_k, d_parts[k], dirs)
+                    weight = dr.select(at_k, w_parts[k], weight)
+                idx = dr.gather(mi.UInt32, idx, j)
                 dr.eval(origins, dirs, weight, idx)
             return result
 
