@@ -58,6 +58,15 @@ def _offset_origin(p: Any, n: Any, d: Any) -> Any:
     return p + n * (scale * side)
 
 
+def _draw_for_front(sampler: Any, idx: Any) -> Any:
+    """The sampler's next 2D sample of each front ray's camera ray. The sampler draws for the
+    whole wavefront (the same stream whatever the front), evaluated in one kernel before the
+    gather (which would otherwise evaluate x and y in a kernel each)."""
+    sample = sampler.next_2d()
+    dr.eval(sample)
+    return dr.gather(mi.Point2f, sample, idx)
+
+
 @functools.lru_cache(maxsize=None)
 def integrator_class(variant: str) -> type:
     """The integrator class for one Mitsuba variant (each variant has its own base class).
@@ -151,6 +160,8 @@ def integrator_class(variant: str) -> type:
             si = scene.ray_intersect(ray, active)
             hit = active & si.is_valid()
             miss = active & _not(si.is_valid())
+            if not _jit() and not hit:  # scalar: a miss has no BSDF to ask for its flags
+                return self._background(ray, miss) if miss else mi.Color3f(0.0), []
             light = self._is_light(scene, si, hit)
             surface = hit & _not(light)
             bsdf = si.bsdf(ray)
@@ -208,7 +219,7 @@ def integrator_class(variant: str) -> type:
                 width = dr.width(idx)
                 if width == 0:
                     break
-                draw2d = lambda idx=idx: dr.gather(mi.Point2f, sampler.next_2d(), idx)  # noqa: E731
+                draw2d = functools.partial(_draw_for_front, sampler, idx)
                 contrib, children = self.shade(scene, draw2d, mi.Ray3f(origins, dirs), depth,
                                                dr.full(mi.Bool, True, width))
                 dr.scatter_reduce(dr.ReduceOp.Add, result, weight * contrib, idx)
