@@ -19,11 +19,11 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from common import SCENES, print_table, write_results  # noqa: E402
+from common import SCENES, print_table, write_results
 
-from mitsuba_ref.drjit_env import load_mitsuba  # noqa: E402
-from mitsuba_ref.reference import ReferenceSettings, render_reference  # noqa: E402
-from mitsuba_ref.scene import Scene, load_scene  # noqa: E402
+from mitsuba_ref.drjit_env import load_mitsuba
+from mitsuba_ref.reference import ReferenceSettings, render_reference
+from mitsuba_ref.scene import Scene, load_scene
 
 INTEGRATORS = ("whitted", "path")
 

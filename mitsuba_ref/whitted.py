@@ -211,7 +211,7 @@ def integrator_class(variant: str) -> type:
             lobe; contributions are scattered back to their camera ray."""
             n = dr.width(ray.o)
             result = dr.zeros(mi.Color3f, n)
-            idx = dr.compress(mi.Bool(active) | dr.zeros(mi.Bool, n))
+            idx: Any = dr.compress(mi.Bool(active) | dr.zeros(mi.Bool, n))
             origins = dr.gather(mi.Point3f, ray.o, idx)
             dirs = dr.gather(mi.Vector3f, ray.d, idx)
             weight = dr.full(mi.Color3f, 1.0, dr.width(idx))
@@ -233,7 +233,7 @@ def integrator_class(variant: str) -> type:
                         weights)
                 # Compact all lobes at once: lobe k's rays sit at [k * width, (k+1) * width)
                 # of the concatenated mask, so the order is lobe 0's rays, then lobe 1's.
-                keep = dr.compress(_concat(masks))
+                keep: Any = dr.compress(_concat(masks))
                 if dr.width(keep) == 0:
                     break
                 lobe = keep // dr.opaque(mi.UInt32, width)
