@@ -208,13 +208,19 @@ def integrator_class(variant: str) -> type:
 
         def _trace_wavefront(self, scene: Any, sampler: Any, ray: Any, active: Any) -> Any:
             """JIT variants: per depth one compacted front holding every live ray of every
-            lobe; contributions are scattered back to their camera ray."""
+            lobe. Each ray's weighted contribution is kept per front; after the last depth the
+            fronts are summed back up the tree (a ray's own light, then its lobe 0 child's
+            total, then its lobe 1 child's), by gathers in a fixed order: the image is the
+            same from run to run (atomic adds from several threads are not)."""
             n = dr.width(ray.o)
-            result = dr.zeros(mi.Color3f, n)
-            idx: Any = dr.compress(mi.Bool(active) | dr.zeros(mi.Bool, n))
+            root: Any = dr.compress(mi.Bool(active) | dr.zeros(mi.Bool, n))
+            idx = root
             origins = dr.gather(mi.Point3f, ray.o, idx)
             dirs = dr.gather(mi.Vector3f, ray.d, idx)
             weight = dr.full(mi.Color3f, 1.0, dr.width(idx))
+            # Per depth: the front's own weighted light and, per lobe, (mask, the child's
+            # position in the next front).
+            fronts: list[tuple[Any, list[tuple[Any, Any]]]] = []
             for depth in range(self.max_depth + 1):
                 width = dr.width(idx)
                 if width == 0:
@@ -222,22 +228,34 @@ def integrator_class(variant: str) -> type:
                 draw2d = functools.partial(_draw_for_front, sampler, idx)
                 contrib, children = self.shade(scene, draw2d, mi.Ray3f(origins, dirs), depth,
                                                dr.full(mi.Bool, True, width))
-                dr.scatter_reduce(dr.ReduceOp.Add, result, weight * contrib, idx)
+                own = weight * contrib
                 if not children:
+                    dr.eval(own)
+                    fronts.append((own, []))
                     break
                 masks = [mask for mask, _, _ in children]
                 weights = [weight * w for _, _, w in children]
-                # One kernel shades the front (direct light, shadow rays), adds its share to
-                # the result (the scatter above) and stores every child ray.
-                dr.eval(masks, [c.o for _, c, _ in children], [c.d for _, c, _ in children],
-                        weights)
+                # One kernel shades the front (direct light, shadow rays) and stores its
+                # light and every child ray.
+                dr.eval(own, masks, [c.o for _, c, _ in children],
+                        [c.d for _, c, _ in children], weights)
                 # Compact all lobes at once: lobe k's rays sit at [k * width, (k+1) * width)
                 # of the concatenated mask, so the order is lobe 0's rays, then lobe 1's.
                 keep: Any = dr.compress(_concat(masks))
-                if dr.width(keep) == 0:
+                kept = dr.width(keep)
+                position = dr.zeros(mi.UInt32, len(children) * width)
+                if kept > 0:
+                    dr.scatter(position, dr.arange(mi.UInt32, kept), keep)
+                wide = dr.opaque(mi.UInt32, width)
+                links = [(mask, dr.gather(mi.UInt32, position,
+                                          dr.arange(mi.UInt32, width) + wide * k))
+                         for k, mask in enumerate(masks)]
+                dr.eval(links)
+                fronts.append((own, links))
+                if kept == 0:
                     break
-                lobe = keep // dr.opaque(mi.UInt32, width)
-                j = keep - lobe * dr.opaque(mi.UInt32, width)
+                lobe = keep // wide
+                j = keep - lobe * wide
                 o_parts = [dr.gather(mi.Point3f, c.o, j) for _, c, _ in children]
                 d_parts = [dr.gather(mi.Vector3f, c.d, j) for _, c, _ in children]
                 w_parts = [dr.gather(mi.Color3f, w, j) for w in weights]
@@ -249,6 +267,18 @@ def integrator_class(variant: str) -> type:
                     weight = dr.select(at_k, w_parts[k], weight)
                 idx = dr.gather(mi.UInt32, idx, j)
                 dr.eval(origins, dirs, weight, idx)
+            result = dr.zeros(mi.Color3f, n)
+            if not fronts:
+                return result
+            below: Any = None  # totals of the front one depth deeper
+            for own, links in reversed(fronts):
+                total = own
+                if below is not None:
+                    for mask, at in links:
+                        total = total + dr.gather(mi.Color3f, below, at, mask)
+                dr.eval(total)
+                below = total
+            dr.scatter(result, below, root)  # one root per camera ray: no two writes collide
             return result
 
         def sample(self, scene: Any, sampler: Any, ray: Any, medium: Any = None,
