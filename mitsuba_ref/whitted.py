@@ -12,7 +12,8 @@ physical mode, noise-free with point lights and centre rays.
   float32 rounding at large coordinates cannot self-intersect (mitsuba-notes.md).
 
 Switches shadows / reflection / refraction drop one effect for per-effect ablation.
-Works in JIT variants (wide arrays, recursion per depth) and scalar variants (one ray).
+Works in JIT variants (one compacted wavefront per depth, each front traced once, light summed
+back up the tree in a fixed order) and scalar variants (one ray, depth-first).
 """
 
 from __future__ import annotations
