@@ -98,6 +98,7 @@ def render_reference(
             {
                 "type": whitted.NAME,
                 "max_depth": scene.max_depth,
+                "bias": scene.bias,
                 "shadows": settings.shadows,
                 "reflection": settings.reflection,
                 "refraction": settings.refraction,

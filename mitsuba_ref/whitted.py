@@ -8,7 +8,8 @@ physical mode, noise-free with point lights and centre rays.
   weights F * tint and (1 - F) * tint * eta_ti^2), mirrors follow their one lobe;
 - chains stop at max_depth (a specular hit there carries nothing); a light's sphere is
   emitter-only;
-- secondary rays leave from p + n * 1e-4 (1 + |p|), shadow rays end before the light, so
+- secondary rays leave from p + n * bias (1 + |p|) (the scene's bias, 1e-4 by default, scaled
+  as the demo's physical mode scales it), shadow rays end before the light, so
   float32 rounding at large coordinates cannot self-intersect (docs/mitsuba-notes.md).
 
 Switches shadows / reflection / refraction drop one effect for per-effect ablation.
@@ -25,7 +26,7 @@ import drjit as dr
 import mitsuba as mi
 
 NAME = "rtval_whitted"
-OFFSET_SCALE = 1e-4
+DEFAULT_BIAS = 1e-4  # the scene format's default
 
 
 def _jit() -> bool:
@@ -52,9 +53,9 @@ def _concat(parts: list[Any]) -> Any:
     return out
 
 
-def _offset_origin(p: Any, n: Any, d: Any) -> Any:
-    """p moved off the surface by 1e-4 (1 + max|p_i|), to the side `d` leaves on."""
-    scale = OFFSET_SCALE * (1.0 + dr.max(dr.abs(p)))
+def _offset_origin(p: Any, n: Any, d: Any, bias: float) -> Any:
+    """p moved off the surface by bias (1 + max|p_i|), to the side `d` leaves on."""
+    scale = bias * (1.0 + dr.max(dr.abs(p)))
     side = dr.select(dr.dot(d, n) >= 0, 1.0, -1.0)
     return p + n * (scale * side)
 
@@ -74,10 +75,11 @@ def integrator_class(variant: str) -> type:
     Precondition: `variant` is the active one (mitsuba_ref.drjit_env.load_mitsuba)."""
     assert mi.variant() == variant, (mi.variant(), variant)
 
-    class WhittedIntegrator(mi.SamplingIntegrator):  # type: ignore[misc]
+    class WhittedIntegrator(mi.SamplingIntegrator):
         def __init__(self, props: Any) -> None:
             super().__init__(props)
             self.max_depth = int(props.get("max_depth", 5))
+            self.bias = float(props.get("bias", DEFAULT_BIAS))
             self.shadows = bool(props.get("shadows", True))
             self.reflection = bool(props.get("reflection", True))
             self.refraction = bool(props.get("refraction", True))
@@ -129,7 +131,7 @@ def integrator_class(variant: str) -> type:
         ) -> Any:
             """Is the segment from the offset hit point to ds.p blocked? It ends `shorten`
             before ds.p (the light's radius for a point at a sphere's centre), minus rel_eps."""
-            o = _offset_origin(si.p, si.n, ds.d)
+            o = _offset_origin(si.p, si.n, ds.d, self.bias)
             to_light = ds.p - o
             dist = dr.norm(to_light)
             shadow = mi.Ray3f(o, to_light / dist)
@@ -201,7 +203,7 @@ def integrator_class(variant: str) -> type:
                 bs, w = bsdf.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5), mask)
                 mask = mask & dr.any(w != 0.0)
                 wo = si.to_world(bs.wo)
-                children.append((mask, mi.Ray3f(_offset_origin(si.p, si.n, wo), wo), w))
+                children.append((mask, mi.Ray3f(_offset_origin(si.p, si.n, wo, self.bias), wo), w))
             return result, children
 
         def _trace_recursive(
