@@ -18,7 +18,6 @@ from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -271,10 +270,9 @@ def run_grading(
 
 
 def write_gradebook(results: list[dict[str, Any]], out: Path, rubric: str, seconds: float) -> None:
-    rows: list[list[object]] = []
-    w = SimpleNamespace(writerow=rows.append)  # neutralised by csv_text (formula injection)
+    rows: list[list[object]] = []  # written by csv_text, which neutralises formulas
     scenes = sorted({s["scene"] for r in results for s in r["scenes"]})
-    w.writerow(
+    rows.append(
         [
             "student",
             "status",
@@ -287,7 +285,7 @@ def write_gradebook(results: list[dict[str, Any]], out: Path, rubric: str, secon
     )
     for r in results:
         by = {s["scene"]: s for s in r["scenes"]}
-        w.writerow(
+        rows.append(
             [
                 r["student"],
                 r["status"],
