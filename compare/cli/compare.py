@@ -8,13 +8,34 @@ import sys
 
 def run_compare(args: argparse.Namespace) -> int:
     from compare.apps.compare_pair import load_mask, run_comparison, table, write_outputs
-    from compare.judge.images import read_image
+    from compare.judge.images import image_size, read_image
     from compare.judge.metrics import SizeMismatch
     from compare.judge.tolerances import EXIT_SIZE, Tolerances
+    from compare.safe_paths import check_outputs_distinct
     from scene_model.scene import load_scene
 
+    check_outputs_distinct(
+        [("--json", args.json), ("--diff-image", args.diff_image)],
+        [
+            ("REF", args.ref),
+            ("TEST", args.test),
+            ("--mask", args.mask),
+            ("--scene", args.scene),
+            ("--aovs", args.aovs),
+        ],
+    )
+    # Sizes from the headers first: a mismatch costs no decoding (two 8192^2 EXRs or a
+    # tiny PNG declaring 9400^2 pixels would otherwise take gigabytes before the refusal).
+    ref_size, test_size = image_size(args.ref), image_size(args.test)
+    if ref_size != test_size:
+        print(
+            f"rtval: size mismatch: reference {args.ref} is {ref_size[1]}x{ref_size[0]}, "
+            f"test {args.test} is {test_size[1]}x{test_size[0]} (never resampled)",
+            file=sys.stderr,
+        )
+        return EXIT_SIZE
     ref = read_image(args.ref, encoding=args.ref_encoding)
-    test = read_image(args.test, encoding=args.test_encoding)
+    test = read_image(args.test, encoding=args.test_encoding, expected_size=ref.shape)
     tol = Tolerances(
         fail=args.fail,
         failpercent=args.failpercent,

@@ -2,15 +2,18 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "cli_args.h"
 #include "cpu_renderer.h"
+#include "file_kind.h"
 #include "gl_headless.h"
 #include "gl_viewer.h"
 #include "image_io.h"
@@ -269,8 +272,26 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
     return settings;
 }
 
+// An output equal to the scene file or to another output is a usage error: one of the
+// two would be lost (exit 2, before anything is rendered).
+void check_distinct_outputs(const RenderArgs& a) {
+    const std::pair<const char*, const std::string*> outs[] = {
+        {"-o", &a.exr}, {"--png", &a.png}, {"--ppm", &a.ppm}};
+    for (std::size_t i = 0; i < std::size(outs); ++i) {
+        if (outs[i].second->empty()) continue;
+        if (same_file(*outs[i].second, a.scene_path))
+            throw UsageError(*outs[i].second + ": " + outs[i].first +
+                             " names the scene file; refusing to overwrite an input");
+        for (std::size_t j = 0; j < i; ++j)
+            if (!outs[j].second->empty() && same_file(*outs[i].second, *outs[j].second))
+                throw UsageError(*outs[i].second + ": " + outs[i].first + " and " + outs[j].first +
+                                 " name the same file");
+    }
+}
+
 int run_render(const std::vector<std::string>& args) {
     const RenderArgs a = parse_render_args(args);
+    check_distinct_outputs(a);
     for (const std::string* out : {&a.exr, &a.png, &a.ppm})
         if (!out->empty()) check_writable(*out);
 
