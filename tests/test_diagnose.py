@@ -227,6 +227,9 @@ def test_cli_writes_json_and_documents_exit_codes(
     start = run([RTVAL, "diagnose", str(variants["exact"]), "--scene", str(CLASSIC),
                  "--against-start", "mitsuba"])  # fmt: skip
     assert start.returncode == 64 and "demo model" in start.stderr
+    image = variants["exact"]
+    same = run([RTVAL, "diagnose", str(image), "--scene", str(CLASSIC), "--json", str(image)])
+    assert same.returncode == 64 and "IMAGE" in same.stderr and image.read_bytes()[:2] == b"P6"
 
 
 @pytest.mark.slow

@@ -21,6 +21,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from compare.judge.target_model import parse_model
     from compare.render.candidates import CandidateRenderer
     from compare.render.runner import ToolError
+    from compare.safe_paths import check_outputs_distinct
     from scene_model.scene import load_scene
 
     start = None
@@ -36,6 +37,9 @@ def run_diagnose(args: argparse.Namespace) -> int:
         Path(args.scene)
         if Path(args.scene).suffix == ".json"
         else (Path("scenes") / f"{args.scene}.json")
+    )
+    check_outputs_distinct(
+        [("--json", args.json)], [("IMAGE", args.image), ("--scene", scene_file)]
     )
     scene = load_scene(scene_file)
     image = read_image(args.image, encoding=args.encoding)
@@ -69,7 +73,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "mistakes (rtdemo render --help lists them), effect by effect, with FLIP before and "
         "after. A region nothing explains is named: a new bug, not a quirk. Exit 0 diagnosed, "
         "1 renderer failure, 3 invalid scene, 4 unreadable image or unwritable --json, "
-        "64 bad arguments.",
+        "64 bad arguments (also --json naming IMAGE or the scene).",
     )
     p.add_argument("image", help="the image to explain (EXR, PNG, PPM, PFM)")
     p.add_argument("--scene", required=True, metavar="S", help="scene name (scenes/S.json) or file")
