@@ -5,11 +5,13 @@ absent, which effects switched off, which recursion depth and which named mistak
 The search renders candidates through an injected `render` (this module starts no process)
 and compares them with a cheap distance: per effect region, the mean number of 8-bit levels
 by which a pixel differs beyond one level (so a truncating and a rounding writer of the same
-values are at distance 0). It starts from the nearest of the three modes, tries one change at
-a time (a quirk toggled, an effect off, the depth one up or down, a mistake added or removed),
-keeps the change that lowers the summed per-effect distance most, and repeats with the
-changes that helped, instead of all 2^10 quirk combinations. FLIP (evaluate_pair) is computed
-only for the start and the result, for the report's numbers.
+values are at distance 0), plus how far the region's mean colour is off. It starts from the
+nearest of the three modes, tries one change at a time (a quirk toggled, an effect off, the
+depth one up or down, a mistake added or removed), keeps the change that lowers the summed
+per-effect distance most and clearly explains some effect, and repeats with the changes that
+helped, instead of all 2^10 quirk combinations. The result is retold from the mode it differs
+least from in the quirks this scene shows. FLIP (evaluate_pair) is computed only for the
+start and the result, for the report's numbers.
 """
 
 from __future__ import annotations
