@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import SCENES
+from helpers import SCENES
 from mitsuba_ref.scene import load_scene
 
 from mitsuba_ref.reference import ReferenceSettings, render_reference
