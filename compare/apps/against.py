@@ -21,7 +21,9 @@ from compare.judge.evaluate import Evaluation, ExactInputs, evaluate_pair
 from compare.judge.images import Image, ImageError, read_image
 from compare.judge.metrics import BOOL, F32
 from compare.judge.rubric import Rubric
+from compare.judge.scoring import FLIP_AT_ZERO_SCORE
 from compare.judge.target_model import TargetModel, parse_model
+from compare.judge.tolerances import Tolerances
 from compare.render.models import render_model, render_offsets
 from scene_model.scene import load_scene
 
@@ -98,6 +100,7 @@ def judge(
     rubric: Rubric | None = None,
     *,
     region: BOOL | None = None,
+    tolerances: Tolerances = Tolerances(),
 ) -> Evaluation:
     """`test` against the model, per effect (the model's masks). Raises SizeMismatch."""
     rules = rubric.effects if rubric else None
@@ -106,6 +109,7 @@ def judge(
         return evaluate_pair(
             model.reference.rgb,
             test.rgb,
+            tolerances=tolerances,
             region=region,
             masks=model.masks,
             rules=rules,
@@ -116,12 +120,23 @@ def judge(
         model.reference.rgb,
         test.rgb,
         hdr=test.encoding == "float",
+        tolerances=tolerances,
         region=region,
         masks=model.masks,
         rules=rules,
-        flip_at_zero=rubric.flip_at_zero if rubric else 0.5,
+        flip_at_zero=rubric.flip_at_zero if rubric else FLIP_AT_ZERO_SCORE,
         pass_score=pass_score,
     )
+
+
+def default_cache() -> Path:
+    """Where compare and check keep model renders: $RTVAL_CACHE, else the XDG cache."""
+    import os
+
+    if os.environ.get("RTVAL_CACHE"):
+        return Path(os.environ["RTVAL_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "rtval"
 
 
 def nan_pixels(img: Image) -> int:
