@@ -27,6 +27,7 @@ def run_compare(args: argparse.Namespace) -> int:
             raise ValueError("--against MODEL takes one image (TEST) and --scene SCENE.json")
     elif len(args.images) != 2:
         raise ValueError("compare needs REF TEST (or TEST --against MODEL --scene SCENE.json)")
+    ref = None if args.against else read_image(args.images[0], encoding=args.ref_encoding)
     test = read_image(args.images[-1], encoding=args.test_encoding)
     tol = Tolerances(
         fail=args.fail,
@@ -51,7 +52,7 @@ def run_compare(args: argparse.Namespace) -> int:
                 progress=stderr_progress,
             )
         else:
-            ref = read_image(args.images[0], encoding=args.ref_encoding)
+            assert ref is not None
             scene = load_scene(args.scene) if args.scene else None
             aovs = read_image(args.aovs) if args.aovs else None
             result = run_comparison(ref, test, tolerances=tol, mask=mask, scene=scene, aovs=aovs)
