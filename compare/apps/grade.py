@@ -141,6 +141,7 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
     page_dir = out / "students" / task.student
     page_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
+    scenes: list[dict[str, Any]]
     if task.problem:
         scenes = [
             {
@@ -164,7 +165,7 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
     reasons = "; ".join(f"{s['scene']}: {s['reason']}" for s in scenes if s.get("reason"))
     if status == "fail" and not reasons:  # every scene passed, the mean is short of pass_score
         reasons = f"score {score:.1f} < {rubric.pass_score:g}"
-    models = sorted({s["model"] for s in scenes})
+    models = sorted({str(s["model"]) for s in scenes})
     result = {
         "student": task.student,
         "key": key,

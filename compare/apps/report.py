@@ -406,7 +406,7 @@ def _model_verdict(
     costs = [
         {
             "quirk": q,
-            "present": q in present,
+            "present": int(q[1:]) in present,
             "flip_with": ladder[i - 1]["flip"],
             "flip_fixed": ladder[i]["flip"],
             "cost": ladder[i - 1]["flip"] - ladder[i]["flip"],
