@@ -114,7 +114,8 @@ def test_the_foreign_program_needs_the_offsets_and_nothing_more(work: dict[str, 
     match only a model render turned by 1e-4 px; none differ beyond that."""
     data = _compare(work, "numpy.ppm", "classic")
     assert data["exact"]["differing"] == 0
-    assert data["exact"]["edge_ambiguous"] <= 20  # measured: see the closing note of issue 16
+    # Measured: 2 at 320x240 and 2 at 640x480, all on the mirror spheres.
+    assert 1 <= data["exact"]["edge_ambiguous"] <= 10
 
 
 def test_another_mode_fails_against_classic_naming_the_effects(work: dict[str, Path]) -> None:
@@ -130,8 +131,13 @@ def test_another_mode_fails_against_classic_naming_the_effects(work: dict[str, P
 def test_exact_classic_fails_against_mitsuba(work: dict[str, Path]) -> None:
     data = _compare(work, "numpy.ppm", "mitsuba")
     assert data["status"] == "fail" and data["score"]["basis"] == "flip"
-    # Measured at 320x240 (rtval compare --against mitsuba, 32 spp Whitted reference): 40.0.
-    assert data["score"]["score"] == pytest.approx(40.0, abs=4.0)
+    # Measured 38.42 at 320x240 (`rtval compare numpy.ppm --against mitsuba --scene
+    # scenes/classic.json`, the 32 spp Whitted reference, Mitsuba 3 llvm_ad_rgb); the issue
+    # measured 40.1 for scratchapixel's own program at 640x480. The reference's noise moves it
+    # by well under 1.
+    assert data["score"]["score"] == pytest.approx(38.4, abs=2.0)
+    failing = {k for k, e in data["score"]["effects"].items() if e["status"] == "fail"}
+    assert {"direct", "reflection", "refraction"} <= failing
     assert data["score"]["status"] == "fail"
 
 

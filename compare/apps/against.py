@@ -18,6 +18,7 @@ import numpy as np
 from compare.files import sha256_file
 from compare.judge.effects import effect_masks
 from compare.judge.evaluate import Evaluation, ExactInputs, evaluate_pair
+from compare.judge.exact_match import Bounds
 from compare.judge.images import Image, ImageError, read_image
 from compare.judge.metrics import BOOL, F32
 from compare.judge.rubric import Rubric
@@ -53,6 +54,7 @@ class LoadedModel:
     reference: Image
     offsets: list[F32] = field(default_factory=list)
     masks: dict[str, BOOL] = field(default_factory=dict)
+    bounds: dict[str, list[Bounds]] = field(default_factory=dict)  # per encoding, filled on use
 
 
 def resolve_model(cli: str | None, rubric: Rubric | None, default: str) -> TargetModel:
@@ -114,7 +116,7 @@ def judge(
             masks=model.masks,
             rules=rules,
             pass_score=pass_score,
-            exact=ExactInputs(model.renders.model, model.offsets, test.encoding),
+            exact=ExactInputs(model.renders.model, model.offsets, test.encoding, model.bounds),
         )
     return evaluate_pair(
         model.reference.rgb,

@@ -18,7 +18,7 @@ from functools import cached_property
 import numpy as np
 
 from compare.judge.effects import EFFECTS
-from compare.judge.exact_match import ExactMatch, exact_match
+from compare.judge.exact_match import Bounds, ExactMatch, exact_match
 from compare.judge.metrics import BOOL, F32, Maps, Metrics, compute_maps, compute_metrics
 from compare.judge.scoring import (
     FLIP_AT_ZERO_SCORE,
@@ -44,6 +44,7 @@ class ExactInputs:
     model: str
     offsets: Sequence[F32]
     encoding: str  # linear | srgb | float (images.Image.encoding)
+    cache: dict[str, list[Bounds]] | None = None  # kept across a class (exact_match.Bounds)
 
 
 @dataclass
@@ -148,6 +149,7 @@ def evaluate_pair(
             model=exact.model,
             masks=result.masks,
             region=region,
+            cache=exact.cache,
         )
         if result.masks:
             result.score = score_exact(

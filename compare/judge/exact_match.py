@@ -142,23 +142,51 @@ def stored_codes(test: F32, encoding: str) -> NDArray[np.float64]:
     return np.asarray(np.rint(255.0 * np.nan_to_num(test.astype(np.float64), nan=0.0)))
 
 
-def channel_matches(model: F32, test: F32, encoding: str) -> BOOL:
-    """H x W: every channel of the test is a way to store the model's value (module doc)."""
+@dataclass(frozen=True)
+class Bounds:
+    """What a model render allows per channel in one encoding: [lo, hi] (8-bit codes, or float
+    values), and where the model is NaN. Computed once per model and encoding (the grading
+    workers keep them), so judging an image is only comparisons."""
+
+    lo: NDArray[np.float32]
+    hi: NDArray[np.float32]
+    nan: BOOL
+
+
+def bounds(model: F32, encoding: str) -> Bounds:
     x = model.astype(np.float64)
     nan = np.isnan(x)
     if encoding == "float":
-        t = test.astype(np.float64)
         with np.errstate(invalid="ignore"):
-            close = np.abs(t - x) <= FLOAT_TOLERANCE * np.maximum(np.abs(x), FLOAT_FLOOR)
-        ok = close | (t == x) | (nan & np.isnan(t))
-        return np.asarray(ok.all(axis=-1))
-    x0 = np.where(nan, 0.0, x)
-    a, b = x0 * (1 - VALUE_SLACK), x0 * (1 + VALUE_SLACK)
-    lo = np.floor(_encode(np.minimum(a, b), encoding))
-    hi = np.floor(_encode(np.maximum(a, b), encoding) + 0.5)
-    t = stored_codes(test, encoding)
-    ok = ((t >= lo) & (t <= hi) & ~nan) | (nan & ((t == 0) | (t == 255)))
+            tol = FLOAT_TOLERANCE * np.maximum(np.abs(x), FLOAT_FLOOR)
+        inf = np.isinf(x)  # an infinity allows only itself
+        lo, hi = np.where(inf, x, x - tol), np.where(inf, x, x + tol)
+    else:
+        x0 = np.where(nan, 0.0, x)
+        a, b = x0 * (1 - VALUE_SLACK), x0 * (1 + VALUE_SLACK)
+        lo = np.floor(_encode(np.minimum(a, b), encoding))
+        hi = np.floor(_encode(np.maximum(a, b), encoding) + 0.5)
+    return Bounds(lo.astype(np.float32), hi.astype(np.float32), nan)
+
+
+def _within(b: Bounds, t: NDArray[np.float64], encoding: str, where: BOOL | None) -> BOOL:
+    lo, hi, nan = (b.lo, b.hi, b.nan) if where is None else (b.lo[where], b.hi[where], b.nan[where])
+    with np.errstate(invalid="ignore"):
+        inside = (t >= lo) & (t <= hi)
+    if encoding == "float":
+        ok = (inside & ~nan) | (nan & np.isnan(t))
+    else:
+        ok = (inside & ~nan) | (nan & ((t == 0) | (t == 255)))
     return np.asarray(ok.all(axis=-1))
+
+
+def _stored(test: F32, encoding: str) -> NDArray[np.float64]:
+    return test.astype(np.float64) if encoding == "float" else stored_codes(test, encoding)
+
+
+def channel_matches(model: F32, test: F32, encoding: str) -> BOOL:
+    """H x W: every channel of the test is a way to store the model's value (module doc)."""
+    return _within(bounds(model, encoding), _stored(test, encoding), encoding, None)
 
 
 def exact_match(
@@ -169,20 +197,28 @@ def exact_match(
     model: str,
     masks: dict[str, BOOL] | None = None,
     region: BOOL | None = None,
+    cache: dict[str, list[Bounds]] | None = None,
 ) -> ExactMatch:
-    """`renders[0]` is the model at pixel centres, the rest at sub-pixel offsets."""
+    """`renders[0]` is the model at pixel centres, the rest at sub-pixel offsets. `cache`
+    (encoding -> the renders' Bounds) saves recomputing them for every image of a class."""
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding must be one of {', '.join(ENCODINGS)}, got {encoding!r}")
     if not renders:
         raise ValueError("exact_match needs at least the model's pixel-centre render")
-    centre = channel_matches(renders[0], test, encoding)
+    if cache is not None and encoding not in cache:
+        cache[encoding] = [bounds(r, encoding) for r in renders]
+    allowed = cache[encoding] if cache is not None else None
+    t = _stored(test, encoding)
+    b0 = allowed[0] if allowed else bounds(renders[0], encoding)
+    centre = _within(b0, t, encoding, None)
     matches = centre.copy()
-    for r in renders[1:]:
+    for i, r in enumerate(renders[1:], start=1):
         rest = ~matches
         if not rest.any():
             break
         # Only the pixels still unmatched: an exact image leaves a handful.
-        matches[rest] = channel_matches(r[rest], test[rest], encoding)
+        b = allowed[i] if allowed else bounds(r[rest], encoding)
+        matches[rest] = _within(b, t[rest], encoding, rest if allowed else None)
     ambiguous = matches & ~centre
     per_effect = {}
     for name, mask in (masks or {}).items():
