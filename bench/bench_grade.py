@@ -116,8 +116,13 @@ def make_classic_class(folder: Path, students: int) -> dict[str, str]:
     return expected
 
 
-def grade_timed(cmd: list[str]) -> tuple[float, float, str]:
-    """Runs rtval grade; returns (wall s, s to the first per-student line, stderr)."""
+def grade_timed(cmd: list[str]) -> tuple[float, float, float, str]:
+    """Runs rtval grade; returns (wall s, s to the first per-student line, CPU s of it and
+    its workers, stderr). CPU time tells the cost apart from other load on a shared machine."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu0 = usage.ru_utime + usage.ru_stime
     start = time.perf_counter()
     first = float("nan")
     lines = []
@@ -131,9 +136,10 @@ def grade_timed(cmd: list[str]) -> tuple[float, float, str]:
                 first = time.perf_counter() - start
         rc = p.wait()
     wall = time.perf_counter() - start
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     if rc != 0:
         raise SystemExit("".join(lines[-20:]))
-    return wall, first, "".join(lines)
+    return wall, first, usage.ru_utime + usage.ru_stime - cpu0, "".join(lines)
 
 
 def pair_costs() -> dict[str, float]:
@@ -173,7 +179,8 @@ def scenario_classic(students: int) -> dict[str, object]:
     # Cold: the command renders the model itself (five classic renders) before grading.
     cmd = [tool("rtval"), "grade", str(subs), "--scene", str(SCENES / "classic.json")]
     cmd += ["--out", str(out), "--jobs", "2", "--against", "classic"]
-    wall, first, _ = grade_timed(cmd)
+    load = os.getloadavg()[0]
+    wall, first, cpu, _ = grade_timed(cmd)
     shutil.copytree(out / "cache", work / "cache", dirs_exist_ok=True)
     import csv
 
@@ -187,6 +194,9 @@ def scenario_classic(students: int) -> dict[str, object]:
         "wall_s": wall,
         "per_submission_s": wall / students,
         "first_result_s": first,
+        "cpu_s": cpu,
+        "cpu_per_submission_s": cpu / students,
+        "load_average_at_start": load,
         "wrong_verdicts": wrong,
         "fails_without_reason": empty,
         **pair_costs(),
@@ -239,7 +249,8 @@ def scenario_mitsuba(students: int) -> list[dict[str, object]]:
                 n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
             )
             cmd += ["--executor", "dask", "--scheduler", cluster.scheduler_address]
-        wall, first, _ = grade_timed(cmd)
+        load = os.getloadavg()[0]
+        wall, first, cpu, _ = grade_timed(cmd)
         if cluster:
             cluster.close()
         results.append(
@@ -249,6 +260,9 @@ def scenario_mitsuba(students: int) -> list[dict[str, object]]:
                 "wall_s": wall,
                 "per_submission_s": wall / n,
                 "first_result_s": first,
+                "cpu_s": cpu,
+                "cpu_per_submission_s": cpu / n,
+                "load_average_at_start": load,
             }
         )
     return results
@@ -267,10 +281,29 @@ def main() -> None:
     if args.scenario in ("mitsuba", "all"):
         results += scenario_mitsuba(args.students)
     rows = [
-        [r["scenario"], r["submissions"], r["wall_s"], r["per_submission_s"], r["first_result_s"]]
+        [
+            r["scenario"],
+            r["submissions"],
+            r["wall_s"],
+            r["per_submission_s"],
+            r["first_result_s"],
+            r["cpu_per_submission_s"],
+            r["load_average_at_start"],
+        ]
         for r in results
     ]
-    print_table(["scenario", "submissions", "wall s", "s per submission", "first result s"], rows)
+    print_table(
+        [
+            "scenario",
+            "submissions",
+            "wall s",
+            "s per submission",
+            "first result s",
+            "CPU s per submission",
+            "load at start",
+        ],
+        rows,
+    )
     for r in results:
         if "exact_match_s" in r:
             print(

@@ -9,7 +9,8 @@ The public API below is what another program needs to judge images as rtval does
 """
 
 from compare.judge.effects import EFFECTS, effect_masks
-from compare.judge.evaluate import EffectResult, Evaluation, evaluate_pair
+from compare.judge.evaluate import EffectResult, Evaluation, ExactInputs, evaluate_pair
+from compare.judge.exact_match import ExactMatch, exact_match
 from compare.judge.images import Image, ImageError, read_image, write_exr, write_png
 from compare.judge.metrics import Maps, Metrics, SizeMismatch, compute_maps, compute_metrics
 from compare.judge.rubric import Rubric, RubricError, load_rubric, parse_rubric
@@ -22,6 +23,8 @@ __all__ = [
     "EffectRule",
     "EffectScore",
     "Evaluation",
+    "ExactInputs",
+    "ExactMatch",
     "Image",
     "ImageError",
     "Maps",
@@ -36,6 +39,7 @@ __all__ = [
     "compute_metrics",
     "effect_masks",
     "evaluate_pair",
+    "exact_match",
     "load_rubric",
     "parse_rubric",
     "read_image",

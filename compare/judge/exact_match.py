@@ -12,7 +12,7 @@ written as in the test's encoding:
           float an EXR may hold
 
 x_lo, x_hi = x (1 -/+ 2^-16): another float32 program evaluates the same formula in another
-order; 2^-16 (~500 float32 ulps) covers that through the scene's ray tree, and only moves a
+order; 2^-16 (256 float32 ulps) covers that through the scene's ray tree, and only moves a
 code when x sits on a code boundary. A NaN in the model (classic mode's Q3) is written as
 0 or 255 by C programs (std::min(1.f, NaN) is 1; a cast of NaN is 0 on x86): both match.
 
