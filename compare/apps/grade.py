@@ -91,12 +91,14 @@ def _grade_scene(
     if nan and ev.exact is None:  # exact judging already counts NaN pixels as differing
         verdict["status"] = "fail"
         reasons.insert(0, f"{nan} NaN/Inf pixels")
+    # Against a demo model the reasons say what differs; the sentences' SSIM and full FLIP maps
+    # would double a failing submission's cost (bench/bench_grade.py).
     sentences = (
         difference_sentences(
             ref.rgb, img.rgb, model.masks, ev.effect_metrics(), f"{task.student}'s render"
         )
-        if verdict["status"] != "pass" or ev.exact is None
-        else []
+        if ev.exact is None
+        else reasons
     )
     # Pictures for the student's page: the submission and |difference| x 8 (display).
     from PIL import Image as PILImage

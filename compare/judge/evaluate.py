@@ -19,7 +19,16 @@ import numpy as np
 
 from compare.judge.effects import EFFECTS
 from compare.judge.exact_match import Bounds, ExactMatch, exact_match
-from compare.judge.metrics import BOOL, F32, Maps, Metrics, compute_maps, compute_metrics
+from compare.judge.metrics import (
+    BOOL,
+    F32,
+    FLIP_MARGIN,
+    Maps,
+    Metrics,
+    compute_maps,
+    compute_metrics,
+    flip_ldr_map,
+)
 from compare.judge.scoring import (
     FLIP_AT_ZERO_SCORE,
     EffectRule,
@@ -101,9 +110,35 @@ class Evaluation:
         return pixels if np.any(pixels) else None
 
     def effect_flip(self, name: str) -> float:
-        """Mean LDR FLIP over one effect's pixels (computes the maps on first use)."""
+        """Mean LDR FLIP over one effect's pixels. Judged exactly, before the full maps exist,
+        FLIP is computed only over the crop around the effects that fail (the maps are
+        unchanged inside it, metrics.FLIP_MARGIN)."""
         pixels = self._pixels(name)
-        return float("nan") if pixels is None else float(self.maps.flip_ldr[pixels].mean())
+        if pixels is None:
+            return float("nan")
+        if "maps" in self.__dict__ or self.exact is None:
+            return float(self.maps.flip_ldr[pixels].mean())
+        (y0, x0), crop = self._failing_flip
+        h, w = crop.shape
+        inside = pixels[y0 : y0 + h, x0 : x0 + w]
+        if int(inside.sum()) != int(pixels.sum()):  # not a failing effect: the whole map
+            return float(self.maps.flip_ldr[pixels].mean())
+        return float(crop[inside].mean())
+
+    @cached_property
+    def _failing_flip(self) -> tuple[tuple[int, int], F32]:
+        assert self.exact is not None
+        union = np.zeros(self.ref.shape[:2], bool)
+        for k, e in self.exact.per_effect.items():
+            if not e.passed:
+                union |= self.masks[k]
+        if not union.any():
+            union[0, 0] = True  # asked for no failing effect: a tiny crop, never read
+        ys, xs = np.nonzero(union)
+        h, w = union.shape
+        y0, y1 = max(0, int(ys.min()) - FLIP_MARGIN), min(h, int(ys.max()) + 1 + FLIP_MARGIN)
+        x0, x1 = max(0, int(xs.min()) - FLIP_MARGIN), min(w, int(xs.max()) + 1 + FLIP_MARGIN)
+        return (y0, x0), flip_ldr_map(self.ref[y0:y1, x0:x1], self.test[y0:y1, x0:x1])
 
     def effect_metrics(self) -> dict[str, Metrics]:
         return {k: v.metrics for k, v in self.per_effect.items()}
