@@ -134,7 +134,8 @@ class Evaluation:
                 union |= self.masks[k]
         if not union.any():
             union[0, 0] = True  # asked for no failing effect: a tiny crop, never read
-        ys, xs = np.nonzero(union)
+        found = np.nonzero(union)
+        ys, xs = found[0], found[1]
         h, w = union.shape
         y0, y1 = max(0, int(ys.min()) - FLIP_MARGIN), min(h, int(ys.max()) + 1 + FLIP_MARGIN)
         x0, x1 = max(0, int(xs.min()) - FLIP_MARGIN), min(w, int(xs.max()) + 1 + FLIP_MARGIN)
