@@ -136,7 +136,7 @@ class Evaluation:
             union[0, 0] = True  # asked for no failing effect: a tiny crop, never read
         found = np.nonzero(union)
         ys, xs = found[0], found[1]
-        h, w = union.shape
+        h, w = int(union.shape[0]), int(union.shape[1])
         y0, y1 = max(0, int(ys.min()) - FLIP_MARGIN), min(h, int(ys.max()) + 1 + FLIP_MARGIN)
         x0, x1 = max(0, int(xs.min()) - FLIP_MARGIN), min(w, int(xs.max()) + 1 + FLIP_MARGIN)
         return (y0, x0), flip_ldr_map(self.ref[y0:y1, x0:x1], self.test[y0:y1, x0:x1])
