@@ -128,7 +128,7 @@ class Evaluation:
     @cached_property
     def _failing_flip(self) -> tuple[tuple[int, int], F32]:
         assert self.exact is not None
-        union = np.zeros(self.ref.shape[:2], bool)
+        union: BOOL = np.zeros(self.ref.shape[:2], bool)
         for k, e in self.exact.per_effect.items():
             if not e.passed:
                 union |= self.masks[k]
@@ -136,7 +136,7 @@ class Evaluation:
             union[0, 0] = True  # asked for no failing effect: a tiny crop, never read
         found = np.nonzero(union)
         ys, xs = found[0], found[1]
-        h, w = int(union.shape[0]), int(union.shape[1])
+        h, w = union.shape[:2]
         y0, y1 = max(0, int(ys.min()) - FLIP_MARGIN), min(h, int(ys.max()) + 1 + FLIP_MARGIN)
         x0, x1 = max(0, int(xs.min()) - FLIP_MARGIN), min(w, int(xs.max()) + 1 + FLIP_MARGIN)
         return (y0, x0), flip_ldr_map(self.ref[y0:y1, x0:x1], self.test[y0:y1, x0:x1])
