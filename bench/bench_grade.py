@@ -237,7 +237,7 @@ def scenario_mitsuba(students: int) -> list[dict[str, object]]:
         check=True,
         capture_output=True,
     )
-    ref = next((warm / "cache" / "models").glob("model-mitsuba-*.exr"))
+    ref = warm / "cache" / "models" / "scene-size" / "ref-converged.exr"
     subs = work / "subs"
     if not subs.is_dir():
         make_class(

@@ -28,7 +28,7 @@ def graded(tmp_path_factory: pytest.TempPathFactory, rtdemo: str) -> tuple[Path,
     # First run renders the reference, which the class is made from.
     warm = run([RTVAL, "grade", str(root), "--scene", str(SCENE), "--out", str(out), *SIZE])
     assert warm.returncode == 0, warm.stderr
-    reference = out / "cache" / "models" / "model-mitsuba-160x120.exr"
+    reference = out / "cache" / "models" / "160x120" / "ref-converged.exr"
     expected = make_class(reference, SCENE, rtdemo, root / "subs")
     proc = run(
         [

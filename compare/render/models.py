@@ -35,15 +35,17 @@ def _size_args(size: tuple[int, int] | None) -> list[str]:
     return ["--width", str(size[0]), "--height", str(size[1])] if size else []
 
 
+def _tag(size: tuple[int, int] | None) -> str:
+    return f"{size[0]}x{size[1]}" if size else "scene-size"
+
+
 def model_job(model: TargetModel, scene_file: Path, size: tuple[int, int] | None) -> RenderJob:
-    """The render command of `model` (its cache key follows from it)."""
-    tag = f"{size[0]}x{size[1]}" if size else "scene-size"
+    """The render command of `model` (its cache key follows from it). Mitsuba models keep the
+    plan's job key, so a report's cache already holds them."""
     if not model.is_demo:
-        job = next(j for j in plan(str(scene_file), size) if j.key == MITSUBA_JOBS[model.kind])
-        job.key = f"model-{model.name}-{tag}"
-        return job
+        return next(j for j in plan(str(scene_file), size) if j.key == MITSUBA_JOBS[model.kind])
     return RenderJob(
-        f"model-{model.name}-{tag}",
+        f"model-{model.name}",
         f"{model.name} model",
         "rtdemo",
         ["render", str(scene_file), "-o", "{out}", "-q", *model.rtdemo_args(), *_size_args(size)],
@@ -61,7 +63,7 @@ def render_model(
 ) -> Path:
     """Renders (or finds in the cache) `model` on the scene; returns the EXR's path."""
     job = model_job(model, scene_file, size)
-    out = cache_dir / "models"
+    out = cache_dir / "models" / _tag(size)
     run_jobs([job], scene_file, cache_dir, out, progress=progress)
     return out / f"{job.key}.exr"
 
@@ -104,7 +106,7 @@ def render_offsets(
     """The demo model rendered with the camera turned by OFFSET_PIXELS along +x, -x, +y, -y."""
     if not model.is_demo:
         raise ValueError(f"{model.name}: sub-pixel offsets are for demo models only")
-    out = cache_dir / "models"
+    out = cache_dir / "models" / _tag(size)
     scenes = cache_dir / "scenes"
     scenes.mkdir(parents=True, exist_ok=True)
     paths = []
