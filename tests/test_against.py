@@ -204,3 +204,48 @@ def test_against_needs_a_scene_and_a_known_model(work: dict[str, Path]) -> None:
     assert run([RTVAL, "compare", img, "--against", "classic"]).returncode == 64
     bad = run([RTVAL, "compare", img, "--against", "phong", "--scene", str(SCENE)])
     assert bad.returncode == 64 and "unknown model 'phong'" in bad.stderr
+
+
+@pytest.mark.parametrize("mode", ["paper", "physical"])
+def test_every_mode_passes_against_itself(tmp_path: Path, rtdemo: str, mode: str) -> None:
+    size = ["--width", "160", "--height", "120"]
+    outs = [tmp_path / f"{mode}.{ext}" for ext in ("exr", "png", "ppm")]
+    proc = run(
+        [
+            rtdemo,
+            "render",
+            str(SCENE),
+            "--mode",
+            mode,
+            "-q",
+            *size,
+            "-o",
+            str(outs[0]),
+            "--png",
+            str(outs[1]),
+            "--ppm",
+            str(outs[2]),
+        ]
+    )
+    assert proc.returncode == 0, proc.stderr
+    for image in outs:
+        js = tmp_path / f"{image.name}.json"
+        proc = run(
+            [
+                RTVAL,
+                "compare",
+                str(image),
+                "--scene",
+                str(SCENE),
+                "--against",
+                mode,
+                "-q",
+                "--json",
+                str(js),
+                "--cache",
+                str(tmp_path / "cache"),
+            ]
+        )
+        data = json.loads(js.read_text())
+        assert proc.returncode == 0 and data["against"] == mode, (image, data["reasons"])
+        assert data["score"]["score"] >= 99
