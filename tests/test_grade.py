@@ -66,7 +66,7 @@ def test_every_verdict_is_the_expected_one(graded: tuple[Path, dict, Path]) -> N
     assert all(row["model"] == "mitsuba" for row in book.values())
     assert all(row["reasons"] for row in book.values() if row["status"] == "fail")
     reasons = {sid: book[sid]["reasons"] for sid in book}
-    assert "shadow: FLIP" in reasons["no_shadows_0"]
+    assert "shadow: SSIM" in reasons["no_shadows_0"] and "> 0.1" in reasons["no_shadows_0"]
     assert all("wrong size 80x60, expected 160x120" in reasons[f"wrong_size_{i}"] for i in range(3))
     assert all("unreadable" in reasons[f"corrupt_{i}"] for i in range(3))
     assert all("no image for scene 'classic'" in reasons[f"missing_{i}"] for i in range(3))
