@@ -15,7 +15,8 @@ from PIL import Image as PILImage
 from compare.judge.images import read_image, write_exr
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
-FAULTY = ROOT / "build" / "cmake" / "rtdemo_faulty"
+# Built by make test (build/tests, with the GoogleTest suite), never by pip.
+FAULTY = ROOT / "build" / "tests" / "rtdemo_faulty"
 FAULTS = [
     "flipped_normal",
     "wrong_eta",
@@ -126,7 +127,8 @@ def test_ppm_is_read_as_linear_unless_told(tmp_path: Path) -> None:
     ok = run(
         [RTVAL, "compare", str(tmp_path / "ref.exr"), str(tmp_path / "paper.ppm"), "--fail", "0.01"]
     )
-    assert ok.returncode in (0, 1), ok.stdout
+    # 128/255 = 0.50196 against 0.5: 0.0013 apart after sRGB encoding, under the 1/255 warning.
+    assert ok.returncode == 0, ok.stdout
     wrong = run(
         [
             RTVAL,
@@ -245,17 +247,22 @@ def test_check_passes_unchanged_renderer_repeatedly_and_writes_junit(tmp_path: P
         assert code == 0, out
     suite = ET.parse(tmp_path / "j.xml").getroot()
     assert suite.get("tests") == "6" and suite.get("failures") == "0"
-    code, out = _check(baseline, "--backends", "gl", "--modes", "paper")
-    assert code in (0, 1), (
-        out
-    )  # the GL twin reproduces the CPU baselines (warn: a few px over 1/255)
     assert json.loads((tmp_path / "c.json").read_text())["status"] == "pass"
+    # The GL twin reproduces the CPU baselines within the check's tolerance (0.02 % = 15 px of
+    # 320x240 may exceed 2/255). On llvmpipe (Mesa 22.3) the paper scene has 8 silhouette pixels
+    # over it (a warning, measured 2026-12-01); another driver may round them differently.
+    gl_json = tmp_path / "gl.json"
+    code, out = _check(baseline, "--backends", "gl", "--modes", "paper", "--json", str(gl_json))
+    cases = {c["name"]: c for c in json.loads(gl_json.read_text())["cases"]}
+    assert code != 2, out
+    assert all(c["failing_pixels"] <= 15 for c in cases.values()), out
+    assert cases["classic/gl-paper"]["status"] == "pass", out
 
 
 @pytest.mark.parametrize("fault", FAULTS)
 def test_check_fails_on_every_injected_fault(fault: str) -> None:
     if not FAULTY.is_file():
-        pytest.fail(f"{FAULTY} missing: it is built with the test suite (BUILD_TESTING)")
+        pytest.fail(f"{FAULTY} missing: run `make test` first (or `make test-build`)")
     code, out = _check(
         ROOT / "tests" / "baselines", "--rtdemo", str(FAULTY), env={"RTDEMO_FAULT": fault}
     )

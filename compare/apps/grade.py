@@ -12,7 +12,6 @@ cluster.
 
 from __future__ import annotations
 
-import csv
 import hashlib
 import io
 import json
@@ -26,9 +25,10 @@ from typing import Any
 import numpy as np
 
 from compare.apps.against import ModelRenders
+from compare.apps.submissions import IMAGE_SUFFIXES  # noqa: F401  (re-exported)
+from compare.csv_safe import csv_text
 from compare.files import sha256_file, write_atomic
-
-IMAGE_SUFFIXES = (".exr", ".png", ".ppm", ".pfm")
+from compare.student_ids import student_slug
 
 
 @dataclass(frozen=True)
@@ -58,7 +58,7 @@ def _grade_scene(
     scene_name: str, path: str | None, task: GradeTask, rubric: Any, page_dir: Path
 ) -> dict[str, Any]:
     from compare.apps.against import judge, load, nan_pixels
-    from compare.judge.images import ImageError, read_image
+    from compare.judge.images import ImageError, ImageSizeError, read_image
     from compare.judge.sentences import difference_sentences
 
     renders = task.models[scene_name]
@@ -71,16 +71,17 @@ def _grade_scene(
         }
     model = load(renders)
     ref = model.reference
-    try:
-        img = read_image(path)
-    except ImageError as e:
-        return base | {"status": "error", "score": 0.0, "reason": f"unreadable: {e}"}
-    if img.shape != ref.shape:
+    try:  # the size is checked in the header, before decoding: memory stays bounded
+        img = read_image(path, expected_size=ref.shape)
+    except ImageSizeError as e:
+        (h, w), (eh, ew) = e.size, e.expected
         return base | {
             "status": "error",
             "score": 0.0,
-            "reason": f"wrong size {img.shape[1]}x{img.shape[0]}, expected {ref.shape[1]}x{ref.shape[0]}",
+            "reason": f"wrong size {w}x{h}, expected {ew}x{eh}",
         }
+    except ImageError as e:
+        return base | {"status": "error", "score": 0.0, "reason": f"unreadable: {e}"}
     nan = nan_pixels(img)
     ev = judge(img, model, rubric)
     assert ev.score is not None  # the model's masks were given
@@ -130,17 +131,18 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
     same key on disk is returned as is."""
     from jinja2 import Environment, PackageLoader, select_autoescape
 
+    from compare.apps.page_security import with_csp
     from compare.judge.rubric import parse_rubric
 
     out = Path(task.out_dir)
-    result_path = out / "results" / f"{task.student}.json"
+    slug = student_slug(task.student)  # the id on disk; the real id stays in the result
+    result_path = out / "results" / f"{slug}.json"
     key = task_key(task)
-    if result_path.is_file():
-        old = json.loads(result_path.read_text())
-        if old.get("key") == key:
-            return {**old, "resumed": True}
+    old = _load_result(result_path)  # None when missing, truncated or corrupt: regrade
+    if old is not None and old.get("key") == key:
+        return {**old, "resumed": True}
     rubric = parse_rubric(task.rubric_text, task.rubric_source)
-    page_dir = out / "students" / task.student
+    page_dir = out / "students" / slug
     page_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     scenes: list[dict[str, Any]]
@@ -182,50 +184,44 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
         "scenes": scenes,
         "rubric": rubric.source,
         "seconds": time.perf_counter() - start,
-        "page": f"students/{task.student}/index.html",
+        "page": f"students/{slug}/index.html",
     }
     env = Environment(
         loader=PackageLoader("compare.apps", "templates"),
         autoescape=select_autoescape(["html", "j2"]),
     )
-    write_atomic(page_dir / "index.html", env.get_template("student.html.j2").render(r=result))
+    page = with_csp(env.get_template("student.html.j2").render(r=result))
+    write_atomic(page_dir / "index.html", page)
     (out / "results").mkdir(exist_ok=True)
     write_atomic(result_path, json.dumps(result, indent=2, default=float))
     return result
 
 
+def _load_result(path: Path) -> dict[str, Any] | None:
+    """A stored result, or None when it is missing or unreadable (a run killed mid-write
+    before writes were atomic, a full disk, a hand edit): such a student is graded again."""
+    try:
+        old = json.loads(path.read_bytes())
+    except (OSError, ValueError):
+        return None
+    return old if isinstance(old, dict) else None
+
+
 def collect(
-    submissions: Path, scenes: list[str]
+    submissions: Path,
+    scenes: list[str],
+    *,
+    exclude: list[Path] | None = None,
+    notice: Callable[[str], None] | None = None,
 ) -> list[tuple[str, dict[str, str | None], str | None]]:
-    """(student, scene -> file, problem) for every entry of the submissions folder."""
-    if not submissions.is_dir():
-        raise OSError(f"{submissions}: not a folder of submissions")
-    out = []
-    for entry in sorted(submissions.iterdir()):
-        if entry.name.startswith("."):
-            continue
-        student = entry.stem if entry.is_file() else entry.name
-        files: dict[str, str | None] = dict.fromkeys(scenes)
-        problem = None
-        if entry.is_file():
-            if entry.suffix.lower() not in IMAGE_SUFFIXES:
-                problem = (
-                    f"unsupported file type '{entry.suffix}' (expected {', '.join(IMAGE_SUFFIXES)})"
-                )
-            elif len(scenes) > 1:
-                problem = "one image for several scenes: hand in a folder with one image per scene"
-            else:
-                files[scenes[0]] = str(entry)
-        else:
-            for scene in scenes:
-                hits = [
-                    p
-                    for p in sorted(entry.iterdir())
-                    if p.stem == scene and p.suffix.lower() in IMAGE_SUFFIXES
-                ]
-                files[scene] = str(hits[0]) if hits else None
-        out.append((student, files, problem))
-    return out
+    """(student, scene -> file, problem) for every id in the submissions folder (see
+    compare/apps/submissions.py: what is a submission, and the reasons for what is not)."""
+    from compare.apps.submissions import collect_entries
+
+    return [
+        (e.student, e.files, "; ".join(e.problems) or None)
+        for e in collect_entries(submissions, scenes, exclude=exclude, notice=notice)
+    ]
 
 
 def run_grading(
@@ -260,7 +256,9 @@ def run_grading(
     models_key = h.hexdigest()[:24]
     tasks = [
         GradeTask(student, files, problem, models, models_key, rubric_text, rubric.source, str(out))
-        for student, files, problem in collect(submissions, list(models))
+        for student, files, problem in collect(
+            submissions, list(models), exclude=[out], notice=progress
+        )
     ]
     progress(f"grading {len(tasks)} submissions against {model.name} ({executor} executor)")
     start = time.perf_counter()
@@ -305,10 +303,9 @@ def run_grading(
 
 
 def write_gradebook(results: list[dict[str, Any]], out: Path, rubric: str, seconds: float) -> None:
-    buf = io.StringIO()
-    w = csv.writer(buf)
+    rows: list[list[object]] = []  # written by csv_text, which neutralises formulas
     scenes = sorted({s["scene"] for r in results for s in r["scenes"]})
-    w.writerow(
+    rows.append(
         [
             "student",
             "status",
@@ -323,7 +320,7 @@ def write_gradebook(results: list[dict[str, Any]], out: Path, rubric: str, secon
     )
     for r in results:
         by = {s["scene"]: s for s in r["scenes"]}
-        w.writerow(
+        rows.append(
             [
                 r["student"],
                 r["status"],
@@ -336,7 +333,7 @@ def write_gradebook(results: list[dict[str, Any]], out: Path, rubric: str, secon
                 r["page"],
             ]
         )
-    write_atomic(out / "gradebook.csv", buf.getvalue())
+    write_atomic(out / "gradebook.csv", csv_text(rows))
     summary = [
         {
             k: r.get(k, "")
@@ -356,10 +353,15 @@ def write_gradebook(results: list[dict[str, Any]], out: Path, rubric: str, secon
 
 
 def explain(out: Path, student: str) -> str:
-    path = out / "results" / f"{student}.json"
+    path = out / "results" / f"{student_slug(student)}.json"
     if not path.is_file():
-        raise OSError(f"{path}: no result for '{student}' (run rtval grade first)")
-    r = json.loads(path.read_text())
+        raise OSError(f"{path}: no result for {student!r} (run rtval grade first)")
+    r = _load_result(path)
+    if r is None or not {"status", "score", "rubric", "scenes"} <= r.keys():
+        raise OSError(
+            f"{path}: the result for {student!r} is truncated or corrupt; "
+            "run rtval grade again: it regrades this student"
+        )
     lines = [
         f"{student}: {r['status'].upper()}, score {r['score']:.1f} = mean of the scene scores "
         f"(judged against {r.get('model') or 'mitsuba'}; rubric: {r['rubric']})"

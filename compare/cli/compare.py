@@ -17,9 +17,10 @@ def run_compare(args: argparse.Namespace) -> int:
         write_outputs,
     )
     from compare.cli.common import stderr_progress
-    from compare.judge.images import read_image
+    from compare.judge.images import image_size, read_image
     from compare.judge.metrics import SizeMismatch
     from compare.judge.tolerances import EXIT_SIZE, Tolerances
+    from compare.safe_paths import check_outputs_distinct
     from scene_model.scene import load_scene
 
     if args.against:
@@ -27,8 +28,18 @@ def run_compare(args: argparse.Namespace) -> int:
             raise ValueError("--against MODEL takes one image (TEST) and --scene SCENE.json")
     elif len(args.images) != 2:
         raise ValueError("compare needs REF TEST (or TEST --against MODEL --scene SCENE.json)")
-    ref = None if args.against else read_image(args.images[0], encoding=args.ref_encoding)
-    test = read_image(args.images[-1], encoding=args.test_encoding)
+    ref_path = None if args.against else args.images[0]
+    test_path = args.images[-1]
+    check_outputs_distinct(
+        [("--json", args.json), ("--diff-image", args.diff_image)],
+        [
+            ("REF", ref_path),
+            ("TEST", test_path),
+            ("--mask", args.mask),
+            ("--scene", args.scene),
+            ("--aovs", args.aovs),
+        ],
+    )
     tol = Tolerances(
         fail=args.fail,
         failpercent=args.failpercent,
@@ -38,9 +49,10 @@ def run_compare(args: argparse.Namespace) -> int:
         min_ssim=args.min_ssim,
         max_flip=args.max_flip,
     )
-    mask = load_mask(args.mask, test.shape) if args.mask else None
     try:
-        if args.against:
+        if ref_path is None:
+            test = read_image(test_path, encoding=args.test_encoding)
+            mask = load_mask(args.mask, test.shape) if args.mask else None
             cache = Path(args.cache) if args.cache else default_cache()
             result = run_against(
                 test,
@@ -52,7 +64,19 @@ def run_compare(args: argparse.Namespace) -> int:
                 progress=stderr_progress,
             )
         else:
-            assert ref is not None
+            # Sizes from the headers first: a mismatch costs no decoding (two 8192^2 EXRs or a
+            # tiny PNG declaring 9400^2 pixels would otherwise take gigabytes before the refusal).
+            ref_size, test_size = image_size(ref_path), image_size(test_path)
+            if ref_size != test_size:
+                print(
+                    f"rtval: size mismatch: reference {ref_path} is {ref_size[1]}x{ref_size[0]}, "
+                    f"test {test_path} is {test_size[1]}x{test_size[0]} (never resampled)",
+                    file=sys.stderr,
+                )
+                return EXIT_SIZE
+            ref = read_image(ref_path, encoding=args.ref_encoding)
+            test = read_image(test_path, encoding=args.test_encoding, expected_size=ref.shape)
+            mask = load_mask(args.mask, ref.shape) if args.mask else None
             scene = load_scene(args.scene) if args.scene else None
             aovs = read_image(args.aovs) if args.aovs else None
             result = run_comparison(ref, test, tolerances=tol, mask=mask, scene=scene, aovs=aovs)

@@ -16,6 +16,7 @@ Every error names the file and the line.
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -101,8 +102,12 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
                 key,
                 "rubric",
             )
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise fail(f"{key} must be a number, got {value!r}", key, "rubric")
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
+            raise fail(f"{key} must be a number (finite), got {value!r}", key, "rubric")
         values[key] = float(value)
     if not 0 <= values.get("pass_score", 60) <= 100:
         raise fail("pass_score must be from 0 to 100", "pass_score", "rubric")
@@ -126,8 +131,15 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
                     section,
                 )
             lo = -1.0 if key == "min_ssim" else 0.0  # SSIM ranges over [-1, 1]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < lo:
-                raise fail(f"{key} must be a number >= {lo:g}, got {value!r}", key, section)
+            hi = 1.0 if key == "min_ssim" else math.inf
+            # `not lo <= v < hi` also refuses NaN (TOML has nan and inf), which compares false
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not (lo <= value <= hi and math.isfinite(value))
+            ):
+                span = f"from {lo:g} to {hi:g}" if hi < math.inf else f">= {lo:g}"
+                raise fail(f"{key} must be a number {span} (finite), got {value!r}", key, section)
             rule[key] = float(value)
         effects[name] = EffectRule(**rule)
     return Rubric(
@@ -143,9 +155,13 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
 def load_rubric(path: str | Path | None) -> Rubric:
     if path is None:
         return parse_rubric(DEFAULT_RUBRIC_TEXT, "default rubric")
+    from compare.safe_paths import read_bounded
+
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise RubricError(f"{p}: cannot read the rubric: {e}") from None
+    try:  # a regular file of at most 1 MiB: never a FIFO or a device
+        text = read_bounded(p, 1 << 20).decode("utf-8")
+    except OSError as e:  # the message names the path
+        raise RubricError(f"cannot read the rubric: {e}") from None
+    except UnicodeDecodeError as e:
+        raise RubricError(f"{p}: the rubric is not UTF-8 text: {e}") from None
     return parse_rubric(text, str(p))

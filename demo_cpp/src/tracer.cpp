@@ -16,7 +16,9 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 }
 
 Tracer::Tracer(const Scene& scene, TraceOptions options)
-    : scene_(scene), opt_(options), lanes_(scene.spheres),
+    : scene_(scene),
+      opt_(options),
+      lanes_(scene.spheres),
       use_lanes_(opt_.quirks.has(Quirk::Q1) && lanes_.usable()) {
     if (fault(Fault::depth_cut)) opt_.max_depth -= 1;
     for (int i = 0; i < static_cast<int>(scene.spheres.size()); ++i) {
@@ -40,8 +42,9 @@ Tracer::Hit Tracer::nearest_hit(const ray& r, int skip) const {
     const bool paper = opt_.quirks.has(Quirk::Q1);
     for (int i = 0; i < static_cast<int>(scene_.spheres.size()); ++i) {
         if (i == skip) continue;
-        const std::optional<float> t = paper ? intersect_paper(scene_.spheres[i], r)
-                                             : intersect_robust(scene_.spheres[i], r, {0.0f, t_near});
+        const std::optional<float> t = paper
+                                           ? intersect_paper(scene_.spheres[i], r)
+                                           : intersect_robust(scene_.spheres[i], r, {0.0f, t_near});
         if (t && *t < t_near) {
             t_near = *t;
             best = Hit{i, *t};
@@ -173,7 +176,8 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
             const ray shadow_ray{origin, l};
             const float max_t = q.has(Quirk::Q5) ? kInf : dist;
             // With lanes, every sphere is tested at once and the blockers are walked in order.
-            const std::uint64_t blockers = use_lanes_ ? lanes_.blockers_paper(shadow_ray, max_t) : 0;
+            const std::uint64_t blockers =
+                use_lanes_ ? lanes_.blockers_paper(shadow_ray, max_t) : 0;
             for (int j = 0; j < static_cast<int>(scene_.spheres.size()); ++j) {
                 if (j == light) continue;
                 // Q1 fixed: a ray leaving a convex sphere outward cannot hit it again.
