@@ -55,7 +55,10 @@ def work(tmp_path_factory: pytest.TempPathFactory, rtdemo: str) -> dict[str, Pat
         ]
     )
     assert proc.returncode == 0, proc.stderr
-    # rtdemo's PPM rounds (until --ppm-rounding lands); the truncating twin, from its EXR:
+    # rtdemo's PPM truncates by default; its rounding twin, and both again from its EXR:
+    round_ppm = ["--ppm", str(subs / "rtdemo_ppm_round.ppm"), "--ppm-rounding", "round"]
+    proc = run([rtdemo, "render", str(SCENE), "--mode", "classic", "-q", *size, *round_ppm])
+    assert proc.returncode == 0, proc.stderr
     rgb = read_image(exr).rgb
     _write_ppm(subs / "rtdemo_trunc.ppm", np.floor(255 * np.clip(rgb, 0, 1)))
     _write_ppm(subs / "rtdemo_round.ppm", np.floor(255 * np.clip(rgb, 0, 1) + 0.5))
@@ -94,7 +97,8 @@ def _compare(work: dict[str, Path], image: str, model: str) -> dict:  # type: ig
     return data
 
 
-EXACT = ["numpy.ppm", "rtdemo_ppm.ppm", "rtdemo_trunc.ppm", "rtdemo_round.ppm"]
+EXACT = ["numpy.ppm", "rtdemo_ppm.ppm", "rtdemo_ppm_round.ppm", "rtdemo_trunc.ppm"]
+EXACT += ["rtdemo_round.ppm"]
 EXACT += ["rtdemo_png.png", "rtdemo_exr.exr"]
 
 
