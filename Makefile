@@ -7,8 +7,8 @@ SCENE     ?= paper
 SHELL     := /bin/bash
 
 FUZZ_BIN  := build/fuzz/scene_loader_fuzz
-# pip builds rtdemo only (build/cmake); the GoogleTest suite, the fault-injection twin
-# rtdemo_faulty and the bench programs are built here by make test / make bench.
+# pip builds rtdemo only (build/cmake); the GoogleTest suite and the bench programs are
+# built here by make test / make bench.
 DEV_BUILD := build/tests
 CPP_FORMATTED := $(shell find demo_cpp bench -type f \( -name '*.cpp' -o -name '*.h' \) | sort)
 
@@ -39,12 +39,11 @@ $(DEV_BUILD)/build.ninja: $(STAMP)
 	touch $@
 
 test-build: $(DEV_BUILD)/build.ninja
-	cmake --build $(DEV_BUILD) --target rtdemo_tests rtdemo_faulty
+	cmake --build $(DEV_BUILD) --target rtdemo_tests
 
 test-cpp: test-build
 	ctest --test-dir $(DEV_BUILD) --output-on-failure -j2
 
-# pytest runs rtdemo_faulty from $(DEV_BUILD) (tests/test_judge_cli.py).
 test-py: test-build
 	$(PY) -m pytest -q
 

@@ -172,7 +172,7 @@ def export_scene(scene: Scene, options: ExportOptions = ExportOptions()) -> Expo
         root.props["integrator"] = Plugin(
             "integrator",
             options.integrator,
-            {"max_depth": scene.max_depth},
+            {"max_depth": scene.max_depth, "bias": scene.bias},
             comment="rtval's Whitted integrator (register it with mitsuba_ref.whitted.register())",
         )
     if options.centre_rays:

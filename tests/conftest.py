@@ -13,8 +13,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # helpers, numpy_refer
 
 @pytest.fixture(scope="session", autouse=True)
 def _render_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
-    """`rtval check` caches rtdemo's mask renders in $RTVAL_CACHE: one per test session, never
-    the user's ~/.cache (subprocesses inherit it)."""
+    """`rtval check` and `compare --against` cache model renders and effect masks in
+    $RTVAL_CACHE: one per test session, never the user's ~/.cache (subprocesses inherit it)."""
     os.environ.setdefault("RTVAL_CACHE", str(tmp_path_factory.mktemp("rtval-cache")))
 
 

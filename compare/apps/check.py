@@ -2,10 +2,14 @@
 
 Renders a scene set with rtdemo (every backend and mode asked for) or with any other program
 (`--renderer 'CMD {scene} {out} ...'`, compare.render.foreign), compares each render with its
-stored baseline, or with a demo model rendered by rtdemo (`--against classic`), under
-per-scene tolerances, and names each failure's scene and effect (effect masks from an rtdemo
-AOV render of the scene at the same size, cached). A missing baseline is a failure; `update`
-rewrites only new or failing baselines.
+stored baseline under per-scene tolerances, and names each failure's scene and effect (effect
+masks from the classic model's AOVs at the same size, compare.render.models.scene_masks). A
+missing baseline is a failure; `update` rewrites only new or failing baselines.
+
+With `against` (a target model) each render is judged against the model instead of a
+baseline, as compare and grade judge (compare/apps/against.py): a demo model by exact match
+(the model rendered by the installed rtdemo, or $RTVAL_RTDEMO), Mitsuba by the default
+rubric's per-effect verdict; the model render's own masks name the failing effects.
 
 Baseline layout (BASELINE = --baseline):
   rtdemo          BASELINE/<scene>/<mode>.exr  (per scene and mode, not per backend: the GL
@@ -16,9 +20,7 @@ Tolerances: BASELINE/tolerances.json, overlaid by BASELINE/<renderer-name>/toler
 
 from __future__ import annotations
 
-import dataclasses
 import json
-import math
 import tempfile
 import time
 from collections.abc import Callable
@@ -28,13 +30,17 @@ from typing import Any
 
 import numpy as np
 
+from compare.apps import against
+from compare.apps.against import LoadedModel
 from compare.judge.effects import BOOL, EFFECTS
 from compare.judge.evaluate import evaluate_pair
 from compare.judge.images import F32, Image, ImageError, read_image, write_exr
 from compare.judge.target_model import ModelError, TargetModel, parse_model
 from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
-from compare.render import aov_cache, foreign
+from compare.render import foreign
+from compare.render.models import scene_masks
 from compare.render.runner import ToolError, run_rtdemo
+from compare.safe_paths import read_bounded
 from scene_model.scene import Scene, load_scene
 
 DEFAULT_SCENES = ("scenes/paper.json", "scenes/classic.json")
@@ -45,6 +51,7 @@ DEFAULT_SIZE = (320, 240)
 DEFAULT_TOLERANCES = Tolerances(fail=2 / 255, failpercent=0.02, warn=1 / 255, warnpercent=0.0)
 FOREIGN_MODE = "default"  # the mode of a renderer whose command has no {mode}
 WHOLE_IMAGE = "image"  # the "effect" a failure is filed under when no effect mask explains it
+MAX_TOLERANCES_BYTES = 1 << 20  # a tolerances.json is a few lines
 
 
 @dataclass(frozen=True)
@@ -78,7 +85,7 @@ class CaseResult:
     overhead_seconds: float = 0.0  # everything else this case cost (masks, reading, judging)
     updated: bool = False
     renderer: str = "rtdemo"
-    against: str | None = None  # the demo model compared with, instead of a baseline
+    against: str = "baseline"  # what the render was judged against: a target model's name
     scene_file: str = ""
     test_encoding: str = "float"  # how the render's file was decoded (images.Image.encoding)
     effects: dict[str, EffectOutcome] = field(default_factory=dict)
@@ -105,45 +112,31 @@ class CaseResult:
 
 
 def load_tolerances(baseline_dir: Path, renderer: str | None = None) -> dict[str, Tolerances]:
-    """tolerances.json: {"default": {...}, "<scene>": {...}}; keys are Tolerances fields. A
-    renderer's own BASELINE/<renderer>/tolerances.json overrides the shared one per key."""
+    """tolerances.json: {"default": {...}, "<scene>": {...}}; keys are Tolerances fields (which
+    checks each number; null hardfail: no hard limit). A renderer's own
+    BASELINE/<renderer>/tolerances.json overrides the shared one per key."""
     files = [baseline_dir / "tolerances.json"]
     if renderer:
         files.append(baseline_dir / renderer / "tolerances.json")
     merged: dict[str, Tolerances] = {}
     for path in files:
-        if not path.is_file():
+        if not path.exists():
             continue
+        text = read_bounded(path, MAX_TOLERANCES_BYTES).decode("utf-8", errors="replace")
         try:
-            raw = json.loads(path.read_text())
+            raw = json.loads(text)
             if not isinstance(raw, dict):
                 raise TypeError("expected an object of scene names")
             for name, values in raw.items():
                 if not isinstance(values, dict):
                     raise TypeError(f"{name!r}: expected an object of tolerance fields")
-                for k, v in values.items():
-                    nullable = k in ("hardfail", "min_ssim", "max_flip")
-                    number = isinstance(v, (int, float)) and not isinstance(v, bool)
-                    if not ((v is None and nullable) or (number and 0 <= v < math.inf)):
-                        raise TypeError(f"{name}.{k}: expected a finite number >= 0, got {v!r}")
-                known = {**dataclasses.asdict(DEFAULT_TOLERANCES), **values}
-                if known.get("hardfail") is None:
-                    known["hardfail"] = math.inf  # null: no hard limit
-                tol = Tolerances(**known)
-                merged[name] = tol
+                try:
+                    merged[name] = Tolerances(**{**DEFAULT_TOLERANCES.as_dict(), **values})
+                except (TypeError, ValueError) as e:
+                    raise TypeError(f"{name!r}: {e}") from None
         except (json.JSONDecodeError, TypeError) as e:
             raise ValueError(f"{path}: invalid tolerances: {e}") from None
     return merged
-
-
-def default_cache_dir() -> Path:
-    """$RTVAL_CACHE/check, else $XDG_CACHE_HOME/rtval/check or ~/.cache/rtval/check."""
-    import os
-
-    if os.environ.get("RTVAL_CACHE"):
-        return Path(os.environ["RTVAL_CACHE"]) / "check"
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg) if xdg else Path.home() / ".cache") / "rtval" / "check"
 
 
 def baseline_path(baseline_dir: Path, renderer: str | None, scene: str, mode: str) -> Path:
@@ -159,6 +152,25 @@ def _effect_message(case: CaseResult, effect: str, outcome: EffectOutcome) -> st
     return f"{case.label}: {effect} {reasons}"
 
 
+def _name_failures(case: CaseResult, whole: list[str]) -> None:
+    """A failing case's failures, named by effect: the effects whose own pixels fail, the most
+    visible (highest FLIP) first, or the image when the failure is spread too thin for any
+    one. `whole`: the whole image's reasons."""
+    failing = [n for n in EFFECTS if n in case.effects and case.effects[n].status == "fail"]
+    failing.sort(key=lambda n: -(case.effects[n].flip or 0.0))
+    case.failed_effects = failing or [WHOLE_IMAGE]
+    case.reasons = [
+        _effect_message(case, n, case.effects[n])
+        if n != WHOLE_IMAGE
+        else f"{case.label}: {WHOLE_IMAGE} {'; '.join(whole)}"
+        for n in case.failed_effects
+    ]
+
+
+def _finite(x: float) -> float | None:
+    return x if np.isfinite(x) else None
+
+
 def judge_case(
     case: CaseResult,
     ref: F32,
@@ -168,28 +180,23 @@ def judge_case(
     *,
     keep: bool,
 ) -> None:
-    """Fills the case's verdict and per-effect outcomes. The verdict is the whole image's (as
-    check has always judged); a failing case is evaluated again with the effect masks and FLIP
-    to say which effects fail. A passing one costs no FLIP (unless a tolerance asks for it)
-    and no per-effect metrics: its effects get pixel counts only."""
-    need_flip = tol.max_flip is not None
-    ev = evaluate_pair(ref, test, tolerances=tol, flip=need_flip)
-    if ev.verdict.status == "fail" and masks:
+    """Fills the case's verdict and per-effect outcomes against a baseline. The verdict is the
+    whole image's (as check has always judged); a failing case is evaluated again with the
+    effect masks and FLIP to say which effects fail. A passing one costs no FLIP (unless a
+    tolerance asks for it) and no per-effect metrics: its effects get pixel counts only."""
+    ev = evaluate_pair(ref, test, tolerances=tol, flip=tol.max_flip is not None)
+    if ev.verdict.status == "fail":
         ev = evaluate_pair(ref, test, tolerances=tol, masks=masks, flip=True)
-    elif ev.verdict.status == "fail":
-        ev = evaluate_pair(ref, test, tolerances=tol, flip=True)
     v = ev.verdict
     case.status, case.reasons = v.status, list(v.reasons)
     case.failing_pixels, case.max_display_error = v.failing_pixels, v.max_display_error
-    case.ssim = ev.metrics.ssim if np.isfinite(ev.metrics.ssim) else None
-    case.flip = ev.metrics.flip_ldr if np.isfinite(ev.metrics.flip_ldr) else None
+    case.ssim, case.flip = _finite(ev.metrics.ssim), _finite(ev.metrics.flip_ldr)
     for name, r in ev.per_effect.items():
-        flip = r.metrics.flip_ldr
         case.effects[name] = EffectOutcome(
             r.verdict.status,
             r.metrics.pixels,
             r.verdict.failing_pixels,
-            flip if np.isfinite(flip) else None,
+            _finite(r.metrics.flip_ldr),
             list(r.verdict.reasons),
         )
     if not ev.per_effect:
@@ -203,18 +210,38 @@ def judge_case(
                 "warn" if warned else "pass", int(mask.sum()), int((err > tol.fail).sum()), None
             )
     if case.status == "fail":
-        # The image fails as a whole (the rule check has always had); name the effects whose
-        # own pixels fail, or the image when the failure is spread too thin for any one.
-        failing = [n for n in EFFECTS if n in case.effects and case.effects[n].status == "fail"]
-        # The most visible first: the effect a person should look at.
-        failing.sort(key=lambda n: -(case.effects[n].flip or 0.0))
-        case.failed_effects = failing or [WHOLE_IMAGE]
-        case.reasons = [
-            _effect_message(case, n, case.effects[n])
-            if n != WHOLE_IMAGE
-            else f"{case.label}: {WHOLE_IMAGE} {'; '.join(v.reasons)}"
-            for n in case.failed_effects
-        ]
+        _name_failures(case, list(v.reasons))
+        if keep:
+            case.pictures = FailurePictures(ev.ref, ev.test, ev.maps.flip_ldr)
+
+
+def judge_against(case: CaseResult, test: Image, model: LoadedModel, *, keep: bool) -> None:
+    """Fills the case's verdict against a target model (against.judge: a demo model's exact
+    match, Mitsuba's rubric), per effect of the model render's masks. An exact pass computes
+    no FLIP and no SSIM."""
+    ev = against.judge(test, model)
+    score = ev.score
+    if score is None:  # a model render without effect pixels: nothing to judge per effect
+        raise ImageError(f"{model.renders.reference}: the model render has no effect pixels")
+    exact = ev.exact
+    case.status = score.status
+    if exact is not None:
+        case.failing_pixels = exact.differing
+    else:
+        case.failing_pixels = ev.verdict.failing_pixels
+        case.max_display_error = ev.verdict.max_display_error
+        case.ssim, case.flip = _finite(ev.metrics.ssim), _finite(ev.metrics.flip_ldr)
+    for name, e in score.effects.items():
+        if exact is not None:
+            failing = exact.per_effect[name].differing
+            reasons = [] if e.status == "pass" else [exact.sentence(name)]
+        else:
+            failing = ev.per_effect[name].verdict.failing_pixels
+            reasons = list(e.reasons)
+        case.effects[name] = EffectOutcome(e.status, e.pixels, failing, e.flip, reasons)
+    if case.status == "fail":
+        whole = score.reasons() or [f"{case.failing_pixels:,} px differ from {model.target.name}"]
+        _name_failures(case, whole)
         if keep:
             case.pictures = FailurePictures(ev.ref, ev.test, ev.maps.flip_ldr)
 
@@ -232,8 +259,8 @@ class CheckSettings:
     against: str | None = None
     spp: int = 1
     timeout: float | None = None
-    cache_dir: Path | None = None
-    keep_images: bool = False  # keep failing cases' evaluations (for --html)
+    cache_dir: Path | None = None  # model renders and effect masks (against.default_cache())
+    keep_images: bool = False  # keep failing cases' pictures (for --html)
 
 
 def _render_rtdemo(
@@ -257,46 +284,56 @@ def _target(settings: CheckSettings) -> TargetModel | None:
         model = parse_model(settings.against)
     except ModelError as e:
         raise ValueError(f"--against: {e}") from None
-    if not model.is_demo:
-        raise ValueError(
-            f"--against {model.name}: only demo models (paper, classic, physical with +Qn/-Qn) "
-            "are rendered by check; compare with a Mitsuba reference through `rtval compare`"
-        )
+    if settings.update:
+        raise ValueError("--update writes baselines; with --against there are none to write")
+    if model.is_demo and settings.spp != 1:
+        # The model is one pixel-centre ray per pixel; exact match judges against exactly that.
+        raise ValueError(f"--against {model.name}: a demo model is judged at --spp 1 only")
     return model
+
+
+def _runs(settings: CheckSettings, model: TargetModel | None) -> list[tuple[str, str]]:
+    """(backend or renderer name, mode) of every case per scene."""
+    cmd = settings.renderer
+    modes = settings.modes or list(DEFAULT_MODES)
+    if cmd is None and model is not None and model.is_demo and settings.modes is None:
+        # rtdemo against a demo model checks the model's own algorithm: the render under test
+        # runs with the model's options, so a correct build matches it exactly.
+        return [(b, model.name) for b in settings.backends]
+    if cmd is None:
+        return [(b, m) for b in settings.backends for m in modes]
+    if cmd.uses_mode:
+        # Against a demo model, {mode} is the model's mode: one case per scene.
+        return [(cmd.name, m) for m in ([model.mode] if model and model.mode else modes)]
+    return [(cmd.name, FOREIGN_MODE)]
 
 
 def run_check(
     settings: CheckSettings, *, progress: Callable[[str], None] = print
 ) -> list[CaseResult]:
     model = _target(settings)
-    if settings.update and model is not None:
-        raise ValueError("--update writes baselines; with --against there are none to write")
     cmd = settings.renderer
-    name = cmd.name if cmd else None
-    tolerances = load_tolerances(settings.baseline_dir, name)
-    cache_dir = settings.cache_dir or default_cache_dir()
-    modes = settings.modes or list(DEFAULT_MODES)
-    if cmd is None and model is not None and settings.modes is None:
-        # rtdemo against a model checks the model's own algorithm: a correct build matches.
-        runs = [(b, model.name) for b in settings.backends]
-    elif cmd is None:
-        runs = [(b, m) for b in settings.backends for m in modes]
-    elif cmd.uses_mode:
-        # Against a model, {mode} is the model's mode: one case per scene.
-        runs = [(cmd.name, m) for m in ([model.mode] if model and model.mode else modes)]
-    else:
-        runs = [(cmd.name, FOREIGN_MODE)]
+    tolerances = load_tolerances(settings.baseline_dir, cmd.name if cmd else None)
+    cache_dir = settings.cache_dir or against.default_cache()
+    runs = _runs(settings, model)
     results: list[CaseResult] = []
     with tempfile.TemporaryDirectory(prefix="rtval-check-") as tmp:
         for scene_path in settings.scenes:
             scene = load_scene(scene_path)
             tol = tolerances.get(scene.name, tolerances.get("default", DEFAULT_TOLERANCES))
+            loaded = None
+            if model is not None:
+                renders = against.prepare(
+                    model, Path(scene_path), settings.size, cache_dir, progress=progress
+                )
+                loaded = against.load(renders)
             for backend, mode in runs:
                 case = _one_case(
-                    settings, scene, scene_path, backend, mode, model, tol, cache_dir, Path(tmp)
+                    settings, scene, scene_path, backend, mode, loaded, tol, cache_dir, Path(tmp)
                 )
                 progress(
                     f"{case.name:<28} {case.status.upper():<5}"
+                    + (f" against {case.against}" if model else "")
                     + (" (baseline updated)" if case.updated else "")
                     + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
                 )
@@ -310,7 +347,7 @@ def _one_case(
     scene_path: str,
     backend: str,
     mode: str,
-    model: TargetModel | None,
+    model: LoadedModel | None,
     tol: Tolerances,
     cache_dir: Path,
     tmp: Path,
@@ -323,12 +360,13 @@ def _one_case(
         mode,
         "pass",
         renderer=cmd.name if cmd else "rtdemo",
-        against=model.name if model else None,
+        against=model.target.name if model else "baseline",
         scene_file=str(scene_path),
     )
     try:
         if cmd is None:
-            mode_args = model.rtdemo_args() if model and mode == model.name else ["--mode", mode]
+            demo = model is not None and model.target.is_demo and mode == model.target.name
+            mode_args = model.target.rtdemo_args() if model and demo else ["--mode", mode]
             test, case.seconds = _render_rtdemo(settings, scene_path, backend, mode_args, tmp)
         else:
             got = foreign.render(
@@ -348,13 +386,9 @@ def _one_case(
         return case
     case.test_encoding = test.encoding
     baseline = baseline_path(settings.baseline_dir, cmd.name if cmd else None, scene.name, mode)
-    ref: F32 | None = None
-    if model is not None:
-        ref = aov_cache.model_render(
-            Path(scene_path), model.rtdemo_args(), settings.size, settings.spp, cache_dir
-        ).rgb
-    elif baseline.is_file():
-        ref = read_image(baseline).rgb
+    ref = (
+        model.reference.rgb if model else (read_image(baseline).rgb if baseline.is_file() else None)
+    )
     if ref is None:
         case.status, case.reasons = "fail", [f"{case.label}: no baseline {baseline}"]
         case.failed_effects = ["baseline"]
@@ -363,10 +397,12 @@ def _one_case(
         case.failed_effects = ["baseline"]
         case.reasons = [
             f"{case.label}: size {test.shape[1]}x{test.shape[0]} differs from the "
-            f"baseline's {ref.shape[1]}x{ref.shape[0]}"
+            f"{'model' if model else 'baseline'}'s {ref.shape[1]}x{ref.shape[0]}"
         ]
+    elif model is not None:
+        judge_against(case, test, model, keep=settings.keep_images)
     else:
-        masks = aov_cache.scene_masks(Path(scene_path), settings.size, cache_dir)
+        masks = scene_masks(Path(scene_path), settings.size, cache_dir, progress=lambda _: None)
         judge_case(case, ref, test.rgb, tol, masks, keep=settings.keep_images)
     if settings.update and case.status == "fail":
         baseline.parent.mkdir(parents=True, exist_ok=True)

@@ -1,11 +1,14 @@
 """`rtval check --html DIR`: one page for the failures only. Each failing case shows the
-reference (baseline or demo model) and the render side by side, the difference and the FLIP
-map, its per-effect numbers and, where compare.judge.diagnose exists, a diagnosis."""
+reference (baseline or target model) and the render side by side, the difference and the
+FLIP map, its per-effect numbers and a diagnosis (compare.judge.diagnose: the nearest demo
+model, quirks and named mistakes). User text is escaped by Jinja's autoescape, the page
+carries a Content-Security-Policy (page_security), every file is written atomically."""
 
 from __future__ import annotations
 
-import importlib
+import io
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -13,18 +16,24 @@ import numpy as np
 from jinja2 import Environment, PackageLoader, select_autoescape
 
 from compare.apps.check import CaseResult
+from compare.apps.page_security import with_csp
 from compare.files import write_atomic
 from compare.judge.images import linear_to_srgb
 from compare.judge.tolerances import diff_image
+from compare.safe_paths import UnsafePathError
 
 PNGS = ("reference", "render", "difference", "flip")
+# A bounded search per failing case (diagnose.MAX_RENDERS is 200): the page is a first look.
+DIAGNOSE_RENDERS = 60
 
 
 def _save_png(path: Path, display: np.ndarray) -> None:
     from PIL import Image as PILImage
 
     data = np.round(np.clip(np.nan_to_num(display), 0.0, 1.0) * 255.0).astype(np.uint8)
-    PILImage.fromarray(data, "RGB").save(path, format="PNG")
+    buf = io.BytesIO()
+    PILImage.fromarray(data, "RGB").save(buf, format="PNG")
+    write_atomic(path, buf.getvalue())
 
 
 def _magma(values: np.ndarray) -> np.ndarray:
@@ -33,35 +42,39 @@ def _magma(values: np.ndarray) -> np.ndarray:
     return np.asarray(matplotlib.colormaps["magma"](np.clip(np.nan_to_num(values), 0, 1)))[..., :3]
 
 
-def _diagnosis(case: CaseResult) -> list[str] | None:
-    """The diagnose helper's explanation of a failing render (nearest demo model, quirks,
-    named mistakes), when compare.judge.diagnose is installed; None without it."""
-    try:
-        diagnose = importlib.import_module("compare.judge.diagnose")
-        candidates = importlib.import_module("compare.render.candidates")
-    except ImportError:
-        return None
+def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> list[str] | None:
+    """The nearest demo model, quirks and named mistakes that explain a failing render
+    (compare.judge.diagnose), as lines for the page. Optional: when it cannot be made (no
+    pictures, rtdemo fails, the search fails), the page says so and `note` is told."""
     if case.pictures is None or not case.scene_file:
         return None
+    from compare.judge.diagnose import diagnose
     from compare.judge.images import Image
+    from compare.render.candidates import CandidateRenderer
     from scene_model.scene import load_scene
 
     image = Image(rgb=case.pictures.test, encoding=case.test_encoding)
     h, w = image.shape
     try:
-        with candidates.CandidateRenderer(case.scene_file, w, h) as render:
-            found = diagnose.diagnose(
-                image, load_scene(case.scene_file), render, progress=lambda _m: None
+        with CandidateRenderer(case.scene_file, w, h) as render:
+            found = diagnose(
+                image, load_scene(case.scene_file), render, max_renders=DIAGNOSE_RENDERS
             )
-        return [str(found.result), *(str(x) for x in found.sentences)]
     except Exception as e:  # an optional slot: its failure must not lose the page
-        return [f"no diagnosis: {type(e).__name__}: {e}"]
+        message = f"no diagnosis for {case.name}: {type(e).__name__}: {e}"
+        note(message)
+        return [message]
+    return [found.reason(), *found.sentences]
 
 
-def write_html(results: list[CaseResult], out_dir: Path) -> Path:
+def write_html(
+    results: list[CaseResult], out_dir: Path, *, note: Callable[[str], None] = print
+) -> Path:
     """Writes out_dir/index.html (and its PNGs); returns the page's path."""
     failures = [r for r in results if r.status == "fail" and not r.updated]
     images = out_dir / "images"
+    if images.is_symlink():
+        raise UnsafePathError(f"{images}: is a symbolic link; check writes its own folder")
     if images.is_dir():
         shutil.rmtree(images)  # images of an earlier run's failures would linger
     images.mkdir(parents=True)
@@ -70,13 +83,13 @@ def write_html(results: list[CaseResult], out_dir: Path) -> Path:
         entry: dict[str, Any] = {
             "name": r.name,
             "reasons": r.reasons,
-            "against": r.against or "baseline",
+            "against": r.against,
             "images": {},
             "effects": [
                 {"name": n, **e.__dict__, "failed": n in r.failed_effects}
                 for n, e in r.effects.items()
             ],
-            "diagnosis": _diagnosis(r),
+            "diagnosis": _diagnosis(r, note),
         }
         pics = r.pictures
         if pics is not None:
@@ -100,5 +113,5 @@ def write_html(results: list[CaseResult], out_dir: Path) -> Path:
         cases=cases, total=len(results), failed=len(failures)
     )
     page = out_dir / "index.html"
-    write_atomic(page, html)
+    write_atomic(page, with_csp(html))
     return page

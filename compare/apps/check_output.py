@@ -1,5 +1,8 @@
 """What `rtval check` writes about its results: the terminal table, JSON, JUnit XML (one
-testcase per case and effect) and a Markdown summary for CI (GitHub's step summary)."""
+testcase per case and effect) and a Markdown summary for CI (GitHub's step summary). Every
+file is written atomically and only ever replaces a regular file (compare.files); user text
+(renderer names, scene names, a renderer's stderr) is escaped for each format
+(compare.escape)."""
 
 from __future__ import annotations
 
@@ -9,7 +12,9 @@ from pathlib import Path
 from typing import Any
 
 from compare.apps.check import WHOLE_IMAGE, CaseResult, exit_code
+from compare.escape import markdown_cell, xml_text
 from compare.files import json_safe, write_atomic
+from compare.safe_paths import check_output_target
 
 STATUS = ("pass", "warn", "fail")
 
@@ -18,14 +23,14 @@ def table(results: list[CaseResult]) -> str:
     width = max([28, *(len(r.name) for r in results)])
     lines = [
         f"{'case':<{width}} {'status':<7} {'failing px':>10} {'max err':>8} {'SSIM':>8} "
-        f"{'time s':>7}"
+        f"{'time s':>7}  against"
     ]
     order = sorted(results, key=lambda r: ("fail", "warn", "pass").index(r.status))
     for r in order:
         ssim = f"{r.ssim:.5f}" if r.ssim is not None else "-"
         lines.append(
             f"{r.name:<{width}} {r.status:<7} {r.failing_pixels:>10} "
-            f"{r.max_display_error:>8.4f} {ssim:>8} {r.seconds:>7.2f}"
+            f"{r.max_display_error:>8.4f} {ssim:>8} {r.seconds:>7.2f}  {r.against}"
             + ("  updated" if r.updated else "")
         )
     failures = [m for r in results if r.status == "fail" and not r.updated for m in r.reasons]
@@ -40,7 +45,8 @@ def table(results: list[CaseResult]) -> str:
 def write_json(results: list[CaseResult], path: Path) -> None:
     data: list[dict[str, Any]] = [r.as_dict() for r in results]
     status = STATUS[exit_code(results)]
-    write_atomic(path, json.dumps(json_safe({"status": status, "cases": data}), indent=2) + "\n")
+    text = json.dumps(json_safe({"status": status, "cases": data}), indent=2, allow_nan=False)
+    write_atomic(path, text + "\n")
 
 
 def _testcases(r: CaseResult) -> list[tuple[str, str, str | None]]:
@@ -71,32 +77,27 @@ def write_junit(results: list[CaseResult], path: Path) -> None:
             case = ET.SubElement(
                 suite,
                 "testcase",
-                classname=f"rtval.{r.renderer}.{r.scene}",
-                name=f"{r.label.split('/', 1)[1] + ':' if '/' in r.label else ''}{effect}",
+                classname=xml_text(f"rtval.{r.renderer}.{r.scene}"),
+                name=xml_text(
+                    f"{r.label.split('/', 1)[1] + ':' if '/' in r.label else ''}{effect}"
+                ),
                 time=f"{r.seconds + r.overhead_seconds:.3f}" if effect == WHOLE_IMAGE else "0",
+            )
+            ET.SubElement(
+                ET.SubElement(case, "properties"), "property", name="against", value=r.against
             )
             tests += 1
             if status == "fail" and not r.updated:
                 failures += 1
-                first = (message or "").splitlines()[0] if message else ""
-                ET.SubElement(case, "failure", message=first).text = message
+                text = xml_text(message or "")
+                first = text.splitlines()[0] if text else ""
+                ET.SubElement(case, "failure", message=first).text = text
             elif status == "warn" or (r.updated and effect == WHOLE_IMAGE):
                 note = "baseline updated" if r.updated else f"warning: {message}"
-                ET.SubElement(case, "system-out").text = note
+                ET.SubElement(case, "system-out").text = xml_text(note)
     suite.set("tests", str(tests))
     suite.set("failures", str(failures))
-    ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)
-
-
-def _md(text: str) -> str:
-    """Markdown table cell: no pipes, no line breaks, no HTML."""
-    return (
-        text.replace("&", "&amp;")
-        .replace("<", "&lt;")
-        .replace(">", "&gt;")
-        .replace("|", "\\|")
-        .replace("\n", " ")
-    )
+    write_atomic(path, ET.tostring(suite, encoding="utf-8", xml_declaration=True))
 
 
 def markdown_summary(results: list[CaseResult]) -> str:
@@ -114,15 +115,20 @@ def markdown_summary(results: list[CaseResult]) -> str:
         flip = f"{r.flip:.4f}" if r.flip is not None else "-"
         failed = ", ".join(r.failed_effects) if r.status == "fail" else ""
         lines.append(
-            f"| {_md(r.name)} | {icon[r.status]} {r.status}{' (updated)' if r.updated else ''} "
-            f"| {_md(failed)} | {ssim} | {flip} | {r.seconds:.2f} |"
+            f"| {markdown_cell(r.name)} | {icon[r.status]} {r.status}{' (updated)' if r.updated else ''} "
+            f"| {markdown_cell(failed)} | {ssim} | {flip} | {r.seconds:.2f} |"
         )
     failures = [m for r in results if r.status == "fail" and not r.updated for m in r.reasons]
     if failures:
-        lines += ["", "**Failures**", ""] + [f"- {_md(m.splitlines()[0])}" for m in failures]
+        lines += ["", "**Failures**", ""] + [
+            f"- {markdown_cell(m.splitlines()[0])}" for m in failures
+        ]
     return "\n".join(lines) + "\n"
 
 
 def append_step_summary(results: list[CaseResult], path: Path) -> None:
+    """Appends to GitHub's step summary (earlier steps' text stays): an append, not a
+    replacement, so only the target's kind is checked (a regular file or nothing)."""
+    check_output_target(path)
     with path.open("a", encoding="utf-8") as f:
         f.write(markdown_summary(results))

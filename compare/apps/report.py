@@ -25,12 +25,14 @@ import numpy as np
 from jinja2 import Environment, PackageLoader, select_autoescape
 
 from compare.apps import report_figures as figs
+from compare.apps.page_security import printable, with_csp
+from compare.escape import json_for_script
 from compare.files import json_safe as _json_safe
 from compare.files import sha256_file, write_atomic
 from compare.judge.convergence import time_to_converged
 from compare.judge.effects import effect_masks
 from compare.judge.evaluate import evaluate_pair
-from compare.judge.images import Image, ImageError, read_image, write_png
+from compare.judge.images import Image, ImageError, ImageSizeError, read_image, write_png
 from compare.judge.metrics import metrics_from_dict
 from compare.judge.penumbra import penumbra_numbers
 from compare.judge.scoring import score_effects
@@ -46,6 +48,7 @@ from compare.render.plan import (
     plan,
 )
 from compare.render.runner import ToolError, rtdemo_path
+from compare.safe_paths import check_output_target
 from scene_model.scene import load_scene
 
 # Renders compared in full (global + per effect), with maps.
@@ -140,6 +143,7 @@ def build_report(
     test_image: str | None = None,
     test_label: str | None = None,
     test_encoding: str | None = None,
+    against: str | None = None,
     jobs: int = 1,
     pdf: bool = True,
     progress: Callable[[str], None] = print,
@@ -169,12 +173,13 @@ def build_report(
     label = test_label or "the demo (paper mode)"
     featured = list(FEATURED)
     if test_image:
-        foreign = read_image(test_image, encoding=test_encoding)
-        if foreign.shape != ref.shape:
+        try:  # the size is checked in the header: a huge declared size costs nothing
+            foreign = read_image(test_image, encoding=test_encoding, expected_size=ref.shape)
+        except ImageSizeError as e:
             raise ImageError(
-                f"{test_image}: {foreign.shape[1]}x{foreign.shape[0]}, the scene renders at "
+                f"{test_image}: {e.size[1]}x{e.size[0]}, the scene renders at "
                 f"{ref.shape[1]}x{ref.shape[0]} (never resampled)"
-            )
+            ) from None
         test_key = "test-image"
         label = test_label or Path(test_image).stem
         imgs[test_key] = foreign
@@ -284,7 +289,12 @@ def build_report(
                 )
 
     test_effects = {k: metrics_from_dict(v) for k, v in results[test_key]["per_effect"].items()}
-    verdict = score_effects(test_effects).as_dict()
+    verdict = score_effects(test_effects).as_dict() | {"against": "mitsuba"}
+    model_verdict = None
+    if test_image:
+        model_verdict = _model_verdict(
+            imgs[test_key], against, scene_file, size, cache, ladder, progress
+        )
     sentences = difference_sentences(ref.rgb, imgs[test_key].rgb, masks, test_effects, label)
     penumbra = penumbra_numbers(ref.rgb, imgs["ref-area"].rgb, imgs["demo-physical-cpu-16spp"].rgb)
     converged = time_to_converged(
@@ -327,6 +337,8 @@ def build_report(
         command += ["--test-image", str(test_image)] + (
             ["--label", test_label] if test_label else []
         )
+        if against:
+            command += ["--against", against]
     data = _json_safe(
         {
             "scene": scene.name,
@@ -345,6 +357,8 @@ def build_report(
             },
             "test": {"key": test_key, "label": label},
             "verdict": verdict,
+            "model_verdict": model_verdict,
+            "diagnosis": _diagnosis() if test_image else None,
             "sentences": sentences,
             "contributions": contributions,
             "featured": [{"key": k, "label": name, **results[k]} for k, name in featured],
@@ -363,11 +377,74 @@ def build_report(
         loader=PackageLoader("compare.apps", "templates"),
         autoescape=select_autoescape(["html", "j2"]),
     )
-    html = env.get_template("report.html.j2").render(report=data, renders_json=json.dumps(renders))
+    # Data reaches the page as inert, script-escaped JSON; the CSP admits only the
+    # template's own script (compare/apps/page_security.py).
+    html = env.get_template("report.html.j2").render(
+        report=data, renders_json=json_for_script(renders)
+    )
+    html = with_csp(html)
     write_atomic(out / "index.html", html)
     if pdf:
         write_pdf(out / "index.html", out / "report.pdf")
     return out / "index.html"
+
+
+def _model_verdict(
+    test: Image,
+    against: str | None,
+    scene_file: Path,
+    size: tuple[int, int] | None,
+    cache: Path,
+    ladder: list[dict[str, Any]],
+    progress: Callable[[str], None],
+) -> dict[str, Any]:
+    """The test image against its assigned model (is the implementation right?), and what
+    each of the model's quirks costs against Mitsuba (how far is that algorithm from physics),
+    read from the ablation ladder."""
+    from compare.apps.against import GRADE_DEFAULT, judge, load, prepare
+    from compare.judge.target_model import MODE_QUIRKS, parse_model
+
+    model = parse_model(against or GRADE_DEFAULT)
+    progress(f"model {model.name} ...")
+    loaded = load(prepare(model, scene_file, size, cache, progress=progress))
+    ev = judge(test, loaded)
+    assert ev.score is not None
+    # Ladder step i fixes Q(i) on top of Q1..Q(i-1): its FLIP drop is what that quirk costs
+    # there (cumulative, so conditional on the earlier fixes).
+    present = model.quirks if model.is_demo else frozenset()
+    costs = [
+        {
+            "quirk": q,
+            "present": int(q[1:]) in present,
+            "flip_with": ladder[i - 1]["flip"],
+            "flip_fixed": ladder[i]["flip"],
+            "cost": ladder[i - 1]["flip"] - ladder[i]["flip"],
+        }
+        for i, q in enumerate(QUIRKS, start=1)
+        if i < len(ladder) and int(q[1:]) in MODE_QUIRKS["paper"]
+    ]
+    return {
+        "model": model.name,
+        "basis": ev.score.basis,
+        "score": ev.score.as_dict(),
+        "reasons": ev.score.reasons(),
+        "exact": ev.exact.as_dict() if ev.exact else None,
+        "quirk_costs": costs,
+    }
+
+
+def _diagnosis() -> dict[str, Any] | None:
+    """The hook for "What this image implements" (compare.judge.diagnose, once merged, returns
+    its findings here); None renders the section's empty state."""
+    return None
+
+
+def _sandbox_flags() -> list[str]:
+    """Chromium refuses to start its sandbox as root; only then is it switched off. The
+    copy it prints holds no script and a policy that forbids them (page_security.printable):
+    nothing runs in the unsandboxed browser. (--blink-settings=scriptEnabled=false would
+    say the same, but headless Chromium then writes no PDF at all.)"""
+    return ["--no-sandbox"] if hasattr(os, "geteuid") and os.geteuid() == 0 else []
 
 
 def write_pdf(html: Path, pdf: Path) -> None:
@@ -381,12 +458,26 @@ def write_pdf(html: Path, pdf: Path) -> None:
         raise ToolError(
             "report.pdf needs Chromium (make setup installs Debian's chromium); or pass --no-pdf"
         )
-    tmp = pdf.with_name(pdf.stem + ".tmp.pdf")
+    check_output_target(pdf)
+    tmp = pdf.with_name(f".{pdf.stem}.{os.getpid()}.tmp.pdf")
+    # Printed from a script-free copy beside the page (so its relative images resolve).
+    copy = html.with_name(f".{html.stem}.{os.getpid()}.print.html")
+    try:
+        write_atomic(copy, printable(html.read_text(encoding="utf-8")))
+        _print_pdf(chromium, copy, tmp)
+        check_output_target(pdf)
+        tmp.replace(pdf)
+    finally:  # never a partial PDF or a stray copy left behind
+        tmp.unlink(missing_ok=True)
+        copy.unlink(missing_ok=True)
+
+
+def _print_pdf(chromium: str, html: Path, tmp: Path) -> None:
     proc = subprocess.run(
         [
             chromium,
             "--headless",
-            "--no-sandbox",
+            *_sandbox_flags(),
             "--disable-gpu",
             "--no-first-run",
             "--disable-background-networking",
@@ -403,4 +494,3 @@ def write_pdf(html: Path, pdf: Path) -> None:
     )
     if proc.returncode != 0 or not tmp.is_file():
         raise ToolError(f"Chromium could not print {html} to PDF: {proc.stderr.strip()[-500:]}")
-    tmp.replace(pdf)

@@ -8,17 +8,7 @@ import os
 import sys
 from pathlib import Path
 
-from compare.cli.common import size_type
-
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if not 1 <= v <= 1_000_000:
-        raise argparse.ArgumentTypeError(f"expected 1-1000000, got {text!r}")
-    return v
+from compare.cli.common import positive_int, size_type
 
 
 def _seconds(text: str) -> float:
@@ -34,6 +24,7 @@ def _seconds(text: str) -> float:
 def run_check(args: argparse.Namespace) -> int:
     from compare.apps import check, check_output
     from compare.render import foreign
+    from compare.safe_paths import check_outputs_distinct
 
     renderer = None
     if args.renderer is not None:
@@ -47,6 +38,11 @@ def run_check(args: argparse.Namespace) -> int:
             raise ValueError("--rtdemo and --renderer exclude each other")
     elif args.renderer_name or args.output_format != "exr" or args.timeout:
         raise ValueError("--renderer-name, --output-format and --timeout need --renderer")
+    html_page = Path(args.html) / "index.html" if args.html else None
+    check_outputs_distinct(
+        [("--json", args.json), ("--junit", args.junit), ("--html", html_page)],
+        [("--scenes", s) for s in args.scenes],
+    )
     settings = check.CheckSettings(
         scenes=args.scenes,
         baseline_dir=Path(args.baseline),
@@ -71,7 +67,7 @@ def run_check(args: argparse.Namespace) -> int:
     if args.html:
         from compare.apps.check_html import write_html
 
-        page = write_html(results, Path(args.html))
+        page = write_html(results, Path(args.html), note=lambda m: print(m, file=sys.stderr))
         print(f"failure page: {page}", file=sys.stderr)
     summary = os.environ.get("GITHUB_STEP_SUMMARY")
     if summary:
@@ -88,14 +84,16 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
     p = sub.add_parser(
         "check",
-        help="regression check of rtdemo or any renderer against baselines or a demo model",
+        help="regression check of rtdemo or any renderer against baselines or a target model",
         description="Renders the scene set with rtdemo (every backend and mode asked for) or "
         "with any program (--renderer) and compares each render with its baseline under "
-        "per-scene tolerances (BASELINE/tolerances.json), or with a demo model rendered by "
-        "rtdemo (--against). A failure names the scene and the effect. A missing baseline "
-        "fails; so does a renderer that exits non-zero, times out, or writes no image, an "
-        "unreadable one or one of the wrong size. Exit 0 pass, 1 warn, 2 fail, 64 bad "
-        "arguments.",
+        "per-scene tolerances (BASELINE/tolerances.json), or with --against MODEL against a "
+        "target model (demo models: exact match). A failure names the scene and the effect. "
+        "A missing baseline fails; so does a renderer that exits non-zero, times out, or "
+        "writes no image, an unreadable one or one of the wrong size. Exit 0 pass, 1 warn, "
+        "2 fail, 1 when rtdemo cannot render a model, 4 an unreadable tolerances.json or an "
+        "output that is not a regular file, 64 bad arguments (also an output naming a scene "
+        "or another output).",
         epilog="Renderer placeholders: {scene} (scene JSON), {scene_xml} (its Mitsuba XML "
         "export), {out} (the image to write), {width}, {height}, {spp}, {mode} (with it, one "
         "case per --modes entry). Example: rtval check --renderer 'python3 my_tracer.py "
@@ -121,7 +119,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         metavar="WxH",
         help=f"render size (default {DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]})",
     )
-    p.add_argument("--spp", type=_positive_int, default=1, help="samples per pixel ({spp})")
+    p.add_argument("--spp", type=positive_int, default=1, help="samples per pixel ({spp})")
     p.add_argument(
         "--update", action="store_true", help="rewrite new or failing baselines, say which"
     )
@@ -155,14 +153,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--against",
         metavar="MODEL",
-        help="compare with a demo model rendered by rtdemo (e.g. classic, paper-Q8) instead "
-        "of baselines; rtdemo itself is then rendered with the model's options unless "
-        "--modes is given",
+        help="judge each render against a target model instead of its baseline (demo models "
+        "such as classic or paper-Q8: exact match, rtdemo itself then rendered with the "
+        "model's options unless --modes is given; mitsuba: the default rubric)",
     )
     p.add_argument(
         "--cache",
         metavar="DIR",
-        help="cache of rtdemo renders for effect masks and models (default $RTVAL_CACHE/check "
-        "or ~/.cache/rtval/check)",
+        help="render cache for the effect masks and --against models (default $RTVAL_CACHE "
+        "or ~/.cache/rtval)",
     )
     p.set_defaults(func=run_check)

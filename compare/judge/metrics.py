@@ -109,6 +109,21 @@ def _any_channel(per_channel: BOOL) -> BOOL:
     return np.asarray(per_channel.any(axis=-1), bool)
 
 
+# FLIP's widest filter (feature detection, sigma 0.082 deg) spans ~17 px at 67 ppd: a crop
+# with this margin has the full image's FLIP values everywhere inside it.
+FLIP_MARGIN = 24
+
+
+def flip_ldr_map(ref: F32, test: F32) -> F32:
+    """LDR FLIP of the display values, H x W."""
+    import flip_evaluator
+
+    out = flip_evaluator.evaluate(
+        display(ref), display(test), "LDR", applyMagma=False, parameters={"ppd": FLIP_PPD}
+    )[0][..., 0]
+    return np.asarray(out, np.float32)
+
+
 def compute_maps(ref: F32, test: F32, *, hdr: bool, flip: bool = True) -> Maps:
     """SSIM and FLIP maps plus the display error map, for the whole image. flip=False leaves
     the FLIP maps NaN (FLIP is most of the cost; a quick first look can skip it)."""
@@ -132,12 +147,7 @@ def compute_maps(ref: F32, test: F32, *, hdr: bool, flip: bool = True) -> Maps:
         )
         ssim_map = np.asarray(full_map, np.float32).mean(axis=-1)
     flip_hdr = None
-    if not flip:
-        flip_ldr = np.full(a.shape[:2], np.nan, np.float32)
-    else:
-        flip_ldr = flip_evaluator.evaluate(
-            a, b, "LDR", applyMagma=False, parameters={"ppd": FLIP_PPD}
-        )[0][..., 0]
+    flip_ldr = flip_ldr_map(ref, test) if flip else np.full(a.shape[:2], np.nan, np.float32)
 
     def clean(x: F32) -> F32:
         return np.maximum(np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0), 0.0)

@@ -18,6 +18,8 @@
 #include <thread>
 #include <vector>
 
+#include "file_kind.h"
+
 namespace rt {
 namespace fs = std::filesystem;
 
@@ -36,6 +38,7 @@ public:
     }
     const std::string& temp() const { return temp_; }
     void commit() {
+        check_writable(path_);  // again: the target may have changed while we wrote
         std::error_code ec;
         fs::rename(temp_, path_, ec);
         if (ec) throw OutputError(path_ + ": cannot write: " + ec.message());
@@ -87,6 +90,11 @@ void check_writable(const std::string& path) {
         throw OutputError(path + ": cannot write: directory '" + dir.string() +
                           "' is not writable");
     if (fs::is_directory(path, ec)) throw OutputError(path + ": cannot write: it is a directory");
+    try {
+        check_replaceable(path);  // never turn /dev/full or a FIFO into a regular file
+    } catch (const FileKindError& e) {
+        throw OutputError(std::string("cannot write ") + e.what());
+    }
 }
 
 ExrCompression parse_exr_compression(const std::string& text) {

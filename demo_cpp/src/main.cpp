@@ -2,18 +2,22 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "cli_args.h"
 #include "cpu_renderer.h"
+#include "file_kind.h"
 #include "gl_headless.h"
 #include "gl_viewer.h"
 #include "image_io.h"
+#include "mistakes.h"
 #include "quirks.h"
 #include "scene_loader.h"
 
@@ -80,6 +84,10 @@ algorithm:
                                   shadow rays blocked by glass, chains cut at max depth).
                                   Lights are points: no soft shadows (no --light-samples).
   --fix Q1,Q2,...        fix these quirks on top of --mode (see docs/paper-model.md)
+  --quirk Q2,Q5,...      add these quirks on top of --mode (classic --quirk Q2 keeps
+                         eta = 1/ior when leaving glass); applied in order with --fix
+  --mistake NAME,...     add named common mistakes (listed below; CPU tracer only), as
+                         rtval diagnose renders them (docs/paper-model.md)
   --spp N                samples per pixel, a perfect square (1, 4, 9, 16, ...): stratum
                          centres of a sqrt(N) x sqrt(N) grid, box filter. N > 1 needs Q10
                          fixed (physical mode or --fix Q10). Default 1 (pixel centre).
@@ -95,7 +103,28 @@ image:
   --frames N             gl: render N frames and time them (default 1); the header
                          keeps compile time and median frame time apart
   -q, --quiet            no summary line on stderr
+
+mistakes (--mistake; the catalogue of compare/judge/mistakes.json):
 )";
+
+// The catalogue under --help, each explanation wrapped at 92 columns beside its name.
+void print_mistakes() {
+    for (const MistakeInfo& info : mistake_catalogue()) {
+        std::printf("  %-20s", info.name.c_str());
+        std::istringstream words(info.explanation);
+        std::string word;
+        int column = 22;
+        while (words >> word) {
+            if (column + 1 + static_cast<int>(word.size()) > 92) {
+                std::printf("\n%22s", "");
+                column = 22;
+            }
+            std::printf(" %s", word.c_str());
+            column += 1 + static_cast<int>(word.size());
+        }
+        std::printf("\n");
+    }
+}
 
 struct RenderArgs {
     std::string scene_path;
@@ -103,7 +132,8 @@ struct RenderArgs {
     ExrCompression compression = ExrCompression::none;
     PpmRounding ppm_rounding = PpmRounding::truncate;
     Mode mode = Mode::paper;
-    std::vector<Quirk> fixes;
+    std::vector<std::pair<Quirk, bool>> quirk_changes;  // (quirk, present) in command order
+    MistakeSet mistakes;
     std::optional<int> width, height, max_depth;
     int spp = 1;
     int threads = 0;
@@ -147,9 +177,21 @@ RenderArgs parse_render_args(const std::vector<std::string>& args, bool output_r
             }
         } else if (a == "--fix") {
             try {
-                for (Quirk q : parse_quirk_list(value(i))) out.fixes.push_back(q);
+                for (Quirk q : parse_quirk_list(value(i))) out.quirk_changes.push_back({q, false});
             } catch (const std::invalid_argument& e) {
                 throw UsageError(std::string("--fix: ") + e.what());
+            }
+        } else if (a == "--quirk") {
+            try {
+                for (Quirk q : parse_quirk_list(value(i))) out.quirk_changes.push_back({q, true});
+            } catch (const std::invalid_argument& e) {
+                throw UsageError(std::string("--quirk: ") + e.what());
+            }
+        } else if (a == "--mistake") {
+            try {
+                out.mistakes = parse_mistake_list(value(i));
+            } catch (const std::invalid_argument& e) {
+                throw UsageError(std::string("--mistake: ") + e.what());
             }
         } else if (a == "--spp")
             out.spp = parse_int_arg(a, value(i), 1, 4096);
@@ -202,7 +244,15 @@ std::string format_seconds(double s) {
 RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
     RenderSettings settings;
     settings.trace.quirks = quirks_for(a.mode);
-    for (Quirk q : a.fixes) settings.trace.quirks.fix(q);
+    for (const auto& [q, present] : a.quirk_changes) {
+        if (present)
+            settings.trace.quirks.add(q);
+        else
+            settings.trace.quirks.fix(q);
+    }
+    if (a.mistakes.any() && a.gl)
+        throw UsageError("--mistake needs the CPU tracer (--backend cpu)");
+    settings.trace.mistakes = a.mistakes;
     if (a.spp > 1 && settings.trace.quirks.has(Quirk::Q10))
         throw UsageError("--spp " + std::to_string(a.spp) +
                          " needs quirk Q10 fixed (use --mode physical or --fix Q10)");
@@ -222,8 +272,26 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
     return settings;
 }
 
+// An output equal to the scene file or to another output is a usage error: one of the
+// two would be lost (exit 2, before anything is rendered).
+void check_distinct_outputs(const RenderArgs& a) {
+    const std::pair<const char*, const std::string*> outs[] = {
+        {"-o", &a.exr}, {"--png", &a.png}, {"--ppm", &a.ppm}};
+    for (std::size_t i = 0; i < std::size(outs); ++i) {
+        if (outs[i].second->empty()) continue;
+        if (same_file(*outs[i].second, a.scene_path))
+            throw UsageError(*outs[i].second + ": " + outs[i].first +
+                             " names the scene file; refusing to overwrite an input");
+        for (std::size_t j = 0; j < i; ++j)
+            if (!outs[j].second->empty() && same_file(*outs[i].second, *outs[j].second))
+                throw UsageError(*outs[i].second + ": " + outs[i].first + " and " + outs[j].first +
+                                 " name the same file");
+    }
+}
+
 int run_render(const std::vector<std::string>& args) {
     const RenderArgs a = parse_render_args(args);
+    check_distinct_outputs(a);
     for (const std::string* out : {&a.exr, &a.png, &a.ppm})
         if (!out->empty()) check_writable(*out);
 
@@ -253,6 +321,7 @@ int run_render(const std::vector<std::string>& args) {
         {"rtval.scene", scene.name},
         {"rtval.mode", mode_name(a.mode)},
         {"rtval.quirks", settings.trace.quirks.present_list()},
+        {"rtval.mistakes", settings.trace.mistakes.list()},
         {"rtval.spp", std::to_string(settings.spp)},
         {"rtval.max_depth", std::to_string(settings.trace.max_depth)},
         {"rtval.effects_off", effects.empty() ? "none" : effects},
@@ -306,7 +375,8 @@ int run_view(const std::vector<std::string>& args) {
                 frames = parse_int_arg("--frames", args[++i], 1, 100000);
         } else if (args[i] == "-o" || args[i] == "--output" || args[i] == "--png" ||
                    args[i] == "--ppm" || args[i] == "--ppm-rounding" ||
-                   args[i] == "--exr-compression" || args[i] == "--backend" || args[i] == "--spp") {
+                   args[i] == "--exr-compression" || args[i] == "--backend" || args[i] == "--spp" ||
+                   args[i] == "--mistake") {
             throw UsageError(args[i] + " is not an option of view (see rtdemo view --help)");
         } else {
             rest.push_back(args[i]);
@@ -346,6 +416,7 @@ int main(int argc, char** argv) {
             if (a == "--help" || a == "-h") {
                 if (args[0] == "render") {
                     std::fputs(kRenderHelp, stdout);
+                    print_mistakes();
                     return 0;
                 }
                 if (args[0] == "view") {

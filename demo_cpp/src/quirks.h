@@ -22,6 +22,7 @@ public:
 
     bool has(Quirk q) const { return bits_.test(index(q)); }
     void fix(Quirk q) { bits_.reset(index(q)); }
+    void add(Quirk q) { bits_.set(index(q)); }
     // "Q1,Q3,..." for the quirks present, "none" when all are fixed.
     std::string present_list() const;
 

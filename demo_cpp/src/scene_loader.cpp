@@ -8,6 +8,8 @@
 #include <set>
 #include <sstream>
 
+#include "file_kind.h"
+
 namespace rt {
 namespace {
 
@@ -199,12 +201,16 @@ Scene parse_scene(const std::string& text, const std::string& source) {
 }
 
 Scene load_scene_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path + ": cannot open the scene file");
-    std::ostringstream buffer;
-    buffer << in.rdbuf();
-    if (in.bad()) throw SceneError(path + ": cannot read the scene file");
-    return parse_scene(buffer.str(), path);
+    // A regular file only, read with a bound: a FIFO would block, /dev/zero never ends
+    // (the same rule and bound as scene_model/scene.py).
+    constexpr std::size_t kMaxSceneBytes = 16u << 20;
+    std::string text;
+    try {
+        text = read_regular_file(path, kMaxSceneBytes);
+    } catch (const FileKindError& e) {
+        throw SceneError(std::string("cannot read the scene file: ") + e.what());
+    }
+    return parse_scene(text, path);
 }
 
 }  // namespace rt

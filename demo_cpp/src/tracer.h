@@ -5,6 +5,7 @@
 #include <optional>
 #include <vector>
 
+#include "mistakes.h"
 #include "quirks.h"
 #include "scene.h"
 #include "sphere_lanes.h"
@@ -18,6 +19,9 @@ struct TraceOptions {
     bool shadows = true;
     bool reflection = true;
     bool refraction = true;
+    // Named mistakes (mistakes.h) on top: only the scalar tracer implements them, so a
+    // renderer with another engine must fall back to it when mistakes.any().
+    MistakeSet mistakes;
 };
 
 // Rays traced, for rays/s in the benchmark: camera rays (one per sample, plus the centre ray
