@@ -7,6 +7,7 @@
 
 #include "camera_rays.h"
 #include "fault_injection.h"
+#include "packet/packet_engine.h"
 
 namespace rt {
 
@@ -17,6 +18,13 @@ int strata_per_axis(int spp) {
 }
 
 RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, RayCounts* rays) {
+#ifdef RTDEMO_FAULT_INJECTION
+    // The packet engine has no deliberate bugs: a faulty run takes the scalar tracer.
+    const bool packet = settings.engine == Engine::packet && injected_fault() == Fault::none;
+#else
+    const bool packet = settings.engine == Engine::packet;
+#endif
+    if (packet) return render_packet(scene, settings, isa_from_environment(), rays);
     RenderedImage image(settings.width, settings.height);
     const CameraRays shared_camera(scene.camera, settings.width, settings.height);
     const Tracer shared_tracer(scene, settings.trace);

@@ -86,6 +86,9 @@ algorithm:
 image:
   --width W, --height H  override the camera's size, 1-16384 each (at most 64 Mpixels)
   --threads N            CPU worker threads (default: all cores)
+  --engine packet|scalar cpu: rays in SIMD lanes (default; AVX-512, AVX2 or one lane, as the
+                         CPU allows; RTDEMO_ISA=scalar|avx2|avx512 forces one) or the
+                         one-ray-at-a-time reference tracer; both give the same image
   --backend cpu|gl       the CPU tracer (default) or the GLSL tracer in a headless EGL
                          context (any GPU driver, or Mesa llvmpipe); same EXR layout
   --frames N             gl: render N frames and time them (default 1); the header
@@ -104,6 +107,7 @@ struct RenderArgs {
     int threads = 0;
     int frames = 1;
     bool gl = false;
+    Engine engine = Engine::packet;
     bool shadows = true, reflection = true, refraction = true, quiet = false;
 };
 
@@ -146,6 +150,11 @@ RenderArgs parse_render_args(const std::vector<std::string>& args, bool output_r
             if (b != "cpu" && b != "gl") throw UsageError("--backend: expected cpu or gl, got '" + b + "'");
             out.gl = b == "gl";
         }
+        else if (a == "--engine") {
+            const std::string& e = value(i);
+            if (e != "packet" && e != "scalar") throw UsageError("--engine: expected packet or scalar, got '" + e + "'");
+            out.engine = e == "packet" ? Engine::packet : Engine::scalar;
+        }
         else if (a == "--frames") out.frames = parse_int_arg(a, value(i), 1, 10000);
         else if (a == "-q" || a == "--quiet") out.quiet = true;
         else if (!a.empty() && a[0] == '-') throw UsageError("unknown option '" + a + "' (see rtdemo render --help)");
@@ -185,6 +194,7 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
                          std::to_string(settings.height) + " pixels is too large (at most " +
                          std::to_string(kMaxPixels) + " pixels)");
     settings.spp = a.spp;
+    settings.engine = a.engine;
     settings.threads = a.threads > 0 ? a.threads
                                      : std::max(1u, std::thread::hardware_concurrency());
     return settings;
@@ -270,7 +280,7 @@ int run_view(const std::vector<std::string>& args) {
             else frames = parse_int_arg("--frames", args[++i], 1, 100000);
         } else if (args[i] == "-o" || args[i] == "--output" || args[i] == "--png" || args[i] == "--ppm" ||
                    args[i] == "--exr-compression" ||
-                   args[i] == "--backend" || args[i] == "--spp") {
+                   args[i] == "--backend" || args[i] == "--spp" || args[i] == "--engine") {
             throw UsageError(args[i] + " is not an option of view (see rtdemo view --help)");
         } else {
             rest.push_back(args[i]);
