@@ -48,7 +48,8 @@ private:
     bool committed_ = false;
 };
 
-float clamp01(float v) { return std::isnan(v) ? 0.0f : std::fmin(1.0f, std::fmax(0.0f, v)); }
+// NaN -> 0. Compares, not fmin/fmax: those were libm calls per channel (bench/NOTES.md).
+float clamp01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
 
 template <class Encode>
 std::vector<unsigned char> to_8bit(const RenderedImage& image, Encode encode) {
@@ -66,7 +67,10 @@ unsigned char to_srgb8(float linear) {
 }
 
 unsigned char to_linear8(float linear) {
-    return static_cast<unsigned char>(std::lround(clamp01(linear) * 255.0f));
+    // std::lround for v in [0, 255] without the libm call: v - trunc(v) is exact there.
+    const float v = clamp01(linear) * 255.0f;
+    const int t = static_cast<int>(v);
+    return static_cast<unsigned char>(t + (v - static_cast<float>(t) >= 0.5f ? 1 : 0));
 }
 
 void check_writable(const std::string& path) {

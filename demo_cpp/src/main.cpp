@@ -1,4 +1,5 @@
 // rtdemo: the paper's ray tracer as a command-line program.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -91,8 +92,9 @@ image:
                          one-ray-at-a-time reference tracer; both give the same image
   --backend cpu|gl       the CPU tracer (default) or the GLSL tracer in a headless EGL
                          context (any GPU driver, or Mesa llvmpipe); same EXR layout
-  --frames N             gl: render N frames and time them (default 1); the header
-                         keeps compile time and median frame time apart
+  --frames N             render N frames and time them (default 1); cpu: the header's
+                         render_seconds is the fastest frame (tracing alone, for benchmarks);
+                         gl: the header keeps compile time and median frame time apart
   -q, --quiet            no summary line on stderr
 )";
 
@@ -216,9 +218,12 @@ int run_render(const std::vector<std::string>& args) {
         image = render_gl(scene, settings, a.frames, &gl);
         seconds = gl.frame_seconds;
     } else {
-        const auto start = std::chrono::steady_clock::now();
-        image = render_cpu(scene, settings, &rays);
-        seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        for (int f = 0; f < a.frames; ++f) {
+            const auto start = std::chrono::steady_clock::now();
+            image = render_cpu(scene, settings, &rays);
+            const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            seconds = f == 0 ? s : std::min(seconds, s);
+        }
     }
 
     std::string effects;

@@ -55,6 +55,18 @@ inline VM mall(bool b) { return b; }
 inline bool any(VM m) { return m; }
 inline unsigned bits(VM m) { return m ? 1u : 0u; }
 
+// The lanes of m, packed, at dst (which may be written up to W entries on).
+inline void compress_store(float* dst, VM m, VF v) {
+    if (m) *dst = v.v;
+}
+inline void compress_store(int* dst, VM m, VI v) {
+    if (m) *dst = v.v;
+}
+// dst[lane] = base + (set lanes of m below lane), for each set lane.
+inline void rank_store(int* dst, VM m, int base) {
+    if (m) *dst = base;
+}
+
 // The robust test of intersect_robust in double, per lane: the first root in (0, inf) as a
 // float, +inf where there is none.
 inline VF robust_candidate(VF ox_, VF oy_, VF oz_, VF dx_, VF dy_, VF dz_, float cx, float cy, float cz,
@@ -124,6 +136,31 @@ inline VM mnot(VM a) { return {_mm256_xor_ps(a.v, _mm256_castsi256_ps(_mm256_set
 inline VM mall(bool b) { return {_mm256_castsi256_ps(_mm256_set1_epi32(b ? -1 : 0))}; }
 inline bool any(VM m) { return _mm256_movemask_ps(m.v) != 0; }
 inline unsigned bits(VM m) { return static_cast<unsigned>(_mm256_movemask_ps(m.v)); }
+
+// AVX2 has no compress: a permutation per 8-bit mask that moves the set lanes to the front.
+struct CompressTable {
+    alignas(32) int perm[256][8];
+    constexpr CompressTable() : perm{} {
+        for (int m = 0; m < 256; ++m) {
+            int k = 0;
+            for (int lane = 0; lane < 8; ++lane)
+                if (m >> lane & 1) perm[m][k++] = lane;
+            for (; k < 8; ++k) perm[m][k] = 0;
+        }
+    }
+};
+constexpr CompressTable kCompress{};
+inline void compress_store(float* dst, VM m, VF v) {
+    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.perm[bits(m)]));
+    _mm256_storeu_ps(dst, _mm256_permutevar8x32_ps(v.v, perm));
+}
+inline void compress_store(int* dst, VM m, VI v) {
+    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.perm[bits(m)]));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst), _mm256_permutevar8x32_epi32(v.v, perm));
+}
+inline void rank_store(int* dst, VM m, int base) {
+    for (unsigned b = bits(m); b; b &= b - 1) dst[__builtin_ctz(b)] = base++;
+}
 
 // Four lanes of intersect_robust in double (see the scalar version above for the steps).
 inline __m128 robust4(__m256d ox, __m256d oy, __m256d oz, __m256d dx, __m256d dy, __m256d dz, double r2) {
@@ -208,6 +245,13 @@ inline VM mnot(VM a) { return static_cast<VM>(~a); }
 inline VM mall(bool b) { return b ? VM(0xFFFF) : VM(0); }
 inline bool any(VM m) { return m != 0; }
 inline unsigned bits(VM m) { return m; }
+
+// Compress into a register, then one full store: the masked compress-store to memory is slow.
+inline void compress_store(float* dst, VM m, VF v) { _mm512_storeu_ps(dst, _mm512_maskz_compress_ps(m, v.v)); }
+inline void compress_store(int* dst, VM m, VI v) { _mm512_storeu_si512(dst, _mm512_maskz_compress_epi32(m, v.v)); }
+inline void rank_store(int* dst, VM m, int base) {
+    _mm512_mask_storeu_epi32(dst, m, _mm512_maskz_expand_epi32(m, _mm512_add_epi32(iota().v, _mm512_set1_epi32(base))));
+}
 
 inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy, __m512d dz, double r2) {
     const __m512d zero = _mm512_setzero_pd();
