@@ -40,18 +40,29 @@ struct CameraArrays {
     float half_height, aspect, width, height;
 };
 
-// One bounce's rays and, at the same index, the node each becomes in the frame's tree of rays
-// (colour = (reflected * f + refracted * w) * surface colour, evaluated bottom-up after the
-// last bounce in the scalar tracer's exact order). Capacity: count rounded up to the lane width,
-// so kernels may read and write whole vectors.
+// One bounce's rays and, at the same index, the node each becomes in the frame's tree of rays.
+// A leaf's colour is known at shading; an inner node (a specular hit below the depth limit)
+// keeps its weights and children, packed in `inner`, and gets its colour in resolve(): colour =
+// (reflected * f + refracted * w) * surface colour, the scalar tracer's exact expression.
+// Capacities: counts rounded up by one vector, so kernels read and write whole vectors.
 struct Level {
     int count = 0;
     float *ox, *oy, *oz, *dx, *dy, *dz;
-    int* skip;          // sphere the ray cannot hit again, or -1
-    float *cr, *cg, *cb;  // the node's colour (leaves: at shading; inner nodes: at resolve)
-    float *f, *w;       // inner node: Fresnel weight of the reflected child, weight of the refracted
-    int* sph;           // inner node: the sphere hit; -1 marks a leaf
-    int *crefl, *crefr;  // inner node: children's indices in the next level, or -1
+    int* skip;            // sphere the ray cannot hit again, or -1
+    float *cr, *cg, *cb;  // the node's colour
+    int inner = 0;        // inner nodes, packed:
+    int* node;            //   the ray index
+    float *f, *w;         //   Fresnel weight of the reflected child, weight of the refracted one
+    int* sph;             //   the sphere hit
+    int *crefl, *crefr;   //   children's indices in the next level, or -1
+};
+
+// Hits waiting for shading within one shade() call, packed by kind (diffuse, specular), so
+// that each kind's code runs on full vectors.
+struct HitQueue {
+    int count = 0;
+    float *px, *py, *pz, *nx, *ny, *nz, *dx, *dy, *dz;
+    int *sph, *node, *inside;
 };
 
 // What the camera ray saw (the AOVs), per ray of level 0; null when not wanted.
@@ -70,8 +81,10 @@ struct Kernels {
     // Level 0 for a tw x th tile at (x0, y0); pixel (x, y)'s ray through (x + off_x, y + off_y).
     void (*camera)(const CameraArrays&, int x0, int y0, int tw, int th, float off_x, float off_y, Level& out);
     // Nearest hits and shading of `cur` (rays at recursion depth `depth`); children go to `next`
-    // (capacity >= 2 * cur.count + lanes, count set by the kernel).
-    void (*shade)(const SceneArrays&, const Options&, int depth, Level& cur, Level& next, Counts&, const Aov* aov);
+    // (capacity >= 2 * cur.count + lanes, count set by the kernel); the queues' capacity is
+    // >= cur.count + lanes.
+    void (*shade)(const SceneArrays&, const Options&, int depth, Level& cur, Level& next, HitQueue& diffuse,
+                  HitQueue& specular, Counts&, const Aov* aov);
     // Only the AOVs of `cur` (the pixel-centre rays when spp > 1).
     void (*primary)(const SceneArrays&, const Options&, const Level& cur, const Aov& aov);
     // Inner nodes of `cur` from the colours of `next`.

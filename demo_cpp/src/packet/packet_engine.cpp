@@ -96,7 +96,7 @@ struct SceneStore {
 // One bounce's queue, owning its storage; grows between bounces, never inside a kernel.
 struct LevelStore {
     std::vector<float> f[11];  // ox oy oz dx dy dz cr cg cb f w
-    std::vector<int> i[4];     // skip sph crefl crefr
+    std::vector<int> i[5];     // skip node sph crefl crefr
     Level view;
 
     void reserve(int n) {
@@ -104,10 +104,29 @@ struct LevelStore {
         const std::size_t cap = static_cast<std::size_t>(n) * 3 / 2;
         for (auto& v : f) v.resize(cap);
         for (auto& v : i) v.resize(cap);
-        const int count = view.count;
-        view = Level{count,       f[0].data(), f[1].data(), f[2].data(), f[3].data(), f[4].data(),
-                     f[5].data(), i[0].data(), f[6].data(), f[7].data(), f[8].data(), f[9].data(),
-                     f[10].data(), i[1].data(), i[2].data(), i[3].data()};
+        view.ox = f[0].data(), view.oy = f[1].data(), view.oz = f[2].data();
+        view.dx = f[3].data(), view.dy = f[4].data(), view.dz = f[5].data();
+        view.cr = f[6].data(), view.cg = f[7].data(), view.cb = f[8].data();
+        view.f = f[9].data(), view.w = f[10].data();
+        view.skip = i[0].data(), view.node = i[1].data(), view.sph = i[2].data();
+        view.crefl = i[3].data(), view.crefr = i[4].data();
+    }
+};
+
+struct QueueStore {
+    std::vector<float> f[9];  // px py pz nx ny nz dx dy dz
+    std::vector<int> i[3];    // sph node inside
+    packet::HitQueue view;
+
+    void reserve(int n) {
+        if (n <= static_cast<int>(f[0].size())) return;
+        const std::size_t cap = static_cast<std::size_t>(n) * 3 / 2;
+        for (auto& v : f) v.resize(cap);
+        for (auto& v : i) v.resize(cap);
+        view.px = f[0].data(), view.py = f[1].data(), view.pz = f[2].data();
+        view.nx = f[3].data(), view.ny = f[4].data(), view.nz = f[5].data();
+        view.dx = f[6].data(), view.dy = f[7].data(), view.dz = f[8].data();
+        view.sph = i[0].data(), view.node = i[1].data(), view.inside = i[2].data();
     }
 };
 
@@ -115,6 +134,7 @@ struct LevelStore {
 // the other thread's data (false sharing cost 70 % on two threads in the scalar renderer).
 struct alignas(64) Worker {
     std::vector<LevelStore> levels;
+    QueueStore diffuse, specular;
     std::vector<float> aov[5];  // id depth nx ny nz, per tile pixel
     std::vector<float> sum[3];
     packet::Counts counts;
@@ -203,8 +223,12 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
             int last = 0;
             for (int d = 0;; ++d) {
                 LevelStore& next = wk.levels[static_cast<std::size_t>(d) + 1];
-                next.reserve(2 * wk.levels[d].view.count + lanes);
-                kern.shade(s, opt, d, wk.levels[d].view, next.view, wk.counts, d == 0 ? with_aov : nullptr);
+                const int n = wk.levels[d].view.count;
+                next.reserve(2 * n + lanes);
+                wk.diffuse.reserve(n + lanes);
+                wk.specular.reserve(n + lanes);
+                kern.shade(s, opt, d, wk.levels[d].view, next.view, wk.diffuse.view, wk.specular.view, wk.counts,
+                           d == 0 ? with_aov : nullptr);
                 last = d;
                 if (next.view.count == 0) break;
             }

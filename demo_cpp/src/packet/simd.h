@@ -66,6 +66,10 @@ inline void compress_store(int* dst, VM m, VI v) {
 inline void rank_store(int* dst, VM m, int base) {
     if (m) *dst = base;
 }
+// base[idx[lane]] = v[lane] for the lanes of m (indices distinct).
+inline void scatter(float* base, VI idx, VF v, VM m) {
+    if (m) base[idx.v] = v.v;
+}
 
 // The robust test of intersect_robust in double, per lane: the first root in (0, inf) as a
 // float, +inf where there is none.
@@ -161,6 +165,13 @@ inline void compress_store(int* dst, VM m, VI v) {
 inline void rank_store(int* dst, VM m, int base) {
     for (unsigned b = bits(m); b; b &= b - 1) dst[__builtin_ctz(b)] = base++;
 }
+inline void scatter(float* base, VI idx, VF v, VM m) {
+    alignas(32) float val[8];
+    alignas(32) int at[8];
+    _mm256_store_ps(val, v.v);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(at), idx.v);
+    for (unsigned b = bits(m); b; b &= b - 1) base[at[__builtin_ctz(b)]] = val[__builtin_ctz(b)];
+}
 
 // Four lanes of intersect_robust in double (see the scalar version above for the steps).
 inline __m128 robust4(__m256d ox, __m256d oy, __m256d oz, __m256d dx, __m256d dy, __m256d dz, double r2) {
@@ -252,6 +263,7 @@ inline void compress_store(int* dst, VM m, VI v) { _mm512_storeu_si512(dst, _mm5
 inline void rank_store(int* dst, VM m, int base) {
     _mm512_mask_storeu_epi32(dst, m, _mm512_maskz_expand_epi32(m, _mm512_add_epi32(iota().v, _mm512_set1_epi32(base))));
 }
+inline void scatter(float* base, VI idx, VF v, VM m) { _mm512_mask_i32scatter_ps(base, m, idx.v, v.v, 4); }
 
 inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy, __m512d dz, double r2) {
     const __m512d zero = _mm512_setzero_pd();
