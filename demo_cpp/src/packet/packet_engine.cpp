@@ -78,6 +78,12 @@ struct SceneStore {
             }
         }
         view.count = static_cast<int>(cx.size());
+        // Padded to a vector of 16: a scene that fits one is read by permutes (packet/simd.h).
+        const std::size_t padded = std::max<std::size_t>(cx.size(), 16);
+        for (auto* v : {&cx, &cy, &cz, &radius, &r2, &col_r, &col_g, &col_b, &em_r, &em_g, &em_b, &rad_r, &rad_g,
+                        &rad_b, &transparency, &ior})
+            v->resize(padded, 0.0f);
+        flags.resize(padded, 0);
         view.cx = cx.data(), view.cy = cy.data(), view.cz = cz.data();
         view.radius = radius.data(), view.r2 = r2.data();
         view.col_r = col_r.data(), view.col_g = col_g.data(), view.col_b = col_b.data();

@@ -29,6 +29,8 @@ inline VF fset(float x) { return {x}; }
 inline VF fload(const float* p) { return {*p}; }
 inline void fstore(float* p, VF a) { *p = a.v; }
 inline VF fgather(const float* base, VI i) { return {base[i.v]}; }
+inline VF ftable(const float* base, VI i) { return {base[i.v]}; }
+inline VI itable(const int* base, VI i) { return {base[i.v]}; }
 inline VM lt(VF a, VF b) { return a.v < b.v; }
 inline VM le(VF a, VF b) { return a.v <= b.v; }
 inline VM eq(VF a, VF b) { return a.v == b.v; }
@@ -70,6 +72,8 @@ inline void rank_store(int* dst, VM m, int base) {
 inline void scatter(float* base, VI idx, VF v, VM m) {
     if (m) base[idx.v] = v.v;
 }
+// The lanes of m take p[0], p[1], ... in order (the inverse of compress_store); others 0.
+inline VF expand_load(const float* p, VM m) { return {m ? *p : 0.0f}; }
 
 // The robust test of intersect_robust in double, per lane: the first root in (0, inf) as a
 // float, +inf where there is none.
@@ -113,6 +117,11 @@ inline VF fset(float x) { return {_mm256_set1_ps(x)}; }
 inline VF fload(const float* p) { return {_mm256_loadu_ps(p)}; }
 inline void fstore(float* p, VF a) { _mm256_storeu_ps(p, a.v); }
 inline VF fgather(const float* base, VI i) { return {_mm256_i32gather_ps(base, i.v, 4)}; }
+// base[i] from a table of at most 8 entries (padded to 8) by one permute instead of a gather.
+inline VF ftable(const float* base, VI i) { return {_mm256_permutevar8x32_ps(_mm256_loadu_ps(base), i.v)}; }
+inline VI itable(const int* base, VI i) {
+    return {_mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(base)), i.v)};
+}
 inline VM lt(VF a, VF b) { return {_mm256_cmp_ps(a.v, b.v, _CMP_LT_OQ)}; }
 inline VM le(VF a, VF b) { return {_mm256_cmp_ps(a.v, b.v, _CMP_LE_OQ)}; }
 inline VM eq(VF a, VF b) { return {_mm256_cmp_ps(a.v, b.v, _CMP_EQ_OQ)}; }
@@ -143,12 +152,16 @@ inline unsigned bits(VM m) { return static_cast<unsigned>(_mm256_movemask_ps(m.v
 
 // AVX2 has no compress: a permutation per 8-bit mask that moves the set lanes to the front.
 struct CompressTable {
-    alignas(32) int perm[256][8];
-    constexpr CompressTable() : perm{} {
+    alignas(32) int perm[256][8];    // compress: the set lanes to the front
+    alignas(32) int expand[256][8];  // expand: set lane j takes element rank(j)
+    constexpr CompressTable() : perm{}, expand{} {
         for (int m = 0; m < 256; ++m) {
             int k = 0;
             for (int lane = 0; lane < 8; ++lane)
-                if (m >> lane & 1) perm[m][k++] = lane;
+                if (m >> lane & 1) {
+                    expand[m][lane] = k;
+                    perm[m][k++] = lane;
+                }
             for (; k < 8; ++k) perm[m][k] = 0;
         }
     }
@@ -164,6 +177,10 @@ inline void compress_store(int* dst, VM m, VI v) {
 }
 inline void rank_store(int* dst, VM m, int base) {
     for (unsigned b = bits(m); b; b &= b - 1) dst[__builtin_ctz(b)] = base++;
+}
+inline VF expand_load(const float* p, VM m) {
+    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.expand[bits(m)]));
+    return {_mm256_and_ps(_mm256_permutevar8x32_ps(_mm256_loadu_ps(p), perm), m.v)};
 }
 inline void scatter(float* base, VI idx, VF v, VM m) {
     alignas(32) float val[8];
@@ -231,6 +248,8 @@ inline VF fset(float x) { return {_mm512_set1_ps(x)}; }
 inline VF fload(const float* p) { return {_mm512_loadu_ps(p)}; }
 inline void fstore(float* p, VF a) { _mm512_storeu_ps(p, a.v); }
 inline VF fgather(const float* base, VI i) { return {_mm512_i32gather_ps(i.v, base, 4)}; }
+inline VF ftable(const float* base, VI i) { return {_mm512_permutexvar_ps(i.v, _mm512_loadu_ps(base))}; }
+inline VI itable(const int* base, VI i) { return {_mm512_permutexvar_epi32(i.v, _mm512_loadu_si512(base))}; }
 inline VM lt(VF a, VF b) { return _mm512_cmp_ps_mask(a.v, b.v, _CMP_LT_OQ); }
 inline VM le(VF a, VF b) { return _mm512_cmp_ps_mask(a.v, b.v, _CMP_LE_OQ); }
 inline VM eq(VF a, VF b) { return _mm512_cmp_ps_mask(a.v, b.v, _CMP_EQ_OQ); }
@@ -264,6 +283,7 @@ inline void rank_store(int* dst, VM m, int base) {
     _mm512_mask_storeu_epi32(dst, m, _mm512_maskz_expand_epi32(m, _mm512_add_epi32(iota().v, _mm512_set1_epi32(base))));
 }
 inline void scatter(float* base, VI idx, VF v, VM m) { _mm512_mask_i32scatter_ps(base, m, idx.v, v.v, 4); }
+inline VF expand_load(const float* p, VM m) { return {_mm512_maskz_expandloadu_ps(m, p)}; }
 
 inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy, __m512d dz, double r2) {
     const __m512d zero = _mm512_setzero_pd();
