@@ -253,9 +253,12 @@ int run_render(const std::vector<std::string>& args) {
         attributes["rtval.rays_secondary"] = std::to_string(rays.secondary);
         attributes["rtval.rays_shadow"] = std::to_string(rays.shadow);
     }
+    const auto write_start = std::chrono::steady_clock::now();
     if (!a.exr.empty()) write_exr(a.exr, image, attributes, a.compression);
     if (!a.png.empty()) write_png(a.png, image);
     if (!a.ppm.empty()) write_ppm(a.ppm, image);
+    const double write_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - write_start).count();
     if (!a.quiet && a.gl)
         std::fprintf(stderr, "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: gl on %s, compile %.3f s, "
                      "first frame %.3f s, frame %.4f s (median of %d)\n",
@@ -265,11 +268,11 @@ int run_render(const std::vector<std::string>& args) {
                      std::max(gl.frames - 1, 1));
     else if (!a.quiet)
         std::fprintf(stderr, "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: %.3f s on %d threads, "
-                     "%.2f M rays (%.1f M rays/s)\n",
+                     "%.2f M rays (%.1f M rays/s), write %.4f s\n",
                      scene.name.c_str(), settings.width, settings.height, mode_name(a.mode),
                      settings.trace.quirks.present_list().c_str(), settings.spp, seconds,
                      settings.threads, rays.total() * 1e-6,
-                     seconds > 0 ? rays.total() * 1e-6 / seconds : 0.0);
+                     seconds > 0 ? rays.total() * 1e-6 / seconds : 0.0, write_seconds);
     return 0;
 }
 
