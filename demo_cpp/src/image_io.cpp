@@ -1,10 +1,12 @@
 #include "image_io.h"
 
+#include <emmintrin.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
@@ -55,6 +57,28 @@ template <class Encode>
 std::vector<unsigned char> to_8bit(const RenderedImage& image, Encode encode) {
     std::vector<unsigned char> out(image.rgb.size());
     for (std::size_t i = 0; i < out.size(); ++i) out[i] = encode(image.rgb[i]);
+    return out;
+}
+
+// to_linear8 over a whole image, four values per SSE2 instruction (x86-64's baseline): the
+// same compares, product, truncation and rounding step, so the same bytes (checked against
+// to_linear8 for every float).
+std::vector<unsigned char> linear8_bytes(const std::vector<float>& v) {
+    std::vector<unsigned char> out(v.size());
+    std::size_t i = 0;
+    const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f), scale = _mm_set1_ps(255.0f),
+                 half = _mm_set1_ps(0.5f);
+    for (; i + 4 <= v.size(); i += 4) {
+        // maxps(x, 0) is x > 0 ? x : 0 (NaN -> 0); minps(x, 1) is x < 1 ? x : 1: clamp01.
+        const __m128 x = _mm_mul_ps(_mm_min_ps(_mm_max_ps(_mm_loadu_ps(&v[i]), zero), one), scale);
+        const __m128i t = _mm_cvttps_epi32(x);
+        const __m128i up = _mm_castps_si128(_mm_cmpge_ps(_mm_sub_ps(x, _mm_cvtepi32_ps(t)), half));
+        const __m128i b = _mm_sub_epi32(t, up);  // the mask is -1 where rounding up
+        const __m128i packed = _mm_packus_epi16(_mm_packs_epi32(b, b), _mm_setzero_si128());
+        const int word = _mm_cvtsi128_si32(packed);
+        std::memcpy(&out[i], &word, 4);
+    }
+    for (; i < v.size(); ++i) out[i] = to_linear8(v[i]);
     return out;
 }
 
@@ -176,7 +200,7 @@ void write_png_bytes(const std::string& path, int width, int height,
 void write_ppm(const std::string& path, const RenderedImage& image) {
     check_writable(path);
     AtomicFile file(path);
-    const std::vector<unsigned char> bytes = to_8bit(image, to_linear8);
+    const std::vector<unsigned char> bytes = linear8_bytes(image.rgb);
     std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(file.temp().c_str(), "wb"), &std::fclose);
     if (!fp) throw OutputError(path + ": cannot open for writing");
     std::fprintf(fp.get(), "P6\n%d %d\n255\n", image.width, image.height);

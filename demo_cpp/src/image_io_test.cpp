@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <string>
+#include <vector>
 
 namespace rt {
 namespace {
@@ -24,6 +26,40 @@ TEST(ImageIo, LinearEncodingIsThePapersClampTimes255) {
     EXPECT_EQ(to_linear8(0.5f), 128);
     EXPECT_EQ(to_linear8(-1.0f), 0);
     EXPECT_EQ(to_linear8(7.0f), 255);
+}
+
+// write_ppm converts four values at a time: every byte must be std::lround(clamp * 255), the
+// paper's rounding, including ties (x.5 after scaling), NaN, +-0, denormals and infinities.
+TEST(ImageIo, PpmBytesAreThePapersRoundingForAwkwardValues) {
+    std::vector<float> values = {0.5f / 255, 1.5f / 255, 254.5f / 255, 0.49999997f, 0.50000006f, -0.0f, 0.0f,
+                                 1e-40f, -1e-40f, 1.0f, 0.99999994f, 1.00000012f,
+                                 std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+                                 std::numeric_limits<float>::quiet_NaN()};
+    for (int k = 0; k <= 255 * 8; ++k) values.push_back(static_cast<float>(k) / (255.0f * 8));
+    for (int k = 0; k <= 255; ++k) {  // the neighbours of each tie
+        const float tie = (k + 0.5f) / 255.0f;
+        values.push_back(std::nextafter(tie, 0.0f));
+        values.push_back(std::nextafter(tie, 1.0f));
+    }
+    while (values.size() % 3) values.push_back(0.25f);
+    RenderedImage img(static_cast<int>(values.size() / 3), 1);
+    img.rgb = values;
+    const fs::path path = fs::temp_directory_path() / "rtdemo_ppm_bytes_test.ppm";
+    write_ppm(path.string(), img);
+    std::ifstream in(path, std::ios::binary);
+    std::string magic;
+    int w = 0, h = 0, maxval = 0;
+    in >> magic >> w >> h >> maxval;
+    in.get();
+    std::vector<char> bytes(values.size());
+    in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    ASSERT_TRUE(in);
+    for (std::size_t i = 0; i < values.size(); ++i) {
+        const float c = std::isnan(values[i]) ? 0.0f : std::fmin(1.0f, std::fmax(0.0f, values[i]));
+        EXPECT_EQ(static_cast<unsigned char>(bytes[i]), static_cast<unsigned char>(std::lround(c * 255.0f)))
+            << "value " << values[i];
+    }
+    fs::remove(path);
 }
 
 TEST(ImageIo, PpmHasHeaderAndLinearBytes) {
