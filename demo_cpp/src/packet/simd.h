@@ -200,6 +200,9 @@ inline __m128 robust4(__m256d ox, __m256d oy, __m256d oz, __m256d dx, __m256d dy
     const __m256d rr = _mm256_set1_pd(r2);
     const __m256d disc = _mm256_sub_pd(
         rr, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(px, px), _mm256_mul_pd(py, py)), _mm256_mul_pd(pz, pz)));
+    // Every lane misses (most rays, most spheres): no square root, no division.
+    if (_mm256_movemask_pd(_mm256_cmp_pd(disc, zero, _CMP_LT_OQ)) == 0xF)
+        return _mm_set1_ps(std::numeric_limits<float>::infinity());
     const __m256d c = _mm256_sub_pd(
         _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ox, ox), _mm256_mul_pd(oy, oy)), _mm256_mul_pd(oz, oz)), rr);
     const __m256d root = _mm256_or_pd(_mm256_andnot_pd(sign, _mm256_sqrt_pd(disc)), _mm256_and_pd(sign, b));
@@ -295,6 +298,10 @@ inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy
     const __m512d rr = _mm512_set1_pd(r2);
     const __m512d disc = _mm512_sub_pd(
         rr, _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(px, px), _mm512_mul_pd(py, py)), _mm512_mul_pd(pz, pz)));
+    // A miss (disc < 0) as +inf roots: +inf is no candidate below any limit. Every lane a miss
+    // (most rays, most spheres): no square root, no division.
+    const __mmask8 miss = _mm512_cmp_pd_mask(disc, zero, _CMP_LT_OQ);
+    if (miss == 0xFF) return _mm256_set1_ps(std::numeric_limits<float>::infinity());
     const __m512d c = _mm512_sub_pd(
         _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(ox, ox), _mm512_mul_pd(oy, oy)), _mm512_mul_pd(oz, oz)), rr);
     const __m512i sq = _mm512_castpd_si512(_mm512_sqrt_pd(disc));
@@ -303,8 +310,6 @@ inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy
     const __m512d q = _mm512_sub_pd(_mm512_castsi512_pd(_mm512_xor_si512(bi, sign)), root);
     const __m512d t0a = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(q, zero, _CMP_NEQ_UQ), zero, _mm512_div_pd(c, q));
     const __mmask8 swap = _mm512_cmp_pd_mask(t0a, q, _CMP_GT_OQ);
-    // A miss (disc < 0) as +inf roots: +inf is no candidate below any limit.
-    const __mmask8 miss = _mm512_cmp_pd_mask(disc, zero, _CMP_LT_OQ);
     const __m512d dinf = _mm512_set1_pd(std::numeric_limits<double>::infinity());
     const __m512d t0 = _mm512_mask_blend_pd(miss, _mm512_mask_blend_pd(swap, t0a, q), dinf);
     const __m512d t1 = _mm512_mask_blend_pd(miss, _mm512_mask_blend_pd(swap, q, t0a), dinf);
