@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import ROOT, SCENES, print_table, write_results  # noqa: E402
+from common import ROOT, SCENES, print_table, write_results
 
 BUILD = ROOT / "build" / "cmake"
 SUMMARY = re.compile(r": ([0-9.]+) s on (\d+) threads, ([0-9.]+) M rays .* write ([0-9.]+) s")
@@ -44,8 +44,9 @@ def run_once(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, 
     return elapsed, out.stderr
 
 
-def alternate(cmds: dict[str, list[str]], rounds: int, envs: dict[str, dict[str, str]] | None = None
-              ) -> dict[str, dict[str, Any]]:
+def alternate(
+    cmds: dict[str, list[str]], rounds: int, envs: dict[str, dict[str, str]] | None = None
+) -> dict[str, dict[str, Any]]:
     """Runs every command once per round, the order rotated each round; wall times and stderr."""
     import os
 
@@ -59,16 +60,28 @@ def alternate(cmds: dict[str, list[str]], rounds: int, envs: dict[str, dict[str,
             t, err = run_once(cmds[name], env)
             times[name].append(t)
             errs[name].append(err)
-    return {n: {"median_s": statistics.median(v), "min_s": min(v), "max_s": max(v), "runs_s": v,
-                "stderr": errs[n]} for n, v in times.items()}
+    return {
+        n: {
+            "median_s": statistics.median(v),
+            "min_s": min(v),
+            "max_s": max(v),
+            "runs_s": v,
+            "stderr": errs[n],
+        }
+        for n, v in times.items()
+    }
 
 
 def summary(stderr: str) -> dict[str, float]:
     m = SUMMARY.search(stderr)
     if not m:
         raise SystemExit(f"no rtdemo summary line in: {stderr!r}")
-    return {"frame_s": float(m.group(1)), "threads": int(m.group(2)), "mrays": float(m.group(3)),
-            "write_s": float(m.group(4))}
+    return {
+        "frame_s": float(m.group(1)),
+        "threads": int(m.group(2)),
+        "mrays": float(m.group(3)),
+        "write_s": float(m.group(4)),
+    }
 
 
 def rays_from_header(exr: str) -> dict[str, int]:
@@ -80,15 +93,27 @@ def rays_from_header(exr: str) -> dict[str, int]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--rounds", type=int, default=15, help="alternating rounds per comparison (default 15)")
-    parser.add_argument("--rtdemo", default=str(BUILD / "rtdemo"), help="rtdemo binary (default: build/cmake)")
-    parser.add_argument("--seed", default=str(BUILD / "seed_tracer"), help="the plain program (default: build/cmake)")
-    parser.add_argument("--physical-rounds", type=int, default=5, help="rounds for physical 16 spp (default 5)")
+    parser.add_argument(
+        "--rounds", type=int, default=15, help="alternating rounds per comparison (default 15)"
+    )
+    parser.add_argument(
+        "--rtdemo", default=str(BUILD / "rtdemo"), help="rtdemo binary (default: build/cmake)"
+    )
+    parser.add_argument(
+        "--seed",
+        default=str(BUILD / "seed_tracer"),
+        help="the plain program (default: build/cmake)",
+    )
+    parser.add_argument(
+        "--physical-rounds", type=int, default=5, help="rounds for physical 16 spp (default 5)"
+    )
     args = parser.parse_args()
     rtdemo, seed = args.rtdemo, args.seed
     for path in (rtdemo, seed):
         if not Path(path).is_file():
-            raise SystemExit(f"{path} missing: build with cmake -S demo_cpp -B build/cmake -G Ninja && ninja -C build/cmake")
+            raise SystemExit(
+                f"{path} missing: build with cmake -S demo_cpp -B build/cmake -G Ninja && ninja -C build/cmake"
+            )
     from mitsuba_ref.scene import load_scene
 
     spheres = len(load_scene(SCENES / "classic.json").spheres)
@@ -96,18 +121,23 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         render = [rtdemo, "render", CLASSIC, "--mode", "classic"]
         # 1. Whole processes against the plain program, and the empty process.
-        whole = alternate({
-            "seed_ppm": [seed, CLASSIC, f"{tmp}/seed.ppm", "classic"],
-            "packet_ppm": [*render, "--ppm", f"{tmp}/p.ppm"],
-            "packet_exr": [*render, "-o", f"{tmp}/p.exr"],
-            "empty_process": [rtdemo, "--version"],
-        }, args.rounds)
+        whole = alternate(
+            {
+                "seed_ppm": [seed, CLASSIC, f"{tmp}/seed.ppm", "classic"],
+                "packet_ppm": [*render, "--ppm", f"{tmp}/p.ppm"],
+                "packet_exr": [*render, "-o", f"{tmp}/p.exr"],
+                "empty_process": [rtdemo, "--version"],
+            },
+            args.rounds,
+        )
         same_ppm = Path(f"{tmp}/seed.ppm").read_bytes() == Path(f"{tmp}/p.ppm").read_bytes()
         rays = rays_from_header(f"{tmp}/p.exr")
         base = whole["seed_ppm"]["median_s"]
         write_ppm = statistics.median(summary(e)["write_s"] for e in whole["packet_ppm"]["stderr"])
         write_exr = statistics.median(summary(e)["write_s"] for e in whole["packet_exr"]["stderr"])
-        frame_in_process = statistics.median(summary(e)["frame_s"] for e in whole["packet_exr"]["stderr"])
+        frame_in_process = statistics.median(
+            summary(e)["frame_s"] for e in whole["packet_exr"]["stderr"]
+        )
 
         # 2. Tracing alone (fastest of 10 frames in one process) per engine, ISA and thread count.
         variants = {
@@ -118,58 +148,136 @@ def main() -> None:
             "scalar_engine_2t": ({}, ["--threads", "2", "--engine", "scalar"]),
         }
         if "avx512f" not in Path("/proc/cpuinfo").read_text():  # the best ISA is AVX2 here
-            variants = {k.replace("avx512", "best"): v for k, v in variants.items() if k != "packet_avx2_2t"}
-        tracing = alternate({k: [*render, "--ppm", f"{tmp}/t.ppm", "--frames", "10", *extra]
-                             for k, (_, extra) in variants.items()},
-                            max(3, args.rounds // 3), {k: env for k, (env, _) in variants.items()})
-        trace_s = {k: statistics.median(summary(e)["frame_s"] for e in v["stderr"]) for k, v in tracing.items()}
+            variants = {
+                k.replace("avx512", "best"): v for k, v in variants.items() if k != "packet_avx2_2t"
+            }
+        tracing = alternate(
+            {
+                k: [*render, "--ppm", f"{tmp}/t.ppm", "--frames", "10", *extra]
+                for k, (_, extra) in variants.items()
+            },
+            max(3, args.rounds // 3),
+            {k: env for k, (env, _) in variants.items()},
+        )
+        trace_s = {
+            k: statistics.median(summary(e)["frame_s"] for e in v["stderr"])
+            for k, v in tracing.items()
+        }
         best = next(iter(trace_s))
         total_rays = sum(rays.values())
         tests = (rays["camera"] + rays["secondary"]) * spheres + rays["shadow"] * (spheres - 1)
 
         # 3. Physical mode, 16 spp, whole process with the EXR: packet against the previous engine.
-        phys = [rtdemo, "render", CLASSIC, "--mode", "physical", "--spp", "16", "-o", f"{tmp}/ph.exr"]
-        physical = alternate({"packet": phys, "scalar_engine": [*phys, "--engine", "scalar"]}, args.physical_rounds)
+        phys = [
+            rtdemo,
+            "render",
+            CLASSIC,
+            "--mode",
+            "physical",
+            "--spp",
+            "16",
+            "-o",
+            f"{tmp}/ph.exr",
+        ]
+        physical = alternate(
+            {"packet": phys, "scalar_engine": [*phys, "--engine", "scalar"]}, args.physical_rounds
+        )
 
-    exr_s, ppm_s, empty_s = whole["packet_exr"]["median_s"], whole["packet_ppm"]["median_s"], whole["empty_process"]["median_s"]
+    exr_s, ppm_s, empty_s = (
+        whole["packet_exr"]["median_s"],
+        whole["packet_ppm"]["median_s"],
+        whole["empty_process"]["median_s"],
+    )
     rows = [
         ["seed_tracer (PPM)", base, whole["seed_ppm"]["min_s"], whole["seed_ppm"]["max_s"], 1.0],
-        ["rtdemo packet, PPM", ppm_s, whole["packet_ppm"]["min_s"], whole["packet_ppm"]["max_s"], base / ppm_s],
-        ["rtdemo packet, EXR+AOVs", exr_s, whole["packet_exr"]["min_s"], whole["packet_exr"]["max_s"], base / exr_s],
-        ["empty rtdemo process", empty_s, whole["empty_process"]["min_s"], whole["empty_process"]["max_s"], base / empty_s],
+        [
+            "rtdemo packet, PPM",
+            ppm_s,
+            whole["packet_ppm"]["min_s"],
+            whole["packet_ppm"]["max_s"],
+            base / ppm_s,
+        ],
+        [
+            "rtdemo packet, EXR+AOVs",
+            exr_s,
+            whole["packet_exr"]["min_s"],
+            whole["packet_exr"]["max_s"],
+            base / exr_s,
+        ],
+        [
+            "empty rtdemo process",
+            empty_s,
+            whole["empty_process"]["min_s"],
+            whole["empty_process"]["max_s"],
+            base / empty_s,
+        ],
     ]
-    print(f"Whole processes, classic scene, classic mode, 640x480 ({args.rounds} alternating rounds; same PPM as the "
-          f"plain program: {same_ppm})")
+    print(
+        f"Whole processes, classic scene, classic mode, 640x480 ({args.rounds} alternating rounds; same PPM as the "
+        f"plain program: {same_ppm})"
+    )
     print_table(["process", "median s", "min s", "max s", "x plain"], rows)
     floor_ppm = empty_s + trace_s[best] + write_ppm
     floor_exr = empty_s + trace_s[best] + write_exr
-    print(f"\nfloors (medians): empty process {empty_s * 1e3:.1f} ms, tracing alone {trace_s[best] * 1e3:.1f} ms "
-          f"(in the PPM/EXR process: {frame_in_process * 1e3:.1f} ms), PPM write {write_ppm * 1e3:.1f} ms, "
-          f"EXR write {write_exr * 1e3:.1f} ms")
-    print(f"  sum of floors: PPM {floor_ppm * 1e3:.1f} ms (at most {base / floor_ppm:.1f}x), EXR {floor_exr * 1e3:.1f} ms "
-          f"(at most {base / floor_exr:.1f}x)")
-    print(f"  share of the frame outside tracing: PPM {100 * (1 - frame_in_process / ppm_s):.0f} %, "
-          f"EXR {100 * (1 - frame_in_process / exr_s):.0f} %")
-    print(f"\nTracing alone (fastest of 10 frames per process, median of processes); {total_rays} rays "
-          f"({rays['camera']} camera, {rays['secondary']} secondary, {rays['shadow']} shadow), {tests} ray-sphere tests")
-    print_table(["variant", "frame s", "M rays/s", "G tests/s", "x scalar engine"],
-                [[k, v, total_rays / v / 1e6, tests / v / 1e9, trace_s["scalar_engine_2t"] / v] for k, v in trace_s.items()])
+    print(
+        f"\nfloors (medians): empty process {empty_s * 1e3:.1f} ms, tracing alone {trace_s[best] * 1e3:.1f} ms "
+        f"(in the PPM/EXR process: {frame_in_process * 1e3:.1f} ms), PPM write {write_ppm * 1e3:.1f} ms, "
+        f"EXR write {write_exr * 1e3:.1f} ms"
+    )
+    print(
+        f"  sum of floors: PPM {floor_ppm * 1e3:.1f} ms (at most {base / floor_ppm:.1f}x), EXR {floor_exr * 1e3:.1f} ms "
+        f"(at most {base / floor_exr:.1f}x)"
+    )
+    print(
+        f"  share of the frame outside tracing: PPM {100 * (1 - frame_in_process / ppm_s):.0f} %, "
+        f"EXR {100 * (1 - frame_in_process / exr_s):.0f} %"
+    )
+    print(
+        f"\nTracing alone (fastest of 10 frames per process, median of processes); {total_rays} rays "
+        f"({rays['camera']} camera, {rays['secondary']} secondary, {rays['shadow']} shadow), {tests} ray-sphere tests"
+    )
+    print_table(
+        ["variant", "frame s", "M rays/s", "G tests/s", "x scalar engine"],
+        [
+            [k, v, total_rays / v / 1e6, tests / v / 1e9, trace_s["scalar_engine_2t"] / v]
+            for k, v in trace_s.items()
+        ],
+    )
     ph_ratio = physical["scalar_engine"]["median_s"] / physical["packet"]["median_s"]
-    print(f"\nPhysical mode, 16 spp, classic scene, whole process with EXR ({args.physical_rounds} alternating rounds): "
-          f"packet {physical['packet']['median_s']:.3f} s, previous engine {physical['scalar_engine']['median_s']:.3f} s, "
-          f"{ph_ratio:.2f}x")
+    print(
+        f"\nPhysical mode, 16 spp, classic scene, whole process with EXR ({args.physical_rounds} alternating rounds): "
+        f"packet {physical['packet']['median_s']:.3f} s, previous engine {physical['scalar_engine']['median_s']:.3f} s, "
+        f"{ph_ratio:.2f}x"
+    )
     for d in (whole, tracing, physical):
         for v in d.values():
             v.pop("stderr", None)
-    results.update({
-        "whole": whole, "same_ppm_as_plain": same_ppm, "speedup_ppm": base / ppm_s, "speedup_exr": base / exr_s,
-        "floors_s": {"empty_process": empty_s, "tracing_alone": trace_s[best], "tracing_in_process": frame_in_process,
-                     "write_ppm": write_ppm, "write_exr": write_exr},
-        "outside_tracing_share": {"ppm": 1 - frame_in_process / ppm_s, "exr": 1 - frame_in_process / exr_s},
-        "rays": rays, "sphere_tests": tests, "tracing_s": trace_s,
-        "rays_per_s": total_rays / trace_s[best], "tests_per_s": tests / trace_s[best],
-        "physical_16spp": physical, "speedup_physical_16spp": ph_ratio,
-    })
+    results.update(
+        {
+            "whole": whole,
+            "same_ppm_as_plain": same_ppm,
+            "speedup_ppm": base / ppm_s,
+            "speedup_exr": base / exr_s,
+            "floors_s": {
+                "empty_process": empty_s,
+                "tracing_alone": trace_s[best],
+                "tracing_in_process": frame_in_process,
+                "write_ppm": write_ppm,
+                "write_exr": write_exr,
+            },
+            "outside_tracing_share": {
+                "ppm": 1 - frame_in_process / ppm_s,
+                "exr": 1 - frame_in_process / exr_s,
+            },
+            "rays": rays,
+            "sphere_tests": tests,
+            "tracing_s": trace_s,
+            "rays_per_s": total_rays / trace_s[best],
+            "tests_per_s": tests / trace_s[best],
+            "physical_16spp": physical,
+            "speedup_physical_16spp": ph_ratio,
+        }
+    )
     print(f"wrote {write_results('engine', results)}")
 
 
