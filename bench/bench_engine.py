@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import resource
 import statistics
 import subprocess
 import sys
@@ -35,13 +36,18 @@ SUMMARY = re.compile(r": ([0-9.]+) s on (\d+) threads, ([0-9.]+) M rays .* write
 CLASSIC = str(SCENES / "classic.json")
 
 
-def run_once(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, str]:
+def run_once(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, float, str]:
+    """Wall time, CPU time (user + system of the child: less moved by other work waiting for
+    the same cores than wall time) and stderr of one process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     out = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
     elapsed = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if out.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({out.returncode}): {out.stderr.strip()}")
-    return elapsed, out.stderr
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return elapsed, cpu, out.stderr
 
 
 def alternate(
@@ -52,20 +58,24 @@ def alternate(
 
     names = list(cmds)
     times: dict[str, list[float]] = {n: [] for n in names}
+    cpus: dict[str, list[float]] = {n: [] for n in names}
     errs: dict[str, list[str]] = {n: [] for n in names}
     for r in range(rounds):
         for k in range(len(names)):
             name = names[(r + k) % len(names)]
             env = {**os.environ, **(envs or {}).get(name, {})}
-            t, err = run_once(cmds[name], env)
+            t, cpu, err = run_once(cmds[name], env)
             times[name].append(t)
+            cpus[name].append(cpu)
             errs[name].append(err)
     return {
         n: {
             "median_s": statistics.median(v),
             "min_s": min(v),
             "max_s": max(v),
+            "cpu_median_s": statistics.median(cpus[n]),
             "runs_s": v,
+            "cpu_runs_s": cpus[n],
             "stderr": errs[n],
         }
         for n, v in times.items()
@@ -188,35 +198,33 @@ def main() -> None:
         whole["packet_ppm"]["median_s"],
         whole["empty_process"]["median_s"],
     )
+    labels = {
+        "seed_ppm": "seed_tracer (PPM)",
+        "packet_ppm": "rtdemo packet, PPM",
+        "packet_exr": "rtdemo packet, EXR+AOVs",
+        "empty_process": "empty rtdemo process",
+    }
+    base_cpu = whole["seed_ppm"]["cpu_median_s"]
     rows = [
-        ["seed_tracer (PPM)", base, whole["seed_ppm"]["min_s"], whole["seed_ppm"]["max_s"], 1.0],
         [
-            "rtdemo packet, PPM",
-            ppm_s,
-            whole["packet_ppm"]["min_s"],
-            whole["packet_ppm"]["max_s"],
-            base / ppm_s,
-        ],
-        [
-            "rtdemo packet, EXR+AOVs",
-            exr_s,
-            whole["packet_exr"]["min_s"],
-            whole["packet_exr"]["max_s"],
-            base / exr_s,
-        ],
-        [
-            "empty rtdemo process",
-            empty_s,
-            whole["empty_process"]["min_s"],
-            whole["empty_process"]["max_s"],
-            base / empty_s,
-        ],
+            label,
+            whole[k]["median_s"],
+            whole[k]["min_s"],
+            whole[k]["max_s"],
+            base / whole[k]["median_s"],
+            whole[k]["cpu_median_s"],
+            base_cpu / whole[k]["cpu_median_s"],
+        ]
+        for k, label in labels.items()
     ]
     print(
         f"Whole processes, classic scene, classic mode, 640x480 ({args.rounds} alternating rounds; same PPM as the "
         f"plain program: {same_ppm})"
     )
-    print_table(["process", "median s", "min s", "max s", "x plain"], rows)
+    print_table(
+        ["process", "median s", "min s", "max s", "x plain", "cpu s (median)", "x plain (cpu)"],
+        rows,
+    )
     floor_ppm = empty_s + trace_s[best] + write_ppm
     floor_exr = empty_s + trace_s[best] + write_exr
     print(
@@ -258,6 +266,8 @@ def main() -> None:
             "same_ppm_as_plain": same_ppm,
             "speedup_ppm": base / ppm_s,
             "speedup_exr": base / exr_s,
+            "speedup_ppm_cpu_time": base_cpu / whole["packet_ppm"]["cpu_median_s"],
+            "speedup_exr_cpu_time": base_cpu / whole["packet_exr"]["cpu_median_s"],
             "floors_s": {
                 "empty_process": empty_s,
                 "tracing_alone": trace_s[best],
