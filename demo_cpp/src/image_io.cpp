@@ -21,6 +21,8 @@
 #include <ImfThreading.h>
 #include <png.h>
 
+#include "exr_scanlines.h"
+
 namespace rt {
 namespace fs = std::filesystem;
 
@@ -119,6 +121,15 @@ void write_exr(const std::string& path, const RenderedImage& image,
                const std::map<std::string, std::string>& attributes, ExrCompression compression) {
     check_writable(path);
     AtomicFile file(path);
+    if (compression == ExrCompression::none) {  // the demo's default: written directly (issue 20)
+        try {
+            write_exr_scanlines(file.temp(), image, attributes);
+        } catch (const std::exception& e) {
+            throw OutputError(path + ": cannot write EXR: " + e.what());
+        }
+        file.commit();
+        return;
+    }
     try {
         Imf::Header header(image.width, image.height);
         header.compression() = compression == ExrCompression::zip   ? Imf::ZIP_COMPRESSION
