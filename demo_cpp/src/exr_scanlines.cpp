@@ -21,7 +21,9 @@ void put_bytes(std::vector<char>& out, const void* p, std::size_t n) {
 }
 void put_i32(std::vector<char>& out, std::int32_t v) { put_bytes(out, &v, 4); }
 void put_f32(std::vector<char>& out, float v) { put_bytes(out, &v, 4); }
-void put_str0(std::vector<char>& out, const std::string& s) { put_bytes(out, s.c_str(), s.size() + 1); }
+void put_str0(std::vector<char>& out, const std::string& s) {
+    put_bytes(out, s.c_str(), s.size() + 1);
+}
 
 void put_attribute(std::vector<char>& out, const std::string& name, const char* type,
                    const std::vector<char>& value) {
@@ -93,10 +95,10 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
     std::vector<char> v;
     for (const Channel& c : channels) {
         put_str0(v, c.name);
-        put_i32(v, 2);  // FLOAT
+        put_i32(v, 2);                // FLOAT
         put_bytes(v, "\0\0\0\0", 4);  // pLinear, reserved
-        put_i32(v, 1);  // x sampling
-        put_i32(v, 1);  // y sampling
+        put_i32(v, 1);                // x sampling
+        put_i32(v, 1);                // y sampling
     }
     v.push_back('\0');
     std::map<std::string, std::pair<const char*, std::vector<char>>> header;  // name order

@@ -2,13 +2,12 @@
 // attributes, and the layout OpenEXR reports (uncompressed float channels, data window).
 #include "exr_scanlines.h"
 
-#include <gtest/gtest.h>
-
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfStringAttribute.h>
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
@@ -24,8 +23,10 @@ namespace fs = std::filesystem;
 RenderedImage sample_image(int w, int h) {
     RenderedImage img(w, h);
     // Distinct values per channel and pixel, and the awkward ones the demo can produce.
-    for (std::size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = 0.001f * static_cast<float>(i) - 3.0f;
-    for (std::size_t i = 0; i < img.normal.size(); ++i) img.normal[i] = -0.5f + 1e-4f * static_cast<float>(i);
+    for (std::size_t i = 0; i < img.rgb.size(); ++i)
+        img.rgb[i] = 0.001f * static_cast<float>(i) - 3.0f;
+    for (std::size_t i = 0; i < img.normal.size(); ++i)
+        img.normal[i] = -0.5f + 1e-4f * static_cast<float>(i);
     for (std::size_t i = 0; i < img.id.size(); ++i) {
         img.id[i] = static_cast<float>(static_cast<int>(i % 7) - 1);
         img.depth[i] = 0.25f * static_cast<float>(i);
@@ -51,8 +52,10 @@ TEST(ExrScanlines, OpenExrReadsBackEveryChannelBitForBitAndTheAttributes) {
     const int w = 37, h = 23;  // not a multiple of any block
     const RenderedImage img = sample_image(w, h);
     const fs::path path = fs::temp_directory_path() / "rtdemo_exr_scanlines_test.exr";
-    write_exr_scanlines(path.string(), img, {{"rtval.scene", "classic"}, {"rtval.rays_camera", "307200"},
-                                             {"rtval.a_name_longer_than_thirty_one_chars", "x"}});
+    write_exr_scanlines(path.string(), img,
+                        {{"rtval.scene", "classic"},
+                         {"rtval.rays_camera", "307200"},
+                         {"rtval.a_name_longer_than_thirty_one_chars", "x"}});
     Imf::InputFile in(path.c_str());
     const Imf::Header& header = in.header();
     EXPECT_EQ(header.compression(), Imf::NO_COMPRESSION);
@@ -64,22 +67,26 @@ TEST(ExrScanlines, OpenExrReadsBackEveryChannelBitForBitAndTheAttributes) {
     EXPECT_EQ(channels, 8);
     EXPECT_EQ(header.typedAttribute<Imf::StringAttribute>("rtval.scene").value(), "classic");
     EXPECT_EQ(header.typedAttribute<Imf::StringAttribute>("rtval.rays_camera").value(), "307200");
-    EXPECT_EQ(header.typedAttribute<Imf::StringAttribute>("rtval.a_name_longer_than_thirty_one_chars").value(), "x");
+    EXPECT_EQ(
+        header.typedAttribute<Imf::StringAttribute>("rtval.a_name_longer_than_thirty_one_chars")
+            .value(),
+        "x");
 
     struct Expect {
         const char* name;
         const std::vector<float>* plane;
         int stride, offset;
     };
-    const Expect expected[] = {{"R", &img.rgb, 3, 0},        {"G", &img.rgb, 3, 1},      {"B", &img.rgb, 3, 2},
-                               {"N.X", &img.normal, 3, 0},   {"N.Y", &img.normal, 3, 1}, {"N.Z", &img.normal, 3, 2},
-                               {"id", &img.id, 1, 0},        {"depth", &img.depth, 1, 0}};
+    const Expect expected[] = {{"R", &img.rgb, 3, 0},      {"G", &img.rgb, 3, 1},
+                               {"B", &img.rgb, 3, 2},      {"N.X", &img.normal, 3, 0},
+                               {"N.Y", &img.normal, 3, 1}, {"N.Z", &img.normal, 3, 2},
+                               {"id", &img.id, 1, 0},      {"depth", &img.depth, 1, 0}};
     for (const Expect& e : expected) {
         const std::vector<float> got = read_channel(in, e.name, w, h);
         for (std::size_t i = 0; i < got.size(); ++i) {
             const float want = (*e.plane)[e.stride * i + e.offset];
-            ASSERT_EQ(std::memcmp(&got[i], &want, sizeof(float)), 0) << e.name << "[" << i << "]: " << got[i]
-                                                                     << " != " << want;
+            ASSERT_EQ(std::memcmp(&got[i], &want, sizeof(float)), 0)
+                << e.name << "[" << i << "]: " << got[i] << " != " << want;
         }
     }
     fs::remove(path);

@@ -19,8 +19,8 @@ struct SceneArrays {
     const float *transparency, *ior;
     const int* flags;  // kLight | kSpecular
     int light_count = 0;
-    const int* lights;                   // sphere index of each light, in scene order
-    const float *li_r, *li_g, *li_b;     // point intensity per light (light_units.h)
+    const int* lights;                // sphere index of each light, in scene order
+    const float *li_r, *li_g, *li_b;  // point intensity per light (light_units.h)
     float bg_r, bg_g, bg_b;
     float bias;
 };
@@ -79,12 +79,13 @@ struct Kernels {
     const char* name;
     int lanes;
     // Level 0 for a tw x th tile at (x0, y0); pixel (x, y)'s ray through (x + off_x, y + off_y).
-    void (*camera)(const CameraArrays&, int x0, int y0, int tw, int th, float off_x, float off_y, Level& out);
+    void (*camera)(const CameraArrays&, int x0, int y0, int tw, int th, float off_x, float off_y,
+                   Level& out);
     // Nearest hits and shading of `cur` (rays at recursion depth `depth`); children go to `next`
     // (capacity >= 2 * cur.count + lanes, count set by the kernel); the queues' capacity is
     // >= cur.count + lanes.
-    void (*shade)(const SceneArrays&, const Options&, int depth, Level& cur, Level& next, HitQueue& diffuse,
-                  HitQueue& specular, Counts&, const Aov* aov);
+    void (*shade)(const SceneArrays&, const Options&, int depth, Level& cur, Level& next,
+                  HitQueue& diffuse, HitQueue& specular, Counts&, const Aov* aov);
     // Only the AOVs of `cur` (the pixel-centre rays when spp > 1).
     void (*primary)(const SceneArrays&, const Options&, const Level& cur, const Aov& aov);
     // Inner nodes of `cur` from the colours of `next`.

@@ -25,26 +25,32 @@ constexpr int kTileH = 8;
 
 const Kernels& kernels_for(Isa isa) {
     switch (isa) {
-        case Isa::avx512: return packet::kernels_avx512();
-        case Isa::avx2: return packet::kernels_avx2();
-        case Isa::scalar: break;
+        case Isa::avx512:
+            return packet::kernels_avx512();
+        case Isa::avx2:
+            return packet::kernels_avx2();
+        case Isa::scalar:
+            break;
     }
     return packet::kernels_scalar();
 }
 
 bool supported(Isa isa) {
     switch (isa) {
-        case Isa::avx512: return __builtin_cpu_supports("avx512f");
-        case Isa::avx2: return __builtin_cpu_supports("avx2");
-        case Isa::scalar: return true;
+        case Isa::avx512:
+            return __builtin_cpu_supports("avx512f");
+        case Isa::avx2:
+            return __builtin_cpu_supports("avx2");
+        case Isa::scalar:
+            return true;
     }
     return false;
 }
 
 // The scene as arrays (packet_data.h), owning its storage.
 struct SceneStore {
-    std::vector<float> cx, cy, cz, radius, r2, col_r, col_g, col_b, em_r, em_g, em_b, rad_r, rad_g, rad_b,
-        transparency, ior, li_r, li_g, li_b;
+    std::vector<float> cx, cy, cz, radius, r2, col_r, col_g, col_b, em_r, em_g, em_b, rad_r, rad_g,
+        rad_b, transparency, ior, li_r, li_g, li_b;
     std::vector<int> flags, lights;
     packet::SceneArrays view;
 
@@ -68,7 +74,8 @@ struct SceneStore {
             rad_b.push_back(rad.z);
             transparency.push_back(s.transparency);
             ior.push_back(s.ior);
-            flags.push_back((s.is_light() ? packet::kLight : 0) | (s.has_specular_flags() ? packet::kSpecular : 0));
+            flags.push_back((s.is_light() ? packet::kLight : 0) |
+                            (s.has_specular_flags() ? packet::kSpecular : 0));
             if (s.is_light()) {
                 lights.push_back(i);
                 const color li = point_intensity(scene, s);
@@ -80,8 +87,8 @@ struct SceneStore {
         view.count = static_cast<int>(cx.size());
         // Padded to a vector of 16: a scene that fits one is read by permutes (packet/simd.h).
         const std::size_t padded = std::max<std::size_t>(cx.size(), 16);
-        for (auto* v : {&cx, &cy, &cz, &radius, &r2, &col_r, &col_g, &col_b, &em_r, &em_g, &em_b, &rad_r, &rad_g,
-                        &rad_b, &transparency, &ior})
+        for (auto* v : {&cx, &cy, &cz, &radius, &r2, &col_r, &col_g, &col_b, &em_r, &em_g, &em_b,
+                        &rad_r, &rad_g, &rad_b, &transparency, &ior})
             v->resize(padded, 0.0f);
         flags.resize(padded, 0);
         view.cx = cx.data(), view.cy = cy.data(), view.cz = cz.data();
@@ -94,7 +101,8 @@ struct SceneStore {
         view.light_count = static_cast<int>(lights.size());
         view.lights = lights.data();
         view.li_r = li_r.data(), view.li_g = li_g.data(), view.li_b = li_b.data();
-        view.bg_r = scene.background.x, view.bg_g = scene.background.y, view.bg_b = scene.background.z;
+        view.bg_r = scene.background.x, view.bg_g = scene.background.y,
+        view.bg_b = scene.background.z;
         view.bias = scene.bias;
     }
 };
@@ -168,9 +176,12 @@ packet::CameraArrays camera_arrays(const Scene& scene, int width, int height) {
 
 const char* isa_name(Isa isa) {
     switch (isa) {
-        case Isa::scalar: return "scalar";
-        case Isa::avx2: return "avx2";
-        case Isa::avx512: return "avx512";
+        case Isa::scalar:
+            return "scalar";
+        case Isa::avx2:
+            return "avx2";
+        case Isa::avx512:
+            return "avx512";
     }
     return "?";
 }
@@ -186,22 +197,28 @@ Isa isa_from_environment() {
     if (!value || !*value) return best_isa();
     const std::string v = value;
     Isa isa;
-    if (v == "scalar") isa = Isa::scalar;
-    else if (v == "avx2") isa = Isa::avx2;
-    else if (v == "avx512") isa = Isa::avx512;
-    else throw std::invalid_argument("RTDEMO_ISA: expected scalar, avx2 or avx512, got '" + v + "'");
+    if (v == "scalar")
+        isa = Isa::scalar;
+    else if (v == "avx2")
+        isa = Isa::avx2;
+    else if (v == "avx512")
+        isa = Isa::avx512;
+    else
+        throw std::invalid_argument("RTDEMO_ISA: expected scalar, avx2 or avx512, got '" + v + "'");
     if (!supported(isa)) throw std::invalid_argument("RTDEMO_ISA: this CPU does not support " + v);
     return isa;
 }
 
-RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa, RayCounts* rays) {
+RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
+                            RayCounts* rays) {
     const Kernels& kern = kernels_for(isa);
     const int width = settings.width, height = settings.height;
     RenderedImage image(width, height);
     const SceneStore store(scene);
     const packet::SceneArrays& s = store.view;
     packet::Options opt{};
-    for (int q = 1; q <= kQuirkCount; ++q) opt.q[q] = settings.trace.quirks.has(static_cast<Quirk>(q));
+    for (int q = 1; q <= kQuirkCount; ++q)
+        opt.q[q] = settings.trace.quirks.has(static_cast<Quirk>(q));
     opt.max_depth = settings.trace.max_depth;
     opt.shadows = settings.trace.shadows;
     opt.reflection = settings.trace.reflection;
@@ -209,7 +226,8 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
     const packet::CameraArrays cam = camera_arrays(scene, width, height);
     const int k = strata_per_axis(settings.spp);
     const float inv_samples = 1.0f / static_cast<float>(k * k);
-    const float centre = 0.5f;  // the faulty build's half_pixel_offset renders with the scalar tracer
+    const float centre =
+        0.5f;  // the faulty build's half_pixel_offset renders with the scalar tracer
     const int tiles_x = (width + kTileW - 1) / kTileW, tiles_y = (height + kTileH - 1) / kTileH;
     const int tiles = tiles_x * tiles_y;
     const int lanes = kern.lanes;
@@ -222,8 +240,8 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
         wk.levels[0].reserve(tile_cap);
         for (auto& v : wk.aov) v.assign(static_cast<std::size_t>(tile_cap), 0.0f);
         for (auto& v : wk.sum) v.assign(static_cast<std::size_t>(tile_cap), 0.0f);
-        const packet::Aov aov{wk.aov[0].data(), wk.aov[1].data(), wk.aov[2].data(), wk.aov[3].data(),
-                              wk.aov[4].data()};
+        const packet::Aov aov{wk.aov[0].data(), wk.aov[1].data(), wk.aov[2].data(),
+                              wk.aov[3].data(), wk.aov[4].data()};
         // One sample per pixel of the tile through all bounces; the colours end in level 0.
         auto trace_tile = [&](const packet::Aov* with_aov) {
             int last = 0;
@@ -233,12 +251,13 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
                 next.reserve(2 * n + lanes);
                 wk.diffuse.reserve(n + lanes);
                 wk.specular.reserve(n + lanes);
-                kern.shade(s, opt, d, wk.levels[d].view, next.view, wk.diffuse.view, wk.specular.view, wk.counts,
-                           d == 0 ? with_aov : nullptr);
+                kern.shade(s, opt, d, wk.levels[d].view, next.view, wk.diffuse.view,
+                           wk.specular.view, wk.counts, d == 0 ? with_aov : nullptr);
                 last = d;
                 if (next.view.count == 0) break;
             }
-            for (int d = last; d >= 0; --d) kern.resolve(s, opt, wk.levels[d].view, wk.levels[d + 1].view);
+            for (int d = last; d >= 0; --d)
+                kern.resolve(s, opt, wk.levels[d].view, wk.levels[d + 1].view);
         };
         for (int tile = next_tile++; tile < tiles; tile = next_tile++) {
             const int x0 = (tile % tiles_x) * kTileW, y0 = (tile / tiles_x) * kTileH;
@@ -290,7 +309,8 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
     for (auto& t : pool) t.join();
     if (rays) {
         *rays = {};
-        for (const Worker& w : workers) *rays += RayCounts{w.counts.camera, w.counts.secondary, w.counts.shadow};
+        for (const Worker& w : workers)
+            *rays += RayCounts{w.counts.camera, w.counts.secondary, w.counts.shadow};
     }
     return image;
 }

@@ -29,15 +29,17 @@ struct Case {
     Mode mode;
     std::vector<Quirk> fixes;
     int spp = 1;
-    int width = 160, height = 120;  // a quarter of the default size: every code path, a 16th of the time
-    int max_depth = -1;             // -1: the scene's
+    int width = 160,
+        height = 120;    // a quarter of the default size: every code path, a 16th of the time
+    int max_depth = -1;  // -1: the scene's
     bool shadows = true, reflection = true, refraction = true;
 };
 
 std::string describe(const Case& c) {
     std::string s = c.scene + " " + mode_name(c.mode);
     for (Quirk q : c.fixes) s += " fix Q" + std::to_string(static_cast<int>(q));
-    s += " spp " + std::to_string(c.spp) + " " + std::to_string(c.width) + "x" + std::to_string(c.height);
+    s += " spp " + std::to_string(c.spp) + " " + std::to_string(c.width) + "x" +
+         std::to_string(c.height);
     if (c.max_depth >= 0) s += " depth " + std::to_string(c.max_depth);
     if (!c.shadows) s += " no-shadows";
     if (!c.reflection) s += " no-reflection";
@@ -46,11 +48,13 @@ std::string describe(const Case& c) {
 }
 
 // Bitwise: NaN where the scalar tracer has NaN (quirk Q3), with the same bits.
-::testing::AssertionResult same_bits(const std::vector<float>& a, const std::vector<float>& b, const char* what) {
+::testing::AssertionResult same_bits(const std::vector<float>& a, const std::vector<float>& b,
+                                     const char* what) {
     if (a.size() != b.size()) return ::testing::AssertionFailure() << what << ": sizes differ";
     for (std::size_t i = 0; i < a.size(); ++i)
         if (std::memcmp(&a[i], &b[i], sizeof(float)) != 0)
-            return ::testing::AssertionFailure() << what << "[" << i << "]: packet " << b[i] << ", scalar " << a[i];
+            return ::testing::AssertionFailure()
+                   << what << "[" << i << "]: packet " << b[i] << ", scalar " << a[i];
     return ::testing::AssertionSuccess();
 }
 
@@ -87,7 +91,8 @@ void expect_same(const Case& c) {
 
 TEST(PacketEngine, EqualsScalarOnProjectScenesInEveryMode) {
     for (const char* scene : {"classic.json", "paper.json"})
-        for (Mode mode : {Mode::paper, Mode::classic, Mode::physical}) expect_same({scene, mode, {}});
+        for (Mode mode : {Mode::paper, Mode::classic, Mode::physical})
+            expect_same({scene, mode, {}});
 }
 
 TEST(PacketEngine, EqualsScalarAtFullSizeClassic) {
@@ -134,10 +139,12 @@ TEST(PacketEngine, EqualsScalarWithSamplesDepthsAndEffectsOff) {
 
 TEST(PacketEngine, EqualsScalarOnStressScenes) {
     for (const char* scene :
-         {"stress/camera_inside_glass.json", "stress/facing_mirrors.json", "stress/far_objects.json",
-          "stress/grazing_floor.json", "stress/light_inside_glass.json", "stress/coloured_lights.json",
-          "stress/no_light.json", "stress/tir_grazing.json", "stress/nested_spheres.json"})
-        for (Mode mode : {Mode::paper, Mode::classic, Mode::physical}) expect_same({scene, mode, {}});
+         {"stress/camera_inside_glass.json", "stress/facing_mirrors.json",
+          "stress/far_objects.json", "stress/grazing_floor.json", "stress/light_inside_glass.json",
+          "stress/coloured_lights.json", "stress/no_light.json", "stress/tir_grazing.json",
+          "stress/nested_spheres.json"})
+        for (Mode mode : {Mode::paper, Mode::classic, Mode::physical})
+            expect_same({scene, mode, {}});
 }
 
 TEST(PacketEngine, EqualsScalarOnAThousandSpheres) {

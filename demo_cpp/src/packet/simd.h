@@ -14,8 +14,12 @@
 #if RT_SIMD_LEVEL == 0
 
 constexpr int W = 1;
-struct VF { float v; };
-struct VI { int v; };
+struct VF {
+    float v;
+};
+struct VI {
+    int v;
+};
 using VM = bool;
 
 inline VF operator+(VF a, VF b) { return {a.v + b.v}; }
@@ -77,8 +81,8 @@ inline VF expand_load(const float* p, VM m) { return {m ? *p : 0.0f}; }
 
 // The robust test of intersect_robust in double, per lane: the first root in (0, inf) as a
 // float, +inf where there is none.
-inline VF robust_candidate(VF ox_, VF oy_, VF oz_, VF dx_, VF dy_, VF dz_, float cx, float cy, float cz,
-                           float radius) {
+inline VF robust_candidate(VF ox_, VF oy_, VF oz_, VF dx_, VF dy_, VF dz_, float cx, float cy,
+                           float cz, float radius) {
     const double ox = double(ox_.v) - cx, oy = double(oy_.v) - cy, oz = double(oz_.v) - cz;
     const double dx = dx_.v, dy = dy_.v, dz = dz_.v;
     const double b = ox * dx + oy * dy + oz * dz;
@@ -102,9 +106,15 @@ inline VF robust_candidate(VF ox_, VF oy_, VF oz_, VF dx_, VF dy_, VF dz_, float
 #elif RT_SIMD_LEVEL == 1
 
 constexpr int W = 8;
-struct VF { __m256 v; };
-struct VI { __m256i v; };
-struct VM { __m256 v; };
+struct VF {
+    __m256 v;
+};
+struct VI {
+    __m256i v;
+};
+struct VM {
+    __m256 v;
+};
 
 inline VF operator+(VF a, VF b) { return {_mm256_add_ps(a.v, b.v)}; }
 inline VF operator-(VF a, VF b) { return {_mm256_sub_ps(a.v, b.v)}; }
@@ -118,9 +128,12 @@ inline VF fload(const float* p) { return {_mm256_loadu_ps(p)}; }
 inline void fstore(float* p, VF a) { _mm256_storeu_ps(p, a.v); }
 inline VF fgather(const float* base, VI i) { return {_mm256_i32gather_ps(base, i.v, 4)}; }
 // base[i] from a table of at most 8 entries (padded to 8) by one permute instead of a gather.
-inline VF ftable(const float* base, VI i) { return {_mm256_permutevar8x32_ps(_mm256_loadu_ps(base), i.v)}; }
+inline VF ftable(const float* base, VI i) {
+    return {_mm256_permutevar8x32_ps(_mm256_loadu_ps(base), i.v)};
+}
 inline VI itable(const int* base, VI i) {
-    return {_mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(base)), i.v)};
+    return {_mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(base)),
+                                        i.v)};
 }
 inline VM lt(VF a, VF b) { return {_mm256_cmp_ps(a.v, b.v, _CMP_LT_OQ)}; }
 inline VM le(VF a, VF b) { return {_mm256_cmp_ps(a.v, b.v, _CMP_LE_OQ)}; }
@@ -139,7 +152,8 @@ inline VI iand(VI a, VI b) { return {_mm256_and_si256(a.v, b.v)}; }
 inline VM ieq(VI a, VI b) { return {_mm256_castsi256_ps(_mm256_cmpeq_epi32(a.v, b.v))}; }
 inline VM igt(VI a, VI b) { return {_mm256_castsi256_ps(_mm256_cmpgt_epi32(a.v, b.v))}; }
 inline VI isel(VM m, VI a, VI b) {
-    return {_mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(b.v), _mm256_castsi256_ps(a.v), m.v))};
+    return {_mm256_castps_si256(
+        _mm256_blendv_ps(_mm256_castsi256_ps(b.v), _mm256_castsi256_ps(a.v), m.v))};
 }
 
 inline VM mand(VM a, VM b) { return {_mm256_and_ps(a.v, b.v)}; }
@@ -168,18 +182,21 @@ struct CompressTable {
 };
 constexpr CompressTable kCompress{};
 inline void compress_store(float* dst, VM m, VF v) {
-    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.perm[bits(m)]));
+    const __m256i perm =
+        _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.perm[bits(m)]));
     _mm256_storeu_ps(dst, _mm256_permutevar8x32_ps(v.v, perm));
 }
 inline void compress_store(int* dst, VM m, VI v) {
-    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.perm[bits(m)]));
+    const __m256i perm =
+        _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.perm[bits(m)]));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst), _mm256_permutevar8x32_epi32(v.v, perm));
 }
 inline void rank_store(int* dst, VM m, int base) {
     for (unsigned b = bits(m); b; b &= b - 1) dst[__builtin_ctz(b)] = base++;
 }
 inline VF expand_load(const float* p, VM m) {
-    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.expand[bits(m)]));
+    const __m256i perm =
+        _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.expand[bits(m)]));
     return {_mm256_and_ps(_mm256_permutevar8x32_ps(_mm256_loadu_ps(p), perm), m.v)};
 }
 inline void scatter(float* base, VI idx, VF v, VM m) {
@@ -191,49 +208,62 @@ inline void scatter(float* base, VI idx, VF v, VM m) {
 }
 
 // Four lanes of intersect_robust in double (see the scalar version above for the steps).
-inline __m128 robust4(__m256d ox, __m256d oy, __m256d oz, __m256d dx, __m256d dy, __m256d dz, double r2) {
+inline __m128 robust4(__m256d ox, __m256d oy, __m256d oz, __m256d dx, __m256d dy, __m256d dz,
+                      double r2) {
     const __m256d sign = _mm256_set1_pd(-0.0), zero = _mm256_setzero_pd();
-    const __m256d b = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ox, dx), _mm256_mul_pd(oy, dy)), _mm256_mul_pd(oz, dz));
+    const __m256d b = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ox, dx), _mm256_mul_pd(oy, dy)),
+                                    _mm256_mul_pd(oz, dz));
     const __m256d px = _mm256_sub_pd(ox, _mm256_mul_pd(dx, b));
     const __m256d py = _mm256_sub_pd(oy, _mm256_mul_pd(dy, b));
     const __m256d pz = _mm256_sub_pd(oz, _mm256_mul_pd(dz, b));
     const __m256d rr = _mm256_set1_pd(r2);
-    const __m256d disc = _mm256_sub_pd(
-        rr, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(px, px), _mm256_mul_pd(py, py)), _mm256_mul_pd(pz, pz)));
+    const __m256d disc =
+        _mm256_sub_pd(rr, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(px, px), _mm256_mul_pd(py, py)),
+                                        _mm256_mul_pd(pz, pz)));
     // Every lane misses (most rays, most spheres): no square root, no division.
     if (_mm256_movemask_pd(_mm256_cmp_pd(disc, zero, _CMP_LT_OQ)) == 0xF)
         return _mm_set1_ps(std::numeric_limits<float>::infinity());
-    const __m256d c = _mm256_sub_pd(
-        _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ox, ox), _mm256_mul_pd(oy, oy)), _mm256_mul_pd(oz, oz)), rr);
-    const __m256d root = _mm256_or_pd(_mm256_andnot_pd(sign, _mm256_sqrt_pd(disc)), _mm256_and_pd(sign, b));
+    const __m256d c =
+        _mm256_sub_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ox, ox), _mm256_mul_pd(oy, oy)),
+                                    _mm256_mul_pd(oz, oz)),
+                      rr);
+    const __m256d root =
+        _mm256_or_pd(_mm256_andnot_pd(sign, _mm256_sqrt_pd(disc)), _mm256_and_pd(sign, b));
     const __m256d q = _mm256_sub_pd(_mm256_xor_pd(b, sign), root);
-    const __m256d t0a = _mm256_blendv_pd(zero, _mm256_div_pd(c, q), _mm256_cmp_pd(q, zero, _CMP_NEQ_UQ));
+    const __m256d t0a =
+        _mm256_blendv_pd(zero, _mm256_div_pd(c, q), _mm256_cmp_pd(q, zero, _CMP_NEQ_UQ));
     const __m256d swap = _mm256_cmp_pd(t0a, q, _CMP_GT_OQ);
     const __m256d t0 = _mm256_blendv_pd(t0a, q, swap), t1 = _mm256_blendv_pd(q, t0a, swap);
     const __m128 f0 = _mm256_cvtpd_ps(t0), f1 = _mm256_cvtpd_ps(t1);
     const __m128 z = _mm_setzero_ps(), inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
     __m128 t = _mm_blendv_ps(_mm_blendv_ps(inf, f1, _mm_cmpgt_ps(f1, z)), f0, _mm_cmpgt_ps(f0, z));
-    const __m128 miss = _mm256_cvtpd_ps(_mm256_cmp_pd(disc, zero, _CMP_LT_OQ));  // all-ones -> NaN: nonzero sign
+    const __m128 miss =
+        _mm256_cvtpd_ps(_mm256_cmp_pd(disc, zero, _CMP_LT_OQ));  // all-ones -> NaN: nonzero sign
     return _mm_blendv_ps(t, inf, miss);
 }
 
-inline VF robust_candidate(VF ox, VF oy, VF oz, VF dx, VF dy, VF dz, float cx, float cy, float cz, float radius) {
+inline VF robust_candidate(VF ox, VF oy, VF oz, VF dx, VF dy, VF dz, float cx, float cy, float cz,
+                           float radius) {
     const double r2 = double(radius) * radius;
     auto lo = [](__m256 v) { return _mm256_cvtps_pd(_mm256_castps256_ps128(v)); };
     auto hi = [](__m256 v) { return _mm256_cvtps_pd(_mm256_extractf128_ps(v, 1)); };
     const __m256d cxd = _mm256_set1_pd(cx), cyd = _mm256_set1_pd(cy), czd = _mm256_set1_pd(cz);
-    const __m128 a = robust4(_mm256_sub_pd(lo(ox.v), cxd), _mm256_sub_pd(lo(oy.v), cyd), _mm256_sub_pd(lo(oz.v), czd),
-                             lo(dx.v), lo(dy.v), lo(dz.v), r2);
-    const __m128 b = robust4(_mm256_sub_pd(hi(ox.v), cxd), _mm256_sub_pd(hi(oy.v), cyd), _mm256_sub_pd(hi(oz.v), czd),
-                             hi(dx.v), hi(dy.v), hi(dz.v), r2);
+    const __m128 a = robust4(_mm256_sub_pd(lo(ox.v), cxd), _mm256_sub_pd(lo(oy.v), cyd),
+                             _mm256_sub_pd(lo(oz.v), czd), lo(dx.v), lo(dy.v), lo(dz.v), r2);
+    const __m128 b = robust4(_mm256_sub_pd(hi(ox.v), cxd), _mm256_sub_pd(hi(oy.v), cyd),
+                             _mm256_sub_pd(hi(oz.v), czd), hi(dx.v), hi(dy.v), hi(dz.v), r2);
     return {_mm256_insertf128_ps(_mm256_castps128_ps256(a), b, 1)};
 }
 
 #elif RT_SIMD_LEVEL == 2
 
 constexpr int W = 16;
-struct VF { __m512 v; };
-struct VI { __m512i v; };
+struct VF {
+    __m512 v;
+};
+struct VI {
+    __m512i v;
+};
 using VM = __mmask16;
 
 inline VF operator+(VF a, VF b) { return {_mm512_add_ps(a.v, b.v)}; }
@@ -241,18 +271,24 @@ inline VF operator-(VF a, VF b) { return {_mm512_sub_ps(a.v, b.v)}; }
 inline VF operator*(VF a, VF b) { return {_mm512_mul_ps(a.v, b.v)}; }
 inline VF operator/(VF a, VF b) { return {_mm512_div_ps(a.v, b.v)}; }
 inline VF operator-(VF a) {
-    return {_mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(a.v), _mm512_set1_epi32(INT32_MIN)))};
+    return {_mm512_castsi512_ps(
+        _mm512_xor_si512(_mm512_castps_si512(a.v), _mm512_set1_epi32(INT32_MIN)))};
 }
 inline VF vsqrt(VF a) { return {_mm512_sqrt_ps(a.v)}; }
 inline VF vabs(VF a) {
-    return {_mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(a.v), _mm512_set1_epi32(INT32_MAX)))};
+    return {_mm512_castsi512_ps(
+        _mm512_and_si512(_mm512_castps_si512(a.v), _mm512_set1_epi32(INT32_MAX)))};
 }
 inline VF fset(float x) { return {_mm512_set1_ps(x)}; }
 inline VF fload(const float* p) { return {_mm512_loadu_ps(p)}; }
 inline void fstore(float* p, VF a) { _mm512_storeu_ps(p, a.v); }
 inline VF fgather(const float* base, VI i) { return {_mm512_i32gather_ps(i.v, base, 4)}; }
-inline VF ftable(const float* base, VI i) { return {_mm512_permutexvar_ps(i.v, _mm512_loadu_ps(base))}; }
-inline VI itable(const int* base, VI i) { return {_mm512_permutexvar_epi32(i.v, _mm512_loadu_si512(base))}; }
+inline VF ftable(const float* base, VI i) {
+    return {_mm512_permutexvar_ps(i.v, _mm512_loadu_ps(base))};
+}
+inline VI itable(const int* base, VI i) {
+    return {_mm512_permutexvar_epi32(i.v, _mm512_loadu_si512(base))};
+}
 inline VM lt(VF a, VF b) { return _mm512_cmp_ps_mask(a.v, b.v, _CMP_LT_OQ); }
 inline VM le(VF a, VF b) { return _mm512_cmp_ps_mask(a.v, b.v, _CMP_LE_OQ); }
 inline VM eq(VF a, VF b) { return _mm512_cmp_ps_mask(a.v, b.v, _CMP_EQ_OQ); }
@@ -264,7 +300,9 @@ inline VI iset(int x) { return {_mm512_set1_epi32(x)}; }
 inline VI iload(const int* p) { return {_mm512_loadu_si512(p)}; }
 inline void istore(int* p, VI a) { _mm512_storeu_si512(p, a.v); }
 inline VI igather(const int* base, VI i) { return {_mm512_i32gather_epi32(i.v, base, 4)}; }
-inline VI iota() { return {_mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)}; }
+inline VI iota() {
+    return {_mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)};
+}
 inline VI iadd(VI a, VI b) { return {_mm512_add_epi32(a.v, b.v)}; }
 inline VI iand(VI a, VI b) { return {_mm512_and_si512(a.v, b.v)}; }
 inline VM ieq(VI a, VI b) { return _mm512_cmpeq_epi32_mask(a.v, b.v); }
@@ -280,57 +318,74 @@ inline bool any(VM m) { return m != 0; }
 inline unsigned bits(VM m) { return m; }
 
 // Compress into a register, then one full store: the masked compress-store to memory is slow.
-inline void compress_store(float* dst, VM m, VF v) { _mm512_storeu_ps(dst, _mm512_maskz_compress_ps(m, v.v)); }
-inline void compress_store(int* dst, VM m, VI v) { _mm512_storeu_si512(dst, _mm512_maskz_compress_epi32(m, v.v)); }
-inline void rank_store(int* dst, VM m, int base) {
-    _mm512_mask_storeu_epi32(dst, m, _mm512_maskz_expand_epi32(m, _mm512_add_epi32(iota().v, _mm512_set1_epi32(base))));
+inline void compress_store(float* dst, VM m, VF v) {
+    _mm512_storeu_ps(dst, _mm512_maskz_compress_ps(m, v.v));
 }
-inline void scatter(float* base, VI idx, VF v, VM m) { _mm512_mask_i32scatter_ps(base, m, idx.v, v.v, 4); }
+inline void compress_store(int* dst, VM m, VI v) {
+    _mm512_storeu_si512(dst, _mm512_maskz_compress_epi32(m, v.v));
+}
+inline void rank_store(int* dst, VM m, int base) {
+    _mm512_mask_storeu_epi32(
+        dst, m, _mm512_maskz_expand_epi32(m, _mm512_add_epi32(iota().v, _mm512_set1_epi32(base))));
+}
+inline void scatter(float* base, VI idx, VF v, VM m) {
+    _mm512_mask_i32scatter_ps(base, m, idx.v, v.v, 4);
+}
 inline VF expand_load(const float* p, VM m) { return {_mm512_maskz_expandloadu_ps(m, p)}; }
 
-inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy, __m512d dz, double r2) {
+inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy, __m512d dz,
+                      double r2) {
     const __m512d zero = _mm512_setzero_pd();
     const __m512i sign = _mm512_set1_epi64(INT64_MIN);
-    const __m512d b = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(ox, dx), _mm512_mul_pd(oy, dy)), _mm512_mul_pd(oz, dz));
+    const __m512d b = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(ox, dx), _mm512_mul_pd(oy, dy)),
+                                    _mm512_mul_pd(oz, dz));
     const __m512d px = _mm512_sub_pd(ox, _mm512_mul_pd(dx, b));
     const __m512d py = _mm512_sub_pd(oy, _mm512_mul_pd(dy, b));
     const __m512d pz = _mm512_sub_pd(oz, _mm512_mul_pd(dz, b));
     const __m512d rr = _mm512_set1_pd(r2);
-    const __m512d disc = _mm512_sub_pd(
-        rr, _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(px, px), _mm512_mul_pd(py, py)), _mm512_mul_pd(pz, pz)));
+    const __m512d disc =
+        _mm512_sub_pd(rr, _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(px, px), _mm512_mul_pd(py, py)),
+                                        _mm512_mul_pd(pz, pz)));
     // A miss (disc < 0) as +inf roots: +inf is no candidate below any limit. Every lane a miss
     // (most rays, most spheres): no square root, no division.
     const __mmask8 miss = _mm512_cmp_pd_mask(disc, zero, _CMP_LT_OQ);
     if (miss == 0xFF) return _mm256_set1_ps(std::numeric_limits<float>::infinity());
-    const __m512d c = _mm512_sub_pd(
-        _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(ox, ox), _mm512_mul_pd(oy, oy)), _mm512_mul_pd(oz, oz)), rr);
+    const __m512d c =
+        _mm512_sub_pd(_mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(ox, ox), _mm512_mul_pd(oy, oy)),
+                                    _mm512_mul_pd(oz, oz)),
+                      rr);
     const __m512i sq = _mm512_castpd_si512(_mm512_sqrt_pd(disc));
     const __m512i bi = _mm512_castpd_si512(b);
-    const __m512d root = _mm512_castsi512_pd(_mm512_or_si512(_mm512_andnot_si512(sign, sq), _mm512_and_si512(sign, bi)));
+    const __m512d root = _mm512_castsi512_pd(
+        _mm512_or_si512(_mm512_andnot_si512(sign, sq), _mm512_and_si512(sign, bi)));
     const __m512d q = _mm512_sub_pd(_mm512_castsi512_pd(_mm512_xor_si512(bi, sign)), root);
-    const __m512d t0a = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(q, zero, _CMP_NEQ_UQ), zero, _mm512_div_pd(c, q));
+    const __m512d t0a =
+        _mm512_mask_blend_pd(_mm512_cmp_pd_mask(q, zero, _CMP_NEQ_UQ), zero, _mm512_div_pd(c, q));
     const __mmask8 swap = _mm512_cmp_pd_mask(t0a, q, _CMP_GT_OQ);
     const __m512d dinf = _mm512_set1_pd(std::numeric_limits<double>::infinity());
     const __m512d t0 = _mm512_mask_blend_pd(miss, _mm512_mask_blend_pd(swap, t0a, q), dinf);
     const __m512d t1 = _mm512_mask_blend_pd(miss, _mm512_mask_blend_pd(swap, q, t0a), dinf);
     const __m256 f0 = _mm512_cvtpd_ps(t0), f1 = _mm512_cvtpd_ps(t1);
-    const __m256 z = _mm256_setzero_ps(), inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+    const __m256 z = _mm256_setzero_ps(),
+                 inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
     return _mm256_blendv_ps(_mm256_blendv_ps(inf, f1, _mm256_cmp_ps(f1, z, _CMP_GT_OQ)), f0,
                             _mm256_cmp_ps(f0, z, _CMP_GT_OQ));
 }
 
-inline VF robust_candidate(VF ox, VF oy, VF oz, VF dx, VF dy, VF dz, float cx, float cy, float cz, float radius) {
+inline VF robust_candidate(VF ox, VF oy, VF oz, VF dx, VF dy, VF dz, float cx, float cy, float cz,
+                           float radius) {
     const double r2 = double(radius) * radius;
     auto lo = [](__m512 v) { return _mm512_cvtps_pd(_mm512_castps512_ps256(v)); };
     auto hi = [](__m512 v) {
         return _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1)));
     };
     const __m512d cxd = _mm512_set1_pd(cx), cyd = _mm512_set1_pd(cy), czd = _mm512_set1_pd(cz);
-    const __m256 a = robust8(_mm512_sub_pd(lo(ox.v), cxd), _mm512_sub_pd(lo(oy.v), cyd), _mm512_sub_pd(lo(oz.v), czd),
-                             lo(dx.v), lo(dy.v), lo(dz.v), r2);
-    const __m256 b = robust8(_mm512_sub_pd(hi(ox.v), cxd), _mm512_sub_pd(hi(oy.v), cyd), _mm512_sub_pd(hi(oz.v), czd),
-                             hi(dx.v), hi(dy.v), hi(dz.v), r2);
-    return {_mm512_castpd_ps(_mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(a)), _mm256_castps_pd(b), 1))};
+    const __m256 a = robust8(_mm512_sub_pd(lo(ox.v), cxd), _mm512_sub_pd(lo(oy.v), cyd),
+                             _mm512_sub_pd(lo(oz.v), czd), lo(dx.v), lo(dy.v), lo(dz.v), r2);
+    const __m256 b = robust8(_mm512_sub_pd(hi(ox.v), cxd), _mm512_sub_pd(hi(oy.v), cyd),
+                             _mm512_sub_pd(hi(oz.v), czd), hi(dx.v), hi(dy.v), hi(dz.v), r2);
+    return {_mm512_castpd_ps(
+        _mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(a)), _mm256_castps_pd(b), 1))};
 }
 
 #else
