@@ -1,7 +1,10 @@
 #include "packet/packet_engine.h"
 
+#include <sys/mman.h>
+
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <cstdlib>
 #include <stdexcept>
 #include <thread>
@@ -154,6 +157,31 @@ struct alignas(64) Worker {
     packet::Counts counts;
 };
 
+// RenderedImage(w, h), with its planes asked for transparent huge pages before they are first
+// touched: the zero-fill then takes a handful of page faults instead of one per 4 KB page
+// (~2 400 for the 9.8 MB of a 640x480 frame).
+void fill_huge(std::vector<float>& v, std::size_t n, float value) {
+    v.reserve(n);
+    constexpr std::uintptr_t kHuge = 2u << 20;
+    const auto begin = reinterpret_cast<std::uintptr_t>(v.data());
+    const std::uintptr_t first = (begin + kHuge - 1) & ~(kHuge - 1);
+    const std::uintptr_t last = (begin + n * sizeof(float)) & ~(kHuge - 1);
+    if (last > first) ::madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+    v.assign(n, value);
+}
+
+RenderedImage allocate_image(int width, int height) {
+    RenderedImage image;
+    image.width = width;
+    image.height = height;
+    const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+    fill_huge(image.rgb, 3 * n, 0.0f);
+    fill_huge(image.id, n, -1.0f);
+    fill_huge(image.depth, n, 0.0f);
+    fill_huge(image.normal, 3 * n, 0.0f);
+    return image;
+}
+
 packet::CameraArrays camera_arrays(const Scene& scene, int width, int height) {
     // The same basis as CameraRays (camera_rays.cpp) computes.
     const Camera& cam = scene.camera;
@@ -213,7 +241,7 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
                             RayCounts* rays) {
     const Kernels& kern = kernels_for(isa);
     const int width = settings.width, height = settings.height;
-    RenderedImage image(width, height);
+    RenderedImage image = allocate_image(width, height);
     const SceneStore store(scene);
     const packet::SceneArrays& s = store.view;
     packet::Options opt{};
