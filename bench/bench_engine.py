@@ -31,7 +31,8 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import ROOT, SCENES, print_table, write_results
 
-BUILD = ROOT / "build" / "cmake"
+# rtdemo and seed_tracer of the test build (make bench-build: BUILD_TESTING=ON, RTDEMO_BENCH=ON).
+BUILD = ROOT / "build" / "tests"
 SUMMARY = re.compile(r": ([0-9.]+) s on (\d+) threads, ([0-9.]+) M rays .* write ([0-9.]+) s")
 CLASSIC = str(SCENES / "classic.json")
 
@@ -95,7 +96,7 @@ def summary(stderr: str) -> dict[str, float]:
 
 
 def rays_from_header(exr: str) -> dict[str, int]:
-    from compare.images import read_image
+    from compare.judge.images import read_image
 
     h = read_image(exr).header
     return {k: int(h[f"rtval.rays_{k}"]) for k in ("camera", "secondary", "shadow")}
@@ -107,12 +108,12 @@ def main() -> None:
         "--rounds", type=int, default=15, help="alternating rounds per comparison (default 15)"
     )
     parser.add_argument(
-        "--rtdemo", default=str(BUILD / "rtdemo"), help="rtdemo binary (default: build/cmake)"
+        "--rtdemo", default=str(BUILD / "rtdemo"), help="rtdemo binary (default: build/tests)"
     )
     parser.add_argument(
         "--seed",
         default=str(BUILD / "seed_tracer"),
-        help="the plain program (default: build/cmake)",
+        help="the plain program (default: build/tests)",
     )
     parser.add_argument(
         "--physical-rounds", type=int, default=5, help="rounds for physical 16 spp (default 5)"
@@ -121,10 +122,8 @@ def main() -> None:
     rtdemo, seed = args.rtdemo, args.seed
     for path in (rtdemo, seed):
         if not Path(path).is_file():
-            raise SystemExit(
-                f"{path} missing: build with cmake -S demo_cpp -B build/cmake -G Ninja && ninja -C build/cmake"
-            )
-    from mitsuba_ref.scene import load_scene
+            raise SystemExit(f"{path} missing: build with make bench-build")
+    from scene_model.scene import load_scene
 
     spheres = len(load_scene(SCENES / "classic.json").spheres)
     results: dict[str, Any] = {"rounds": args.rounds}
@@ -134,7 +133,9 @@ def main() -> None:
         whole = alternate(
             {
                 "seed_ppm": [seed, CLASSIC, f"{tmp}/seed.ppm", "classic"],
-                "packet_ppm": [*render, "--ppm", f"{tmp}/p.ppm"],
+                # Rounded as the plain program rounds (rtdemo truncates by default): the same
+                # bytes, so the same work; both conventions cost the same (image_io.cpp).
+                "packet_ppm": [*render, "--ppm", f"{tmp}/p.ppm", "--ppm-rounding", "round"],
                 "packet_exr": [*render, "-o", f"{tmp}/p.exr"],
                 "empty_process": [rtdemo, "--version"],
             },

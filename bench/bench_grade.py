@@ -15,11 +15,13 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-from common import ROOT, SCENES, print_table, tool, write_results  # noqa: E402
+from common import ROOT, SCENES, print_table, tool, write_results
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--students", type=int, default=200)
     args = parser.parse_args()
     from class_generator import KINDS, make_class
@@ -30,12 +32,21 @@ def main() -> None:
     warm = work / "warm"
     (work / "empty").mkdir(parents=True, exist_ok=True)
     # Grading an empty class renders (or finds) the reference the synthetic class is made from.
-    subprocess.run([rtval, "grade", str(work / "empty"), "--scene", str(scene), "--out", str(warm)], check=True,
-                   capture_output=True)
+    subprocess.run(
+        [rtval, "grade", str(work / "empty"), "--scene", str(scene), "--out", str(warm)],
+        check=True,
+        capture_output=True,
+    )
     subs = work / "subs"
     if not subs.is_dir():
-        make_class(warm / "references" / "classic.exr", scene, tool("rtdemo"), subs,
-                   per_kind=-(-args.students // len(KINDS)), size=(640, 480))
+        make_class(
+            warm / "references" / "classic.exr",
+            scene,
+            tool("rtdemo"),
+            subs,
+            per_kind=-(-args.students // len(KINDS)),
+            size=(640, 480),
+        )
     n = sum(1 for _ in subs.iterdir())
     rows, results = [], []
     for executor in ("local", "dask"):
@@ -47,7 +58,9 @@ def main() -> None:
         if executor == "dask":
             from dask.distributed import LocalCluster
 
-            cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+            cluster = LocalCluster(
+                n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+            )
             cmd += ["--executor", "dask", "--scheduler", cluster.scheduler_address]
         start = time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
@@ -56,7 +69,15 @@ def main() -> None:
             cluster.close()
         if proc.returncode != 0:
             raise SystemExit(proc.stderr)
-        results.append({"executor": executor, "workers": 2, "submissions": n, "wall_s": wall, "per_submission_s": wall / n})
+        results.append(
+            {
+                "executor": executor,
+                "workers": 2,
+                "submissions": n,
+                "wall_s": wall,
+                "per_submission_s": wall / n,
+            }
+        )
         rows.append([executor, 2, n, wall, wall / n])
     print_table(["executor", "workers", "submissions", "wall s", "s per submission"], rows)
     print(f"wrote {write_results('grade', {'size': [640, 480], 'results': results})}")

@@ -23,15 +23,15 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from common import ROOT, SCENES, print_table, tool, write_results  # noqa: E402
+from common import ROOT, SCENES, print_table, tool, write_results
 
-from compare.effects import EFFECTS, effect_masks  # noqa: E402
-from compare.files import sha256_file  # noqa: E402
-from compare.images import read_image  # noqa: E402
-from compare.metrics import compute_maps, compute_metrics  # noqa: E402
-from compare.penumbra import penumbra_numbers  # noqa: E402
-from compare.render_cache import renderer_identity  # noqa: E402
-from mitsuba_ref.scene import load_scene  # noqa: E402
+from compare.files import sha256_file
+from compare.judge.effects import EFFECTS, effect_masks
+from compare.judge.images import read_image
+from compare.judge.metrics import compute_maps, compute_metrics
+from compare.judge.penumbra import penumbra_numbers
+from compare.render.cache import renderer_identity
+from scene_model.scene import load_scene
 
 CACHE = ROOT / "build" / "bench-cache"
 QUIRKS = [f"Q{i}" for i in range(1, 11)]
@@ -45,7 +45,7 @@ def render(cmd: list[str], out: Path) -> Path:
     cached = out.with_name(f"{out.stem}-{key.hexdigest()[:16]}.exr")
     if not cached.is_file():
         tmp = cached.with_name(cached.stem + ".partial.exr")
-        subprocess.run(cmd + ["-o", str(tmp)], check=True, capture_output=True)
+        subprocess.run([*cmd, "-o", str(tmp)], check=True, capture_output=True)
         tmp.replace(cached)
     return cached
 
@@ -61,22 +61,76 @@ def study(scene_name: str) -> dict:
     rtdemo, rtval = tool("rtdemo"), tool("rtval")
     CACHE.mkdir(parents=True, exist_ok=True)
     c = lambda name: CACHE / f"{scene_name}-{name}.exr"  # noqa: E731
-    centre = read_image(render([rtval, "reference", str(scene_file), "--integrator", "whitted", "--light", "point",
-                                "--centre-rays"], c("ref-centre")))
-    converged = read_image(render([rtval, "reference", str(scene_file), "--integrator", "whitted", "--light", "point",
-                                   "--spp", "32"], c("ref-converged")))
-    area = read_image(render([rtval, "reference", str(scene_file), "--integrator", "whitted", "--light", "area",
-                              "--spp", "16"], c("ref-area")))
+    centre = read_image(
+        render(
+            [
+                rtval,
+                "reference",
+                str(scene_file),
+                "--integrator",
+                "whitted",
+                "--light",
+                "point",
+                "--centre-rays",
+            ],
+            c("ref-centre"),
+        )
+    )
+    converged = read_image(
+        render(
+            [
+                rtval,
+                "reference",
+                str(scene_file),
+                "--integrator",
+                "whitted",
+                "--light",
+                "point",
+                "--spp",
+                "32",
+            ],
+            c("ref-converged"),
+        )
+    )
+    area = read_image(
+        render(
+            [
+                rtval,
+                "reference",
+                str(scene_file),
+                "--integrator",
+                "whitted",
+                "--light",
+                "area",
+                "--spp",
+                "16",
+            ],
+            c("ref-area"),
+        )
+    )
     masks_centre = effect_masks(scene, centre.aovs["id"], centre.aovs["depth"])
     masks_conv = effect_masks(scene, converged.aovs["id"], converged.aovs["depth"])
 
     part1 = []
     for backend in ("cpu", "gl"):
-        demo = read_image(render([rtdemo, "render", str(scene_file), "--mode", "physical", "--backend", backend,
-                                  "-q"], c(f"physical-{backend}")))
+        demo = read_image(
+            render(
+                [
+                    rtdemo,
+                    "render",
+                    str(scene_file),
+                    "--mode",
+                    "physical",
+                    "--backend",
+                    backend,
+                    "-q",
+                ],
+                c(f"physical-{backend}"),
+            )
+        )
         maps = compute_maps(centre.rgb, demo.rgb, hdr=False)
         rel = rel_mse_map(centre.rgb, demo.rgb)
-        for name in ("overall",) + EFFECTS:
+        for name in ("overall", *EFFECTS):
             region = np.ones(rel.shape, bool) if name == "overall" else masks_centre[name]
             if not region.any():
                 continue
@@ -86,15 +140,34 @@ def study(scene_name: str) -> dict:
             tail = np.cumsum(v[::-1])[::-1]  # tail[k] = sum of v[k:]
             k = int(np.argmax(tail / v.size <= 1e-3)) if (tail / v.size <= 1e-3).any() else v.size
             carriers = k
-            part1.append({"backend": backend, "mask": name, "pixels": int(region.sum()), "ssim": m.ssim,
-                          "rel_mse": float(v.mean()), "pixels_carrying_rel_mse": carriers,
-                          "rel_mse_without_them": float(v[carriers:].mean()) if carriers < v.size else 0.0,
-                          "ssim_ok": m.ssim >= 0.995, "rel_mse_ok": float(v.mean()) <= 1e-3})
+            part1.append(
+                {
+                    "backend": backend,
+                    "mask": name,
+                    "pixels": int(region.sum()),
+                    "ssim": m.ssim,
+                    "rel_mse": float(v.mean()),
+                    "pixels_carrying_rel_mse": carriers,
+                    "rel_mse_without_them": float(v[carriers:].mean())
+                    if carriers < v.size
+                    else 0.0,
+                    "ssim_ok": m.ssim >= 0.995,
+                    "rel_mse_ok": float(v.mean()) <= 1e-3,
+                }
+            )
 
     part2 = []
-    variants = [("paper", ["--mode", "paper"])] + [
-        (f"paper +{q}", ["--mode", "paper", "--fix", q] + (["--spp", "16"] if q == "Q10" else [])) for q in QUIRKS
-    ] + [("physical 16 spp", ["--mode", "physical", "--spp", "16"])]
+    variants = (
+        [("paper", ["--mode", "paper"])]
+        + [
+            (
+                f"paper +{q}",
+                ["--mode", "paper", "--fix", q] + (["--spp", "16"] if q == "Q10" else []),
+            )
+            for q in QUIRKS
+        ]
+        + [("physical 16 spp", ["--mode", "physical", "--spp", "16"])]
+    )
     for label, args in variants:
         key = label.replace(" ", "_").replace("+", "fix")
         img = read_image(render([rtdemo, "render", str(scene_file), "-q", *args], c(key)))
@@ -102,35 +175,61 @@ def study(scene_name: str) -> dict:
         row = {"variant": label}
         for name in EFFECTS:
             if masks_conv[name].any():
-                row[name] = compute_metrics(converged.rgb, img.rgb, maps, mask=masks_conv[name]).flip_ldr
+                row[name] = compute_metrics(
+                    converged.rgb, img.rgb, maps, mask=masks_conv[name]
+                ).flip_ldr
         row["overall"] = compute_metrics(converged.rgb, img.rgb, maps).flip_ldr
         part2.append(row)
 
-    demo16 = read_image(render([rtdemo, "render", str(scene_file), "-q", "--mode", "physical", "--spp", "16"],
-                               c("physical_16_spp")))
+    demo16 = read_image(
+        render(
+            [rtdemo, "render", str(scene_file), "-q", "--mode", "physical", "--spp", "16"],
+            c("physical_16_spp"),
+        )
+    )
     part3 = penumbra_numbers(converged.rgb, area.rgb, demo16.rgb)
     return {"scene": scene_name, "centre_rays": part1, "quirks": part2, "area_lights": part3}
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--scenes", nargs="+", default=["paper", "classic"])
     args = parser.parse_args()
     results = [study(s) for s in args.scenes]
     for r in results:
         print(f"\n== {r['scene']}: physical vs Whitted reference, centre rays on both sides")
-        print_table(["backend", "mask", "pixels", "SSIM", "rel MSE", "px carrying it", "rel MSE w/o them"],
-                    [[p["backend"], p["mask"], p["pixels"], p["ssim"], p["rel_mse"], p["pixels_carrying_rel_mse"],
-                      p["rel_mse_without_them"]] for p in r["centre_rays"]])
-        print(f"\n== {r['scene']}: mean FLIP per effect vs the converged reference, one quirk fixed at a time")
+        print_table(
+            ["backend", "mask", "pixels", "SSIM", "rel MSE", "px carrying it", "rel MSE w/o them"],
+            [
+                [
+                    p["backend"],
+                    p["mask"],
+                    p["pixels"],
+                    p["ssim"],
+                    p["rel_mse"],
+                    p["pixels_carrying_rel_mse"],
+                    p["rel_mse_without_them"],
+                ]
+                for p in r["centre_rays"]
+            ],
+        )
+        print(
+            f"\n== {r['scene']}: mean FLIP per effect vs the converged reference, one quirk fixed at a time"
+        )
         effects = [e for e in EFFECTS if e in r["quirks"][0]]
-        print_table(["variant", *effects, "overall"], [[q["variant"], *[q[e] for e in effects], q["overall"]]
-                                                       for q in r["quirks"]])
+        print_table(
+            ["variant", *effects, "overall"],
+            [[q["variant"], *[q[e] for e in effects], q["overall"]] for q in r["quirks"]],
+        )
         a = r["area_lights"]
-        print(f"\narea lights: {100 * a['error_share_in_penumbra']:.1f} % of physical's error lies in "
-              f"{a['penumbra_pixels']} penumbra pixels; {a['differing_pixels_outside_penumbra']} pixels outside differ > 2/255;\n"
-              f"  mean |demo - ref| inside: {a['mae_vs_area_inside']:.5f} vs area, {a['mae_vs_point_inside']:.5f} vs point; "
-              f"outside: {a['mae_vs_area_outside']:.5f} vs area, {a['mae_vs_point_outside']:.5f} vs point")
+        print(
+            f"\narea lights: {100 * a['error_share_in_penumbra']:.1f} % of physical's error lies in "
+            f"{a['penumbra_pixels']} penumbra pixels; {a['differing_pixels_outside_penumbra']} pixels outside differ > 2/255;\n"
+            f"  mean |demo - ref| inside: {a['mae_vs_area_inside']:.5f} vs area, {a['mae_vs_point_inside']:.5f} vs point; "
+            f"outside: {a['mae_vs_area_outside']:.5f} vs area, {a['mae_vs_point_outside']:.5f} vs point"
+        )
     print(f"wrote {write_results('physical', {'studies': results})}")
 
 

@@ -25,19 +25,26 @@ def tool(name: str) -> str:
     return str(path)
 
 
-def time_process(cmd: list[str], repeats: int = 3, env: dict[str, str] | None = None) -> dict[str, Any]:
+def time_process(
+    cmd: list[str], repeats: int = 3, env: dict[str, str] | None = None
+) -> dict[str, Any]:
     """Wall time of a whole process (start-up and output included), median of `repeats`."""
     times = []
     last = None
     for _ in range(repeats):
         start = time.perf_counter()
-        last = subprocess.run(cmd, capture_output=True, text=True, check=False,
-                              env={**os.environ, **(env or {})})
+        last = subprocess.run(
+            cmd, capture_output=True, text=True, check=False, env={**os.environ, **(env or {})}
+        )
         times.append(time.perf_counter() - start)
         if last.returncode != 0:
             raise SystemExit(f"{' '.join(cmd)} failed: {last.stderr}")
-    return {"median_s": statistics.median(times), "min_s": min(times), "runs": times,
-            "stderr": last.stderr.strip() if last else ""}
+    return {
+        "median_s": statistics.median(times),
+        "min_s": min(times),
+        "runs": times,
+        "stderr": last.stderr.strip() if last else "",
+    }
 
 
 def machine() -> dict[str, Any]:
@@ -49,24 +56,50 @@ def machine() -> dict[str, Any]:
                 break
     except OSError:
         pass
-    return {"host": platform.node(), "cpu": cpu, "cores": os.cpu_count(),
-            "python": platform.python_version(), "system": f"{platform.system()} {platform.release()}",
-            "date": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    return {
+        "host": platform.node(),
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "python": platform.python_version(),
+        "system": f"{platform.system()} {platform.release()}",
+        "date": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    }
+
+
+def source_state() -> dict[str, Any]:
+    """The commit measured and whether the work tree had uncommitted changes."""
+
+    def git(*args: str) -> str:
+        proc = subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=False)
+        return proc.stdout.strip() if proc.returncode == 0 else ""
+
+    commit = git("rev-parse", "HEAD")
+    return {
+        "commit": commit or None,
+        "dirty": bool(git("status", "--porcelain")) if commit else None,
+    }
 
 
 def write_results(name: str, data: dict[str, Any]) -> Path:
+    """bench/results/NAME.json holds the latest run; NAME.history.jsonl keeps every run, one
+    JSON object a line, so a slower commit can be found later."""
     RESULTS.mkdir(parents=True, exist_ok=True)
+    record = {"machine": machine(), "source": source_state(), **data}
     path = RESULTS / f"{name}.json"
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps({"machine": machine(), **data}, indent=2) + "\n")
+    tmp.write_text(json.dumps(record, indent=2) + "\n")
     tmp.replace(path)
+    with (RESULTS / f"{name}.history.jsonl").open("a", encoding="utf-8") as history:
+        history.write(json.dumps(record) + "\n")
     return path
 
 
 def print_table(headers: list[str], rows: list[list[Any]]) -> None:
-    cells = [[str(h) for h in headers]] + [[f"{c:.4g}" if isinstance(c, float) else str(c) for c in r] for r in rows]
+    cells = [[str(h) for h in headers]] + [
+        [f"{c:.4g}" if isinstance(c, float) else str(c) for c in r] for r in rows
+    ]
     widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
     for i, r in enumerate(cells):
-        print("  ".join(c.rjust(w) for c, w in zip(r, widths)))
+        print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=False)))
         if i == 0:
             print("  ".join("-" * w for w in widths))

@@ -20,12 +20,26 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import ROOT, SCENES, print_table, write_results  # noqa: E402
+from common import ROOT, SCENES, print_table, write_results
 
 
 def instructions(binary: str, scene: Path, frames: int, extra: list[str], out: str) -> int:
-    cmd = ["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", binary, "render", str(scene),
-           "-o", out, "--backend", "gl", "--frames", str(frames), "-q", *extra]
+    cmd = [
+        "valgrind",
+        "--tool=callgrind",
+        "--callgrind-out-file=/dev/null",
+        binary,
+        "render",
+        str(scene),
+        "-o",
+        out,
+        "--backend",
+        "gl",
+        "--frames",
+        str(frames),
+        "-q",
+        *extra,
+    ]
     env = dict(os.environ, MESA_SHADER_CACHE_DISABLE="true")
     run = subprocess.run(cmd, capture_output=True, text=True, env=env)
     found = re.search(r"Collected : (\d+)", run.stderr)
@@ -35,10 +49,15 @@ def instructions(binary: str, scene: Path, frames: int, extra: list[str], out: s
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("scenes", nargs="*", type=Path, help="scene files (default: paper and classic)")
-    parser.add_argument("--binary", default=str(ROOT / "build" / "cmake" / "rtdemo"), help="rtdemo to measure")
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "scenes", nargs="*", type=Path, help="scene files (default: paper and classic)"
+    )
+    parser.add_argument(
+        "--binary", default=str(ROOT / "build" / "cmake" / "rtdemo"), help="rtdemo to measure"
+    )
     args, extra = parser.parse_known_args()
     extra = [a for a in extra if a != "--"]
     if shutil.which("valgrind") is None:
@@ -51,13 +70,22 @@ def main() -> int:
         for scene in scenes:
             if not scene.is_file():
                 raise SystemExit(f"{scene}: no such scene file")
-            print(f"  {scene.name}: 1 and 3 frames under callgrind ...", file=sys.stderr, flush=True)
+            print(
+                f"  {scene.name}: 1 and 3 frames under callgrind ...", file=sys.stderr, flush=True
+            )
             one = instructions(args.binary, scene, 1, extra, f"{tmp}/one.exr")
             three = instructions(args.binary, scene, 3, extra, f"{tmp}/three.exr")
-            rows.append({"scene": scene.stem, "options": " ".join(extra),
-                         "instructions_per_frame": (three - one) // 2})
-    print_table(["scene", "options", "M instructions / frame"],
-                [[r["scene"], r["options"], r["instructions_per_frame"] / 1e6] for r in rows])
+            rows.append(
+                {
+                    "scene": scene.stem,
+                    "options": " ".join(extra),
+                    "instructions_per_frame": (three - one) // 2,
+                }
+            )
+    print_table(
+        ["scene", "options", "M instructions / frame"],
+        [[r["scene"], r["options"], r["instructions_per_frame"] / 1e6] for r in rows],
+    )
     print(f"wrote {write_results('gl_instructions', {'binary': args.binary, 'rows': rows})}")
     return 0
 

@@ -1,1 +1,53 @@
-"""The judge: image I/O, metrics, reports and the `rtval` command line."""
+"""rtval's judge and the applications built on it.
+
+Layout: `compare.judge` (pure: images, metrics, effect masks, tolerances, scores, rubric,
+Z-test), `compare.render` (running and caching renderers), `compare.apps` (compare, check,
+report, grade, stress: they write HTML, CSV, JSON), `compare.cli` (the `rtval` command line,
+one module per command).
+
+The public API below is what another program needs to judge images as rtval does.
+"""
+
+from compare.judge.candidate import Candidate
+from compare.judge.diagnose import Diagnosis, diagnose
+from compare.judge.effects import EFFECTS, effect_masks
+from compare.judge.evaluate import EffectResult, Evaluation, evaluate_pair
+from compare.judge.images import Image, ImageError, read_image, write_exr, write_png
+from compare.judge.metrics import Maps, Metrics, SizeMismatch, compute_maps, compute_metrics
+from compare.judge.mistakes import Mistake, catalogue
+from compare.judge.rubric import Rubric, RubricError, load_rubric, parse_rubric
+from compare.judge.scoring import EffectRule, EffectScore, Score, score_effects
+from compare.judge.tolerances import Tolerances, Verdict
+
+__all__ = [
+    "EFFECTS",
+    "Candidate",
+    "Diagnosis",
+    "EffectResult",
+    "EffectRule",
+    "EffectScore",
+    "Evaluation",
+    "Image",
+    "ImageError",
+    "Maps",
+    "Metrics",
+    "Mistake",
+    "Rubric",
+    "RubricError",
+    "Score",
+    "SizeMismatch",
+    "Tolerances",
+    "Verdict",
+    "catalogue",
+    "compute_maps",
+    "compute_metrics",
+    "diagnose",
+    "effect_masks",
+    "evaluate_pair",
+    "load_rubric",
+    "parse_rubric",
+    "read_image",
+    "score_effects",
+    "write_exr",
+    "write_png",
+]

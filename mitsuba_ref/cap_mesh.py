@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from mitsuba_ref.scene import Vec3
+from scene_model.scene import Vec3
 
 HUGE_RADIUS = 100.0  # spheres at least this large are exported as caps
 
@@ -31,8 +31,9 @@ class CapMesh:
     theta_max: float  # angular radius of the cap, radians
 
 
-def _rings(radius: float, height: float, theta_max: float, min_sagitta: float,
-           rel_sagitta: float) -> list[float]:
+def _rings(
+    radius: float, height: float, theta_max: float, min_sagitta: float, rel_sagitta: float
+) -> list[float]:
     thetas = [0.0]
     while thetas[-1] < theta_max:
         arc = radius * thetas[-1]
@@ -43,8 +44,9 @@ def _rings(radius: float, height: float, theta_max: float, min_sagitta: float,
     return thetas
 
 
-def _azimuth_segments(radius: float, height: float, thetas: list[float], min_sagitta: float,
-                      rel_sagitta: float) -> int:
+def _azimuth_segments(
+    radius: float, height: float, thetas: list[float], min_sagitta: float, rel_sagitta: float
+) -> int:
     # A ring of radius rho cut into n chords sags rho * (1 - cos(pi / n)) ~ rho (pi/n)^2 / 2.
     need = 3
     for theta in thetas[1:]:
@@ -54,9 +56,16 @@ def _azimuth_segments(radius: float, height: float, thetas: list[float], min_sag
     return -(-need // 64) * 64
 
 
-def build_cap(center: Vec3, radius: float, eye: Vec3, *, azimuth: int | None = None,
-              min_sagitta: float = 1e-5, rel_sagitta: float = 2e-6,
-              extra_angle: float = 0.05) -> CapMesh:
+def build_cap(
+    center: Vec3,
+    radius: float,
+    eye: Vec3,
+    *,
+    azimuth: int | None = None,
+    min_sagitta: float = 1e-5,
+    rel_sagitta: float = 2e-6,
+    extra_angle: float = 0.05,
+) -> CapMesh:
     """Cap around the point of the sphere nearest to `eye`, reaching past its horizon.
 
     Raises ValueError when the eye is inside the sphere (a cap cannot stand in then).
@@ -84,8 +93,9 @@ def build_cap(center: Vec3, radius: float, eye: Vec3, *, azimuth: int | None = N
     phis = np.linspace(0.0, 2.0 * math.pi, azimuth, endpoint=False)
     ring_thetas = thetas[1:]
     st, ct = np.sin(ring_thetas)[:, None], np.cos(ring_thetas)[:, None]
-    dirs = (ct[..., None] * axis
-            + st[..., None] * (np.cos(phis)[None, :, None] * u + np.sin(phis)[None, :, None] * v))
+    dirs = ct[..., None] * axis + st[..., None] * (
+        np.cos(phis)[None, :, None] * u + np.sin(phis)[None, :, None] * v
+    )
     normals = np.concatenate([axis[None, :], dirs.reshape(-1, 3)])
     positions = c + radius * normals
 
@@ -102,5 +112,9 @@ def build_cap(center: Vec3, radius: float, eye: Vec3, *, azimuth: int | None = N
         faces.append(np.stack([a, a2, b2], axis=1))
         faces.append(np.stack([a, b2, b], axis=1))
     face_array = np.concatenate(faces).astype(np.uint32)
-    return CapMesh(positions=positions.astype(np.float32), normals=normals.astype(np.float32),
-                   faces=face_array, theta_max=theta_max)
+    return CapMesh(
+        positions=positions.astype(np.float32),
+        normals=normals.astype(np.float32),
+        faces=face_array,
+        theta_max=theta_max,
+    )

@@ -65,5 +65,9 @@ def fit_paper_conductor(samples: int = 257) -> ConductorFit:
         lo_eta, hi_eta = max(0.01, best[0] - de), best[0] + de
         lo_k, hi_k = max(0.0, best[1] - dk), best[1] + dk
     diff = conductor_fresnel(cos, *best) - target
-    return ConductorFit(eta=best[0], k=best[1], rms_error=float(np.sqrt(np.mean(diff**2))),
-                        max_error=float(np.max(np.abs(diff))))
+    return ConductorFit(
+        eta=best[0],
+        k=best[1],
+        rms_error=float(np.sqrt(np.mean(diff**2))),
+        max_error=float(np.max(np.abs(diff))),
+    )

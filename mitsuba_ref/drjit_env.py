@@ -18,12 +18,15 @@ class MitsubaUnavailable(RuntimeError):
 def load_mitsuba(variant: str) -> ModuleType:
     """Imports mitsuba with `variant` set; raises MitsubaUnavailable with the reason."""
     if variant not in VARIANTS:
-        raise MitsubaUnavailable(f"unknown variant {variant!r} (expected one of {', '.join(VARIANTS)})")
+        raise MitsubaUnavailable(
+            f"unknown variant {variant!r} (expected one of {', '.join(VARIANTS)})"
+        )
     if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
         if not Path(LIBLLVM).is_file():
             raise MitsubaUnavailable(
                 f"{variant} needs libLLVM >= 15: {LIBLLVM} is missing (apt-get install libllvm19, "
-                "or run `make setup`), or use --variant scalar_rgb")
+                "or run `make setup`), or use --variant scalar_rgb"
+            )
         os.environ["DRJIT_LIBLLVM_PATH"] = LIBLLVM
     try:
         import mitsuba as mi

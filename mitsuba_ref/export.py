@@ -27,7 +27,7 @@ from mitsuba_ref.conductor_fit import ConductorFit, fit_paper_conductor
 from mitsuba_ref.light_units import light_values
 from mitsuba_ref.plugin_tree import RGB, LookAt, Plugin, Point, to_dict, to_xml
 from mitsuba_ref.ply import write_ply
-from mitsuba_ref.scene import Scene, Sphere
+from scene_model.scene import Scene, Sphere
 
 LIGHTS = ("area", "point")
 MAPPINGS = ("physical", "paper")
@@ -64,7 +64,7 @@ class ExportedScene:
     shape_index: dict[str, int] = field(default_factory=dict)
 
     def xml(self) -> str:
-        head = "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
+        head = '<?xml version="1.0" encoding="utf-8"?>\n'
         return head + to_xml(self.tree) + "\n"
 
     def write(self, path: str | Path) -> list[Path]:
@@ -80,15 +80,17 @@ class ExportedScene:
         return [p, *written]
 
     def load(self, mi: Any) -> Any:
-        """The same scene loaded from a dict (PLY meshes written to a temporary folder)."""
-        folder = Path(tempfile.mkdtemp(prefix="rtval-meshes-"))
-        for name, mesh in self.meshes.items():
-            write_ply(folder / name, mesh)
-        d = to_dict(self.tree, mi)
-        for key, value in d.items():
-            if isinstance(value, dict) and value.get("type") == "ply":
-                value["filename"] = str(folder / value["filename"])
-        return mi.load_dict(d)
+        """The same scene loaded from a dict. The PLY meshes go to a temporary folder that is
+        removed once Mitsuba has read them (load_dict reads every mesh before it returns)."""
+        with tempfile.TemporaryDirectory(prefix="rtval-meshes-") as tmp:
+            folder = Path(tmp)
+            for name, mesh in self.meshes.items():
+                write_ply(folder / name, mesh)
+            d = to_dict(self.tree, mi)
+            for value in d.values():
+                if isinstance(value, dict) and value.get("type") == "ply":
+                    value["filename"] = str(folder / value["filename"])
+            return mi.load_dict(d)
 
 
 @functools.lru_cache(maxsize=1)
@@ -107,62 +109,112 @@ def light_id(index: int) -> str:
 def _bsdf(s: Sphere, options: ExportOptions, exported: ExportedScene) -> Plugin:
     kind = s.kind
     if kind == "glass":
-        return Plugin("bsdf", "dielectric", {
-            "int_ior": float(s.ior), "ext_ior": 1.0,
-            "specular_reflectance": RGB(s.color),
-            "specular_transmittance": RGB(tuple(c * s.transparency for c in s.color)),  # type: ignore[arg-type]
-        })
+        return Plugin(
+            "bsdf",
+            "dielectric",
+            {
+                "int_ior": float(s.ior),
+                "ext_ior": 1.0,
+                "specular_reflectance": RGB(s.color),
+                "specular_transmittance": RGB(tuple(c * s.transparency for c in s.color)),  # type: ignore[arg-type]
+            },
+        )
     if kind == "mirror":
         if options.mapping == "paper":
             fit = _paper_conductor()
             exported.conductor = fit
-            return Plugin("bsdf", "conductor", {
-                "eta": RGB((fit.eta,) * 3), "k": RGB((fit.k,) * 3),  # type: ignore[arg-type]
-                "specular_reflectance": RGB(s.color)},
+            return Plugin(
+                "bsdf",
+                "conductor",
+                {
+                    "eta": RGB((fit.eta,) * 3),
+                    "k": RGB((fit.k,) * 3),
+                    "specular_reflectance": RGB(s.color),
+                },
                 comment=f"paper mapping: eta {fit.eta:.4f}, k {fit.k:.4f} fitted to 0.1 + 0.9 (1 - cos)^3, "
-                        f"RMS error {fit.rms_error:.4f}, max {fit.max_error:.4f}")
-        return Plugin("bsdf", "conductor", {"material": "none", "specular_reflectance": RGB(s.color)})
+                f"RMS error {fit.rms_error:.4f}, max {fit.max_error:.4f}",
+            )
+        return Plugin(
+            "bsdf", "conductor", {"material": "none", "specular_reflectance": RGB(s.color)}
+        )
     return Plugin("bsdf", "diffuse", {"reflectance": RGB(s.color)})
 
 
 def export_scene(scene: Scene, options: ExportOptions = ExportOptions()) -> ExportedScene:
     cam = scene.camera
-    root = Plugin("scene", "scene", comment=(
-        f"rtval export of scene '{scene.name}' ({scene.source or 'in memory'})\n"
-        f"light={options.light} light_units={options.light_units} mapping={options.mapping} "
-        f"keep_huge_spheres={options.keep_huge_spheres}\n"
-        "materials: diffuse -> diffuse(colour); glass -> dielectric(int_ior=ior, ext_ior=1, "
-        "R=colour, T=colour*transparency); mirror -> conductor; light -> area/point emitter; "
-        "background -> constant emitter"))
+    root = Plugin(
+        "scene",
+        "scene",
+        comment=(
+            f"rtval export of scene '{scene.name}' ({scene.source or 'in memory'})\n"
+            f"light={options.light} light_units={options.light_units} mapping={options.mapping} "
+            f"keep_huge_spheres={options.keep_huge_spheres}\n"
+            "materials: diffuse -> diffuse(colour); glass -> dielectric(int_ior=ior, ext_ior=1, "
+            "R=colour, T=colour*transparency); mirror -> conductor; light -> area/point emitter; "
+            "background -> constant emitter"
+        ),
+    )
     exported = ExportedScene(tree=root, meshes={})
 
     far = max([math.dist(s.center, cam.position) + s.radius for s in scene.spheres] or [1.0])
     exported.notes.append(f"far_clip {far * 1.5 + 10:.6g} (beyond every sphere)")
-    max_depth = scene.max_depth + 2  # camera vertex + specular chain + the light (Mitsuba counts vertices)
+    max_depth = (
+        scene.max_depth + 2
+    )  # camera vertex + specular chain + the light (Mitsuba counts vertices)
     if options.integrator == "path":
-        root.props["integrator"] = Plugin("integrator", "path", {
-            "max_depth": max_depth, "rr_depth": max_depth, "hide_emitters": False},
-            comment="Mitsuba's path tracer: the full light transport; Russian roulette off within max_depth")
+        root.props["integrator"] = Plugin(
+            "integrator",
+            "path",
+            {"max_depth": max_depth, "rr_depth": max_depth, "hide_emitters": False},
+            comment="Mitsuba's path tracer: the full light transport; Russian roulette off within max_depth",
+        )
     else:
-        root.props["integrator"] = Plugin("integrator", options.integrator, {
-            "max_depth": scene.max_depth},
-            comment="rtval's Whitted integrator (register it with mitsuba_ref.whitted.register())")
+        root.props["integrator"] = Plugin(
+            "integrator",
+            options.integrator,
+            {"max_depth": scene.max_depth, "bias": scene.bias},
+            comment="rtval's Whitted integrator (register it with mitsuba_ref.whitted.register())",
+        )
     if options.centre_rays:
-        sampler = Plugin("sampler", "stratified", {"sample_count": 1, "jitter": False},
-                         comment="one ray through each pixel centre, as the demo shoots")
+        sampler = Plugin(
+            "sampler",
+            "stratified",
+            {"sample_count": 1, "jitter": False},
+            comment="one ray through each pixel centre, as the demo shoots",
+        )
     else:
         sampler = Plugin("sampler", "independent", {"sample_count": options.spp})
-    root.props["sensor"] = Plugin("sensor", "perspective", {
-        "fov_axis": "y", "fov": float(cam.fov_y),
-        "to_world": LookAt(cam.position, cam.look_at, cam.up),
-        "near_clip": 1e-4, "far_clip": far * 1.5 + 10.0,
-        "film": Plugin("film", "hdrfilm", {
-            "width": cam.width, "height": cam.height, "pixel_format": "rgb",
-            "component_format": "float32", "rfilter": Plugin("rfilter", "box")}),
-        "sampler": sampler,
-    }, comment="vertical fov (fov_axis y), float32 RGB film, box filter, far clip beyond the scene")
-    root.props["background"] = Plugin("emitter", "constant", {"radiance": RGB(scene.background)},
-                                      id="background", comment="the paper's background colour")
+    root.props["sensor"] = Plugin(
+        "sensor",
+        "perspective",
+        {
+            "fov_axis": "y",
+            "fov": float(cam.fov_y),
+            "to_world": LookAt(cam.position, cam.look_at, cam.up),
+            "near_clip": 1e-4,
+            "far_clip": far * 1.5 + 10.0,
+            "film": Plugin(
+                "film",
+                "hdrfilm",
+                {
+                    "width": cam.width,
+                    "height": cam.height,
+                    "pixel_format": "rgb",
+                    "component_format": "float32",
+                    "rfilter": Plugin("rfilter", "box"),
+                },
+            ),
+            "sampler": sampler,
+        },
+        comment="vertical fov (fov_axis y), float32 RGB film, box filter, far clip beyond the scene",
+    )
+    root.props["background"] = Plugin(
+        "emitter",
+        "constant",
+        {"radiance": RGB(scene.background)},
+        id="background",
+        comment="the paper's background colour",
+    )
 
     for i, s in enumerate(scene.spheres):
         sid = shape_id(i)
@@ -172,15 +224,24 @@ def export_scene(scene: Scene, options: ExportOptions = ExportOptions()) -> Expo
             exported.light_factors[s.name] = lv.factor
             if options.light == "point":
                 root.props[light_id(i)] = Plugin(
-                    "emitter", "point", {"position": Point(s.center), "intensity": RGB(lv.intensity)},
+                    "emitter",
+                    "point",
+                    {"position": Point(s.center), "intensity": RGB(lv.intensity)},
                     id=light_id(i),
                     comment=f"light '{s.name}': point intensity = emission x {lv.factor:.6g} "
-                            f"({options.light_units} units)")
+                    f"({options.light_units} units)",
+                )
                 if options.for_path:
-                    exported.notes.append(f"light '{s.name}': sphere dropped (it would occlude its point light)")
+                    exported.notes.append(
+                        f"light '{s.name}': sphere dropped (it would occlude its point light)"
+                    )
                     continue
-            props["emitter"] = Plugin("emitter", "area", {"radiance": RGB(lv.radiance)},
-                                      comment=f"radiance = point intensity / (pi R^2), factor {lv.factor:.6g}")
+            props["emitter"] = Plugin(
+                "emitter",
+                "area",
+                {"radiance": RGB(lv.radiance)},
+                comment=f"radiance = point intensity / (pi R^2), factor {lv.factor:.6g}",
+            )
         props["bsdf"] = _bsdf(s, options, exported)
         huge = s.radius >= HUGE_RADIUS and not options.keep_huge_spheres
         if huge:
@@ -195,12 +256,21 @@ def export_scene(scene: Scene, options: ExportOptions = ExportOptions()) -> Expo
             props = {"filename": ply, **props}
             exported.notes.append(
                 f"sphere '{s.name}' (radius {s.radius:g}) exported as a spherical cap of "
-                f"{len(mesh.faces)} triangles, {math.degrees(mesh.theta_max):.2f} degrees")
-            root.props[sid] = Plugin("shape", "ply", props, id=sid, comment=(
-                f"'{s.name}': huge sphere as a graded spherical-cap mesh (float32-safe, horizon kept)"))
+                f"{len(mesh.faces)} triangles, {math.degrees(mesh.theta_max):.2f} degrees"
+            )
+            root.props[sid] = Plugin(
+                "shape",
+                "ply",
+                props,
+                id=sid,
+                comment=(
+                    f"'{s.name}': huge sphere as a graded spherical-cap mesh (float32-safe, horizon kept)"
+                ),
+            )
         else:
             props = {"center": Point(s.center), "radius": float(s.radius), **props}
-            root.props[sid] = Plugin("shape", "sphere", props, id=sid,
-                                     comment=f"'{s.name}': {s.kind}")
+            root.props[sid] = Plugin(
+                "shape", "sphere", props, id=sid, comment=f"'{s.name}': {s.kind}"
+            )
         exported.shape_index[sid] = i
     return exported

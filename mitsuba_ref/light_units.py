@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from mitsuba_ref.scene import Scene, Sphere, Vec3
+from scene_model.scene import Scene, Sphere, Vec3
 
 UNITS = ("calibrated", "physical")
 
@@ -25,7 +25,7 @@ class LightValues:
 
 
 def calibration_distance_sq(scene: Scene, light: Sphere) -> float:
-    d = [a - b for a, b in zip(light.center, scene.camera.look_at)]
+    d = [a - b for a, b in zip(light.center, scene.camera.look_at, strict=False)]
     return max(sum(x * x for x in d), light.radius * light.radius)
 
 
@@ -33,10 +33,7 @@ def light_values(scene: Scene, light: Sphere, units: str = "calibrated") -> Ligh
     if units not in UNITS:
         raise ValueError(f"light units must be one of {UNITS}, got {units!r}")
     area = math.pi * light.radius**2
-    if units == "calibrated":
-        factor = math.pi * calibration_distance_sq(scene, light)
-    else:
-        factor = area
+    factor = math.pi * calibration_distance_sq(scene, light) if units == "calibrated" else area
     e = light.emission
     intensity = (e[0] * factor, e[1] * factor, e[2] * factor)
     radiance = (intensity[0] / area, intensity[1] / area, intensity[2] / area)

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any, Union
 from xml.sax.saxutils import quoteattr
 
-from mitsuba_ref.scene import Vec3
+from scene_model.scene import Vec3
 
 
 @dataclass(frozen=True)
@@ -32,7 +32,9 @@ Value = Union[float, int, bool, str, RGB, Point, LookAt, "Plugin"]
 
 @dataclass
 class Plugin:
-    category: str  # XML tag: scene, shape, bsdf, emitter, sensor, film, rfilter, sampler, integrator
+    category: (
+        str  # XML tag: scene, shape, bsdf, emitter, sensor, film, rfilter, sampler, integrator
+    )
     type: str
     props: dict[str, Value] = field(default_factory=dict)
     id: str | None = None
@@ -76,8 +78,10 @@ def to_xml(p: Plugin, indent: int = 0) -> str:
             lines.append(f'{inner}<point name={n} value="{_vec(v.value)}"/>')
         elif isinstance(v, LookAt):
             lines.append(f"{inner}<transform name={n}>")
-            lines.append(f'{inner}    <lookat origin="{_vec(v.origin)}" target="{_vec(v.target)}" '
-                         f'up="{_vec(v.up)}"/>')
+            lines.append(
+                f'{inner}    <lookat origin="{_vec(v.origin)}" target="{_vec(v.target)}" '
+                f'up="{_vec(v.up)}"/>'
+            )
             lines.append(f"{inner}</transform>")
         else:  # pragma: no cover - the tree is built by export.py only
             raise TypeError(f"cannot write {name}={v!r} as XML")
@@ -97,8 +101,9 @@ def to_dict(p: Plugin, mi: Any) -> dict[str, Any]:
         elif isinstance(v, Point):
             d[name] = mi.ScalarPoint3f(*v.value)
         elif isinstance(v, LookAt):
-            d[name] = mi.ScalarTransform4f().look_at(origin=list(v.origin), target=list(v.target),
-                                                     up=list(v.up))
+            d[name] = mi.ScalarTransform4f().look_at(
+                origin=list(v.origin), target=list(v.target), up=list(v.up)
+            )
         else:
             d[name] = v
     return d

@@ -10,15 +10,16 @@ pixel means drops below `target_stderr`. Mean and per-sample variance are both r
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mitsuba_ref.drjit_env import load_mitsuba
 from mitsuba_ref.export import ExportOptions, export_scene
-from mitsuba_ref.scene import Scene
+from scene_model.scene import Scene
 
 INTEGRATORS = ("whitted", "path")
 MAX_PIXELS = 64 * 1024 * 1024  # as rtdemo: refuse before allocating
@@ -50,8 +51,10 @@ class ReferenceSettings:
         if self.spp < 1:
             raise ValueError(f"spp must be >= 1, got {self.spp}")
         if self.size and self.size[0] * self.size[1] > MAX_PIXELS:
-            raise ValueError(f"image of {self.size[0]}x{self.size[1]} pixels is too large "
-                             f"(at most {MAX_PIXELS} pixels)")
+            raise ValueError(
+                f"image of {self.size[0]}x{self.size[1]} pixels is too large "
+                f"(at most {MAX_PIXELS} pixels)"
+            )
 
 
 @dataclass
@@ -70,23 +73,37 @@ def _deterministic(s: ReferenceSettings) -> bool:
     return s.integrator == "whitted" and s.light == "point" and s.centre_rays
 
 
-def render_reference(scene: Scene, settings: ReferenceSettings,
-                     progress: Callable[[str], None] | None = None) -> ReferenceImage:
+def render_reference(
+    scene: Scene, settings: ReferenceSettings, progress: Callable[[str], None] | None = None
+) -> ReferenceImage:
     mi = load_mitsuba(settings.variant)
     import drjit as dr
 
     from mitsuba_ref import whitted
 
     whitted.register()
-    exported = export_scene(scene, ExportOptions(
-        light=settings.light, light_units=settings.light_units, mapping=settings.mapping,
-        keep_huge_spheres=settings.keep_huge_spheres,
-        for_path=settings.integrator == "path"))
+    exported = export_scene(
+        scene,
+        ExportOptions(
+            light=settings.light,
+            light_units=settings.light_units,
+            mapping=settings.mapping,
+            keep_huge_spheres=settings.keep_huge_spheres,
+            for_path=settings.integrator == "path",
+        ),
+    )
     mscene = exported.load(mi)
     if settings.integrator == "whitted":
-        integrator = mi.load_dict({
-            "type": whitted.NAME, "max_depth": scene.max_depth, "shadows": settings.shadows,
-            "reflection": settings.reflection, "refraction": settings.refraction})
+        integrator = mi.load_dict(
+            {
+                "type": whitted.NAME,
+                "max_depth": scene.max_depth,
+                "bias": scene.bias,
+                "shadows": settings.shadows,
+                "reflection": settings.reflection,
+                "refraction": settings.refraction,
+            }
+        )
     else:
         if not (settings.shadows and settings.reflection and settings.refraction):
             raise ValueError("effect switches apply to the whitted integrator only")
@@ -110,11 +127,13 @@ def render_reference(scene: Scene, settings: ReferenceSettings,
         batch = min(batch_max, passes - done)
         seed = settings.seed * 1_000_003 + done
         if jit:
-            samples = _jit_batch(mi, dr, mscene, sensor, integrator, width, height, seed, batch,
-                                 settings.centre_rays)
+            samples = _jit_batch(
+                mi, dr, mscene, sensor, integrator, width, height, seed, batch, settings.centre_rays
+            )
         else:
-            samples = _scalar_pass(mi, dr, mscene, sensor, integrator, width, height, seed,
-                                   settings.centre_rays)[None]
+            samples = _scalar_pass(
+                mi, dr, mscene, sensor, integrator, width, height, seed, settings.centre_rays
+            )[None]
         total += samples.sum(axis=0)
         total_sq += (samples * samples).sum(axis=0)
         done += batch
@@ -124,9 +143,11 @@ def render_reference(scene: Scene, settings: ReferenceSettings,
             stderr = float(np.mean(np.sqrt(var / done)))
         if progress:
             filled = int(20 * done / passes)
-            progress(f"{settings.integrator} {settings.variant} [{'#' * filled}{'.' * (20 - filled)}] "
-                     f"{done}/{passes} spp {elapsed:.1f} s"
-                     + (f", std err {stderr:.2e}" if done >= 2 else ""))
+            progress(
+                f"{settings.integrator} {settings.variant} [{'#' * filled}{'.' * (20 - filled)}] "
+                f"{done}/{passes} spp {elapsed:.1f} s"
+                + (f", std err {stderr:.2e}" if done >= 2 else "")
+            )
         if settings.time_budget is not None and elapsed >= settings.time_budget and done < passes:
             stopped_by = "time budget"
             break
@@ -137,10 +158,19 @@ def render_reference(scene: Scene, settings: ReferenceSettings,
     mean = (total / done).astype(np.float32)
     variance = None
     if done >= 2:
-        variance = (np.maximum(total_sq / done - (total / done) ** 2, 0) * done / (done - 1)).astype(np.float32)
+        variance = (
+            np.maximum(total_sq / done - (total / done) ** 2, 0) * done / (done - 1)
+        ).astype(np.float32)
     aovs = _primary_aovs(mi, dr, mscene, sensor, exported.shape_index, width, height)
-    effects = [n for n, on in (("shadows", settings.shadows), ("reflection", settings.reflection),
-                               ("refraction", settings.refraction)) if not on]
+    effects = [
+        n
+        for n, on in (
+            ("shadows", settings.shadows),
+            ("reflection", settings.reflection),
+            ("refraction", settings.refraction),
+        )
+        if not on
+    ]
     header = {
         "rtval.renderer": "mitsuba",
         "rtval.scene": scene.name,
@@ -148,7 +178,9 @@ def render_reference(scene: Scene, settings: ReferenceSettings,
         "rtval.variant": settings.variant,
         "rtval.spp": str(settings.spp if _deterministic(settings) else done),
         "rtval.spp_requested": str(settings.spp),
-        "rtval.stopped_by": "deterministic (1 pass = any spp)" if _deterministic(settings) else stopped_by,
+        "rtval.stopped_by": "deterministic (1 pass = any spp)"
+        if _deterministic(settings)
+        else stopped_by,
         "rtval.seed": str(settings.seed),
         "rtval.centre_rays": str(settings.centre_rays).lower(),
         "rtval.light": settings.light,
@@ -167,13 +199,14 @@ def _sensor(mi: Any, scene: Scene, exported: Any, width: int, height: int) -> An
     """The exported camera, with the film resized to the render size."""
     from mitsuba_ref.plugin_tree import to_dict
 
-    d = to_dict(exported.tree.props["sensor"], mi)  # type: ignore[arg-type]
+    d = to_dict(exported.tree.props["sensor"], mi)
     d["film"]["width"], d["film"]["height"] = width, height
     return mi.load_dict(d)
 
 
-def _film_positions(dr: Any, mi: Any, sampler: Any, width: int, height: int,
-                    centre: bool, batch: int = 1) -> Any:
+def _film_positions(
+    dr: Any, mi: Any, sampler: Any, width: int, height: int, centre: bool, batch: int = 1
+) -> Any:
     """Film positions in [0, 1]^2, `batch` samples per pixel: centres or uniform in the pixel."""
     idx = dr.arange(mi.UInt32, width * height * batch) % (width * height)
     x = mi.Float(idx % width)
@@ -184,8 +217,18 @@ def _film_positions(dr: Any, mi: Any, sampler: Any, width: int, height: int,
     return mi.Point2f((x + offset.x) / width, (y + offset.y) / height)
 
 
-def _jit_batch(mi: Any, dr: Any, mscene: Any, sensor: Any, integrator: Any, width: int,
-               height: int, seed: int, batch: int, centre: bool) -> NDArray[np.float64]:
+def _jit_batch(
+    mi: Any,
+    dr: Any,
+    mscene: Any,
+    sensor: Any,
+    integrator: Any,
+    width: int,
+    height: int,
+    seed: int,
+    batch: int,
+    centre: bool,
+) -> NDArray[np.float64]:
     """`batch` samples per pixel in one wavefront: batch x H x W x 3."""
     sampler = mi.load_dict({"type": "independent"})
     sampler.seed(seed, width * height * batch)
@@ -197,8 +240,17 @@ def _jit_batch(mi: Any, dr: Any, mscene: Any, sensor: Any, integrator: Any, widt
     return out.reshape(batch, height, width, 3).astype(np.float64)
 
 
-def _scalar_pass(mi: Any, dr: Any, mscene: Any, sensor: Any, integrator: Any, width: int,
-                 height: int, seed: int, centre: bool) -> NDArray[np.float64]:
+def _scalar_pass(
+    mi: Any,
+    dr: Any,
+    mscene: Any,
+    sensor: Any,
+    integrator: Any,
+    width: int,
+    height: int,
+    seed: int,
+    centre: bool,
+) -> NDArray[np.float64]:
     out = np.zeros((height, width, 3), np.float64)
     sampler = mi.load_dict({"type": "independent"})
     for y in range(height):
@@ -215,8 +267,9 @@ def _scalar_pass(mi: Any, dr: Any, mscene: Any, sensor: Any, integrator: Any, wi
     return out
 
 
-def _primary_aovs(mi: Any, dr: Any, mscene: Any, sensor: Any, shape_index: dict[str, int],
-                  width: int, height: int) -> dict[str, F32]:
+def _primary_aovs(
+    mi: Any, dr: Any, mscene: Any, sensor: Any, shape_index: dict[str, int], width: int, height: int
+) -> dict[str, F32]:
     """id, depth and N of the camera ray through each pixel centre (same meaning as the demo's)."""
     ids = np.full((height, width), -1.0, np.float32)
     depth = np.zeros((height, width), np.float32)
@@ -225,8 +278,11 @@ def _primary_aovs(mi: Any, dr: Any, mscene: Any, sensor: Any, shape_index: dict[
         pos = _film_positions(dr, mi, None, width, height, True)
         ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
         si = mscene.ray_intersect(ray)
+        hit_shape = dr.reinterpret_array(mi.UInt32, si.shape)
+        # One kernel for every field read below; each lazy read would trace the rays again.
+        dr.eval(si.is_valid(), hit_shape, si.t, si.sh_frame.n, ray.d)
         valid = np.asarray(si.is_valid()).reshape(height, width)
-        registry = np.asarray(dr.reinterpret_array(mi.UInt32, si.shape)).reshape(height, width)
+        registry = np.asarray(hit_shape).reshape(height, width)
         lookup = {}
         for shape in mscene.shapes():
             rid = int(np.asarray(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape)))[0])
@@ -234,7 +290,9 @@ def _primary_aovs(mi: Any, dr: Any, mscene: Any, sensor: Any, shape_index: dict[
         for rid, index in lookup.items():
             ids[(registry == rid) & valid] = index
         t = np.asarray(si.t).reshape(height, width)
-        n = np.stack([np.asarray(c) for c in (si.sh_frame.n.x, si.sh_frame.n.y, si.sh_frame.n.z)], -1)
+        n = np.stack(
+            [np.asarray(c) for c in (si.sh_frame.n.x, si.sh_frame.n.y, si.sh_frame.n.z)], -1
+        )
         d = np.stack([np.asarray(c) for c in (ray.d.x, ray.d.y, ray.d.z)], -1)
         n = n.reshape(height, width, 3)
         d = d.reshape(height, width, 3)
@@ -244,8 +302,12 @@ def _primary_aovs(mi: Any, dr: Any, mscene: Any, sensor: Any, shape_index: dict[
     else:
         for y in range(height):
             for x in range(width):
-                ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f((x + 0.5) / width, (y + 0.5) / height),
-                                           mi.Point2f(0.5, 0.5))
+                ray, _ = sensor.sample_ray(
+                    0.0,
+                    0.5,
+                    mi.Point2f((x + 0.5) / width, (y + 0.5) / height),
+                    mi.Point2f(0.5, 0.5),
+                )
                 si = mscene.ray_intersect(ray)
                 if not si.is_valid():
                     continue
@@ -254,5 +316,10 @@ def _primary_aovs(mi: Any, dr: Any, mscene: Any, sensor: Any, shape_index: dict[
                 n = np.array([si.sh_frame.n[0], si.sh_frame.n[1], si.sh_frame.n[2]])
                 dd = np.array([ray.d[0], ray.d[1], ray.d[2]])
                 normal[y, x] = -n if n @ dd > 0 else n
-    return {"id": ids, "depth": depth, "N.X": normal[..., 0], "N.Y": normal[..., 1],
-            "N.Z": normal[..., 2]}
+    return {
+        "id": ids,
+        "depth": depth,
+        "N.X": normal[..., 0],
+        "N.Y": normal[..., 1],
+        "N.Z": normal[..., 2],
+    }

@@ -8,29 +8,64 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.images import read_image, write_exr, write_png
+from compare.judge.images import read_image, write_exr, write_png
 
 # kind -> expected gradebook status (error/missing rows are "fail" with a reason)
 KINDS = {
-    "copy": "pass", "physical16": "pass", "noise_small": "pass", "noise_large": "fail", "biased": "fail",
-    "wrong_size": "fail", "corrupt": "fail", "missing": "fail", "no_shadows": "fail", "no_refraction": "fail",
+    "copy": "pass",
+    "physical16": "pass",
+    "noise_small": "pass",
+    "noise_large": "fail",
+    "biased": "fail",
+    "wrong_size": "fail",
+    "corrupt": "fail",
+    "missing": "fail",
+    "no_shadows": "fail",
+    "no_refraction": "fail",
     "nan": "fail",
 }
 
 
-def make_class(reference_exr: Path, scene_file: Path, rtdemo: str, folder: Path, *, per_kind: int = 3,
-               size: tuple[int, int] = (160, 120), seed: int = 7) -> dict[str, tuple[str, str]]:
+def make_class(
+    reference_exr: Path,
+    scene_file: Path,
+    rtdemo: str,
+    folder: Path,
+    *,
+    per_kind: int = 3,
+    size: tuple[int, int] = (160, 120),
+    seed: int = 7,
+) -> dict[str, tuple[str, str]]:
     """Writes per_kind submissions of every kind into `folder`; returns id -> (kind, expected)."""
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     ref = read_image(reference_exr).rgb
     scene = scene_file.stem
     demo: dict[str, np.ndarray] = {}
-    for kind, args in (("physical16", ["--spp", "16"]), ("no_shadows", ["--no-shadows", "--spp", "16"]),
-                       ("no_refraction", ["--no-refraction", "--spp", "16"])):
+    for kind, args in (
+        ("physical16", ["--spp", "16"]),
+        ("no_shadows", ["--no-shadows", "--spp", "16"]),
+        ("no_refraction", ["--no-refraction", "--spp", "16"]),
+    ):
         out = folder.parent / f"_{kind}.exr"
-        subprocess.run([rtdemo, "render", str(scene_file), "-o", str(out), "--mode", "physical", "-q",
-                        "--width", str(size[0]), "--height", str(size[1]), *args], check=True)
+        subprocess.run(
+            [
+                rtdemo,
+                "render",
+                str(scene_file),
+                "-o",
+                str(out),
+                "--mode",
+                "physical",
+                "-q",
+                "--width",
+                str(size[0]),
+                "--height",
+                str(size[1]),
+                *args,
+            ],
+            check=True,
+        )
         demo[kind] = read_image(out).rgb
     expected = {}
     for kind, status in KINDS.items():
@@ -40,11 +75,19 @@ def make_class(reference_exr: Path, scene_file: Path, rtdemo: str, folder: Path,
             if kind == "copy":
                 write_exr(folder / f"{sid}.exr", ref)
             elif kind in demo:
-                write_png(folder / f"{sid}.png", demo[kind]) if i % 2 else write_exr(folder / f"{sid}.exr", demo[kind])
+                write_png(folder / f"{sid}.png", demo[kind]) if i % 2 else write_exr(
+                    folder / f"{sid}.exr", demo[kind]
+                )
             elif kind == "noise_small":
-                write_exr(folder / f"{sid}.exr", (ref + rng.normal(0, 0.002, ref.shape)).astype(np.float32))
+                write_exr(
+                    folder / f"{sid}.exr",
+                    (ref + rng.normal(0, 0.002, ref.shape)).astype(np.float32),
+                )
             elif kind == "noise_large":
-                write_exr(folder / f"{sid}.exr", np.clip(ref + rng.normal(0, 0.3, ref.shape), 0, None).astype(np.float32))
+                write_exr(
+                    folder / f"{sid}.exr",
+                    np.clip(ref + rng.normal(0, 0.3, ref.shape), 0, None).astype(np.float32),
+                )
             elif kind == "biased":
                 write_exr(folder / f"{sid}.exr", (ref * 1.6 + 0.05).astype(np.float32))
             elif kind == "wrong_size":

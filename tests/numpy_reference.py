@@ -1,4 +1,4 @@
-"""An independent float64 numpy implementation of paper-model.md (`paper` and `classic`
+"""An independent float64 numpy implementation of docs/paper-model.md (`paper` and `classic`
 modes), written from the spec rather than from demo_cpp, to check the C++ renderer.
 
 Vectorised over rays; the recursion follows both branches for whole batches.
@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from compare.effects import camera_directions
-from mitsuba_ref.scene import Scene
+from compare.judge.effects import camera_directions
+from scene_model.scene import Scene
 
 F64 = NDArray[np.float64]
 
@@ -93,8 +93,9 @@ class ReferenceTracer:
         out[hit] = colour + self.emission[idx]
         return out
 
-    def _specular(self, d: F64, p: F64, n: F64, inside: NDArray[np.bool_],
-                  idx: NDArray[np.int_], depth: int) -> F64:
+    def _specular(
+        self, d: F64, p: F64, n: F64, inside: NDArray[np.bool_], idx: NDArray[np.int_], depth: int
+    ) -> F64:
         bias = self.scene.bias
         idotn = _dot(d, n)
         facing = np.maximum(0.0, -idotn)
@@ -130,8 +131,9 @@ class ReferenceTracer:
                 if self.classic:
                     transmission = np.where(blocked, 0.0, transmission)
                 else:
-                    shadow = np.where(blocked, np.maximum(0.0, shadow - (1 - self.transparency[j])),
-                                      shadow)
+                    shadow = np.where(
+                        blocked, np.maximum(0.0, shadow - (1 - self.transparency[j])), shadow
+                    )
                     transmission = np.where(blocked, transmission * shadow, transmission)
             cos = np.maximum(0.0, _dot(n, l_dir))
             colour += (transmission * cos)[:, None] * self.emission[light][None, :]

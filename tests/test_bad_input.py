@@ -12,23 +12,27 @@ from pathlib import Path
 import numpy as np
 import OpenEXR
 import pytest
-from conftest import SCENES, run
+from helpers import SCENES, run
 
-from compare.images import ImageError, read_image, write_exr
+from compare.judge.images import ImageError, read_image, write_exr
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
 
 
 def _exr(path: Path, channels: dict[str, np.ndarray]) -> Path:
-    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
-                      {k: v.astype(np.float32) for k, v in channels.items()}) as f:
+    with OpenEXR.File(
+        {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+        {k: v.astype(np.float32) for k, v in channels.items()},
+    ) as f:
         f.write(str(path))
     return path
 
 
 def test_exr_with_extra_channels_is_read_and_extras_kept_apart(tmp_path: Path) -> None:
     plane = np.full((8, 8), 0.5, np.float32)
-    p = _exr(tmp_path / "x.exr", {"R": plane, "G": plane, "B": plane, "A": plane, "diffuse.R": plane * 0})
+    p = _exr(
+        tmp_path / "x.exr", {"R": plane, "G": plane, "B": plane, "A": plane, "diffuse.R": plane * 0}
+    )
     img = read_image(p)
     assert img.rgb.shape == (8, 8, 3) and set(img.aovs) == {"A", "diffuse.R"}
 
@@ -52,29 +56,56 @@ def test_truncated_exr_is_unreadable(tmp_path: Path) -> None:
 
 def test_unwritable_json_output_is_exit_4(tmp_path: Path) -> None:
     p = _exr(tmp_path / "ok.exr", {c: np.zeros((16, 16), np.float32) for c in "RGB"})
-    proc = run([RTVAL, "compare", str(p), str(p), "--json", str(tmp_path / "no" / "dir" / "r.json")])
+    proc = run(
+        [RTVAL, "compare", str(p), str(p), "--json", str(tmp_path / "no" / "dir" / "r.json")]
+    )
     assert proc.returncode == 4 and "r.json" in proc.stderr
 
 
 def test_absurd_reference_size_is_refused_before_allocating(tmp_path: Path) -> None:
-    proc = run([RTVAL, "reference", str(SCENES / "classic.json"), "-o", str(tmp_path / "x.exr"),
-                "--size", "16384x16384"])
+    proc = run(
+        [
+            RTVAL,
+            "reference",
+            str(SCENES / "classic.json"),
+            "-o",
+            str(tmp_path / "x.exr"),
+            "--size",
+            "16384x16384",
+        ]
+    )
     assert proc.returncode == 64 and "too large" in proc.stderr
 
 
 def test_missing_scene_file_everywhere(tmp_path: Path, rtdemo: str) -> None:
     missing = str(tmp_path / "nope.json")
     assert run([rtdemo, "render", missing, "-o", str(tmp_path / "x.exr")]).returncode == 3
-    for cmd in (["export", missing, "-o", str(tmp_path / "x.xml")], ["reference", missing, "-o", str(tmp_path / "x.exr")],
-                ["report", missing, "--reports-dir", str(tmp_path)]):
+    for cmd in (
+        ["export", missing, "-o", str(tmp_path / "x.xml")],
+        ["reference", missing, "-o", str(tmp_path / "x.exr")],
+        ["report", missing, "--reports-dir", str(tmp_path)],
+    ):
         proc = run([RTVAL, *cmd])
         assert proc.returncode == 3 and "nope.json" in proc.stderr, cmd
 
 
 def test_interrupted_report_leaves_no_complete_looking_files(tmp_path: Path) -> None:
-    proc = subprocess.Popen([RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(tmp_path),
-                             "--size", "64x48", "--no-pdf"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, start_new_session=True)
+    proc = subprocess.Popen(
+        [
+            RTVAL,
+            "report",
+            str(SCENES / "classic.json"),
+            "--reports-dir",
+            str(tmp_path),
+            "--size",
+            "64x48",
+            "--no-pdf",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     time.sleep(4)
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=60)

@@ -1,11 +1,11 @@
-"""compare.convergence: the time each renderer takes to reach the reference's own error."""
+"""compare.judge.convergence: the time each renderer takes to reach the reference's own error."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from compare.convergence import time_to_converged
-from compare.images import Image
+from compare.judge.convergence import time_to_converged
+from compare.judge.images import Image
 
 
 def _image(value: float, seconds: float, **header: str) -> Image:
@@ -15,7 +15,12 @@ def _image(value: float, seconds: float, **header: str) -> Image:
 
 def test_the_first_spp_within_the_reference_error_is_timed() -> None:
     ref = _image(0.5, 40.0, **{"rtval.mean_stderr": "0.01", "rtval.spp": "32"})
-    demo = {1: _image(0.55, 0.1), 4: _image(0.52, 0.3), 16: _image(0.505, 1.0), 64: _image(0.5, 4.0)}
+    demo = {
+        1: _image(0.55, 0.1),
+        4: _image(0.52, 0.3),
+        16: _image(0.505, 1.0),
+        64: _image(0.5, 4.0),
+    }
     c = time_to_converged(ref, demo)
     assert set(c["demo_errors"]) == {"1", "4", "16"}
     assert abs(c["demo_errors"]["4"] - 0.02) < 1e-6 and abs(c["demo_errors"]["16"] - 0.005) < 1e-6

@@ -3,6 +3,7 @@ with their own error (SceneError, ImageError) on arbitrary input."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import struct
 from pathlib import Path
@@ -11,14 +12,20 @@ import hypothesis.strategies as st
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 
-from compare.images import ImageError, read_image
-from mitsuba_ref.scene import SceneError, parse_scene
+from compare.judge.images import ImageError, read_image
+from scene_model.scene import SceneError, parse_scene
 
 json_values = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=False, allow_infinity=False)
+    st.none()
+    | st.booleans()
+    | st.integers(-(10**6), 10**6)
+    | st.floats(allow_nan=False, allow_infinity=False)
     | st.text(max_size=12),
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=10), inner, max_size=4),
-    max_leaves=20)
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=10), inner, max_size=4)
+    ),
+    max_leaves=20,
+)
 
 SPHERE_KEYS = ["name", "center", "radius", "color", "reflection", "transparency", "ior", "emission"]
 
@@ -26,13 +33,22 @@ SPHERE_KEYS = ["name", "center", "radius", "color", "reflection", "transparency"
 @st.composite
 def almost_scenes(draw: st.DrawFn) -> str:
     """Valid-looking scenes with some values replaced by arbitrary JSON."""
-    scene: dict[str, object] = {"format": "rtval-scene/1", "name": "fuzz", "spheres": [
-        {"name": "a", "center": [0, 0, -5], "radius": 1, "color": [1, 1, 1]}]}
+    scene: dict[str, object] = {
+        "format": "rtval-scene/1",
+        "name": "fuzz",
+        "spheres": [{"name": "a", "center": [0, 0, -5], "radius": 1, "color": [1, 1, 1]}],
+    }
     for _ in range(draw(st.integers(0, 4))):
         target = draw(st.sampled_from(["top", "sphere", "camera"]))
-        key = draw(st.sampled_from(["format", "name", "bias", "max_depth", "background", "camera", "extra"]
-                                   if target == "top" else SPHERE_KEYS if target == "sphere"
-                                   else ["position", "look_at", "up", "fov_y", "width", "height"]))
+        key = draw(
+            st.sampled_from(
+                ["format", "name", "bias", "max_depth", "background", "camera", "extra"]
+                if target == "top"
+                else SPHERE_KEYS
+                if target == "sphere"
+                else ["position", "look_at", "up", "fov_y", "width", "height"]
+            )
+        )
         value = draw(json_values)
         if target == "top":
             scene[key] = value
@@ -57,10 +73,8 @@ def test_loader_only_raises_scene_error(text: str) -> None:
 @settings(max_examples=300, deadline=None)
 @given(st.binary(max_size=200) | st.text(max_size=200).map(str.encode))
 def test_loader_on_arbitrary_bytes(data: bytes) -> None:
-    try:
+    with contextlib.suppress(SceneError):
         parse_scene(data.decode("utf-8", errors="replace"), "bytes.json")
-    except SceneError:
-        pass
 
 
 HEADERS = {
@@ -71,9 +85,15 @@ HEADERS = {
 }
 
 
-@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(suffix=st.sampled_from(sorted(HEADERS)), which=st.integers(0, 2), tail=st.binary(max_size=300))
-def test_image_readers_only_raise_image_error(tmp_path: Path, suffix: str, which: int, tail: bytes) -> None:
+@settings(
+    max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    suffix=st.sampled_from(sorted(HEADERS)), which=st.integers(0, 2), tail=st.binary(max_size=300)
+)
+def test_image_readers_only_raise_image_error(
+    tmp_path: Path, suffix: str, which: int, tail: bytes
+) -> None:
     header = HEADERS[suffix][which % len(HEADERS[suffix])]
     path = tmp_path / f"fuzz{suffix}"
     path.write_bytes(header + tail)
@@ -84,7 +104,9 @@ def test_image_readers_only_raise_image_error(tmp_path: Path, suffix: str, which
         assert str(path) in str(e)
 
 
-@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(w=st.integers(1, 9), h=st.integers(1, 9), seed=st.integers(0, 2**31))
 def test_pfm_round_trip(tmp_path: Path, w: int, h: int, seed: int) -> None:
     img = np.random.default_rng(seed).normal(size=(h, w, 3)).astype(np.float32)

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SCENES, run
+from helpers import SCENES, run
 
-from compare.images import read_image
-from compare.metrics import compute_maps, compute_metrics
+from compare.judge.images import read_image
+from compare.judge.metrics import compute_maps, compute_metrics
 
 pytestmark = pytest.mark.slow
 
@@ -21,7 +21,20 @@ def render_both(scene: Path, mode: str, rtdemo: str, tmp_path: Path, *options: s
     images = []
     for backend in ("cpu", "gl"):
         out = tmp_path / f"{backend}.exr"
-        proc = run([rtdemo, "render", str(scene), "-o", str(out), "--mode", mode, "--backend", backend, *options])
+        proc = run(
+            [
+                rtdemo,
+                "render",
+                str(scene),
+                "-o",
+                str(out),
+                "--mode",
+                mode,
+                "--backend",
+                backend,
+                *options,
+            ]
+        )
         assert proc.returncode == 0, proc.stderr
         images.append(read_image(out))
     return tuple(images)
@@ -47,19 +60,40 @@ def test_gl_equals_cpu(scene: str, mode: str, rtdemo: str, tmp_path: Path) -> No
 
 # The shader's other paths: several lights (Q4's shared shadow), none, a light inside glass,
 # and a thousand spheres (read from a storage buffer instead of constants).
-@pytest.mark.parametrize("scene", ["coloured_lights", "no_light", "light_inside_glass", "thousand_spheres"])
+@pytest.mark.parametrize(
+    "scene", ["coloured_lights", "no_light", "light_inside_glass", "thousand_spheres"]
+)
 @pytest.mark.parametrize("mode", ["paper", "physical"])
 def test_gl_equals_cpu_on_stress_scenes(scene: str, mode: str, rtdemo: str, tmp_path: Path) -> None:
-    cpu, gl = render_both(SCENES / "stress" / f"{scene}.json", mode, rtdemo, tmp_path, "--width", "160",
-                          "--height", "120")
+    cpu, gl = render_both(
+        SCENES / "stress" / f"{scene}.json",
+        mode,
+        rtdemo,
+        tmp_path,
+        "--width",
+        "160",
+        "--height",
+        "120",
+    )
     close = share_within_1_255(cpu, gl)
     assert close >= 0.999, close  # measured 0.99958 (thousand_spheres, paper) to 1.0
     assert (cpu.aovs["id"] == gl.aovs["id"]).mean() >= 0.999
 
 
 def test_gl_supports_spp_and_effect_switches(rtdemo: str, tmp_path: Path) -> None:
-    cpu, gl = render_both(SCENES / "classic.json", "physical", rtdemo, tmp_path, "--spp", "4", "--no-shadows",
-                          "--width", "96", "--height", "72")
+    cpu, gl = render_both(
+        SCENES / "classic.json",
+        "physical",
+        rtdemo,
+        tmp_path,
+        "--spp",
+        "4",
+        "--no-shadows",
+        "--width",
+        "96",
+        "--height",
+        "72",
+    )
     assert share_within_1_255(cpu, gl) >= 0.999
     assert (cpu.aovs["id"] == gl.aovs["id"]).mean() >= 0.999  # the centre ray's, whatever the spp
 
@@ -67,7 +101,9 @@ def test_gl_supports_spp_and_effect_switches(rtdemo: str, tmp_path: Path) -> Non
 def test_no_egl_gives_one_clear_line_and_exit_5(rtdemo: str, tmp_path: Path) -> None:
     env = {**os.environ, "__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent/vendor.json"}
     out = tmp_path / "x.exr"
-    proc = run([rtdemo, "render", str(SCENES / "classic.json"), "-o", str(out), "--backend", "gl"], env=env)
+    proc = run(
+        [rtdemo, "render", str(SCENES / "classic.json"), "-o", str(out), "--backend", "gl"], env=env
+    )
     assert proc.returncode == 5
     assert proc.stderr.strip().splitlines()[-1].startswith("rtdemo: error: OpenGL:")
     assert not out.exists()
@@ -83,11 +119,44 @@ def test_view_screenshot_under_xvfb_matches_headless(rtdemo: str, tmp_path: Path
     xvfb = shutil.which("xvfb-run")
     assert xvfb, "xvfb-run missing: make setup installs Debian's xvfb"
     shot, headless = tmp_path / "shot.png", tmp_path / "headless.png"
-    proc = run([xvfb, "-a", "-s", "-screen 0 1024x768x24", rtdemo, "view", str(SCENES / "classic.json"),
-                "--frames", "3", "--screenshot", str(shot), "--width", "320", "--height", "240"])
+    proc = run(
+        [
+            xvfb,
+            "-a",
+            "-s",
+            "-screen 0 1024x768x24",
+            rtdemo,
+            "view",
+            str(SCENES / "classic.json"),
+            "--frames",
+            "3",
+            "--screenshot",
+            str(shot),
+            "--width",
+            "320",
+            "--height",
+            "240",
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
-    assert run([rtdemo, "render", str(SCENES / "classic.json"), "--png", str(headless), "--backend", "gl",
-                "--width", "320", "--height", "240"]).returncode == 0
+    assert (
+        run(
+            [
+                rtdemo,
+                "render",
+                str(SCENES / "classic.json"),
+                "--png",
+                str(headless),
+                "--backend",
+                "gl",
+                "--width",
+                "320",
+                "--height",
+                "240",
+            ]
+        ).returncode
+        == 0
+    )
     a, b = read_image(headless).rgb, read_image(shot).rgb
     ssim = compute_metrics(a, b, compute_maps(a, b, hdr=False)).ssim
     assert ssim >= 0.99, ssim

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 from class_generator import make_class
-from conftest import SCENES, run
+from helpers import SCENES, run
 
 pytestmark = pytest.mark.slow
 RTVAL = str(Path(sys.executable).with_name("rtval"))
@@ -22,11 +22,26 @@ def graded(tmp_path_factory: pytest.TempPathFactory, rtdemo: str) -> tuple[Path,
     root = tmp_path_factory.mktemp("class")
     out = root / "grades"
     # First run renders the reference, which the class is made from.
-    warm = run([RTVAL, "grade", str(root), "--scene", str(SCENE), "--out", str(out), "--size", "160x120"])
+    warm = run(
+        [RTVAL, "grade", str(root), "--scene", str(SCENE), "--out", str(out), "--size", "160x120"]
+    )
     assert warm.returncode == 0, warm.stderr
     expected = make_class(out / "references" / "classic.exr", SCENE, rtdemo, root / "subs")
-    proc = run([RTVAL, "grade", str(root / "subs"), "--scene", str(SCENE), "--out", str(out), "--size", "160x120",
-                "--jobs", "2"])
+    proc = run(
+        [
+            RTVAL,
+            "grade",
+            str(root / "subs"),
+            "--scene",
+            str(SCENE),
+            "--out",
+            str(out),
+            "--size",
+            "160x120",
+            "--jobs",
+            "2",
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
     return out, expected, root
 
@@ -40,8 +55,11 @@ def test_every_verdict_is_the_expected_one(graded: tuple[Path, dict, Path]) -> N
     out, expected, _ = graded
     book = _gradebook(out)
     assert len(expected) >= 30 and set(book) == set(expected)
-    wrong = {sid: (kind, status, book[sid]["status"], book[sid]["reasons"])
-             for sid, (kind, status) in expected.items() if book[sid]["status"] != status}
+    wrong = {
+        sid: (kind, status, book[sid]["status"], book[sid]["reasons"])
+        for sid, (kind, status) in expected.items()
+        if book[sid]["status"] != status
+    }
     assert not wrong, wrong
     reasons = {sid: book[sid]["reasons"] for sid in book}
     assert all("wrong size 80x60, expected 160x120" in reasons[f"wrong_size_{i}"] for i in range(3))
@@ -54,57 +72,139 @@ def test_every_verdict_is_the_expected_one(graded: tuple[Path, dict, Path]) -> N
     result = json.loads((out / "results" / "no_refraction_1.json").read_text())
     assert result["scenes"][0]["verdict"]["effects"]["refraction"]["status"] == "fail"
     page = out / "students" / "copy_0" / "index.html"
-    assert "copy_0" in page.read_text() and (out / "students" / "copy_0" / "classic-diff.png").is_file()
+    assert (
+        "copy_0" in page.read_text()
+        and (out / "students" / "copy_0" / "classic-diff.png").is_file()
+    )
     assert json.loads((out / "gradebook.json").read_text())["students"][0]["student"]
 
 
 def test_rerun_resumes_everything(graded: tuple[Path, dict, Path]) -> None:  # type: ignore[type-arg]
     out, expected, root = graded
-    proc = run([RTVAL, "grade", str(root / "subs"), "--scene", str(SCENE), "--out", str(out), "--size", "160x120"])
+    proc = run(
+        [
+            RTVAL,
+            "grade",
+            str(root / "subs"),
+            "--scene",
+            str(SCENE),
+            "--out",
+            str(out),
+            "--size",
+            "160x120",
+        ]
+    )
     assert proc.returncode == 0
     assert f"({len(expected)} resumed)" in proc.stderr
 
 
-def test_dask_cluster_gives_the_same_gradebook(graded: tuple[Path, dict, Path], tmp_path: Path) -> None:  # type: ignore[type-arg]
+def test_dask_cluster_gives_the_same_gradebook(
+    graded: tuple[Path, dict, Path], tmp_path: Path
+) -> None:  # type: ignore[type-arg]
     from dask.distributed import LocalCluster
 
-    out, expected, root = graded
+    out, _expected, root = graded
     dask_out = tmp_path / "dask"
     (dask_out / "references").mkdir(parents=True)
     (dask_out / "cache").mkdir()
     for p in (out / "cache").iterdir():  # share the rendered reference
         (dask_out / "cache" / p.name).write_bytes(p.read_bytes())
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        proc = run([RTVAL, "grade", str(root / "subs"), "--scene", str(SCENE), "--out", str(dask_out),
-                    "--size", "160x120", "--executor", "dask", "--scheduler", cluster.scheduler_address])
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        proc = run(
+            [
+                RTVAL,
+                "grade",
+                str(root / "subs"),
+                "--scene",
+                str(SCENE),
+                "--out",
+                str(dask_out),
+                "--size",
+                "160x120",
+                "--executor",
+                "dask",
+                "--scheduler",
+                cluster.scheduler_address,
+            ]
+        )
     assert proc.returncode == 0, proc.stderr
     a, b = _gradebook(out), _gradebook(dask_out)
-    assert {k: (v["status"], v["score"]) for k, v in a.items()} == {k: (v["status"], v["score"]) for k, v in b.items()}
+    assert {k: (v["status"], v["score"]) for k, v in a.items()} == {
+        k: (v["status"], v["score"]) for k, v in b.items()
+    }
 
 
 def test_explain_prints_the_arithmetic(graded: tuple[Path, dict, Path]) -> None:  # type: ignore[type-arg]
     out, _, _ = graded
     proc = run([RTVAL, "grade", "--explain", "biased_0", "--out", str(out)])
     assert proc.returncode == 0
-    assert "biased_0: FAIL" in proc.stdout and "x weight" in proc.stdout and "scene classic" in proc.stdout
+    assert (
+        "biased_0: FAIL" in proc.stdout
+        and "x weight" in proc.stdout
+        and "scene classic" in proc.stdout
+    )
     assert run([RTVAL, "grade", "--explain", "nobody", "--out", str(out)]).returncode == 4
 
 
-def test_rubric_changes_verdicts_and_errors_name_the_line(graded: tuple[Path, dict, Path], tmp_path: Path) -> None:  # type: ignore[type-arg]
-    out, _, root = graded
+def test_rubric_changes_verdicts_and_errors_name_the_line(
+    graded: tuple[Path, dict, Path], tmp_path: Path
+) -> None:  # type: ignore[type-arg]
+    _out, _, root = graded
     lenient = tmp_path / "lenient.toml"
-    lenient.write_text("[rubric]\npass_score = 0\n" + "".join(
-        f"\n[effects.{e}]\nmin_ssim = -1\nmax_flip = 1.0\n" for e in ("direct", "shadow", "reflection", "edges")))
-    proc = run([RTVAL, "grade", str(root / "subs"), "--scene", str(SCENE), "--out", str(tmp_path / "g"),
-                "--size", "160x120", "--rubric", str(lenient)])
+    lenient.write_text(
+        "[rubric]\npass_score = 0\n"
+        + "".join(
+            f"\n[effects.{e}]\nmin_ssim = -1\nmax_flip = 1.0\n"
+            for e in ("direct", "shadow", "reflection", "edges")
+        )
+    )
+    proc = run(
+        [
+            RTVAL,
+            "grade",
+            str(root / "subs"),
+            "--scene",
+            str(SCENE),
+            "--out",
+            str(tmp_path / "g"),
+            "--size",
+            "160x120",
+            "--rubric",
+            str(lenient),
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
     assert _gradebook(tmp_path / "g")["no_shadows_0"]["status"] == "pass"
     bad = tmp_path / "bad.toml"
     bad.write_text("[rubric]\npass_score = 60\n\n[effects.shadows]\nmax_flip = 0.1\n")
-    proc = run([RTVAL, "grade", str(root / "subs"), "--scene", str(SCENE), "--out", str(tmp_path / "h"),
-                "--rubric", str(bad)])
+    proc = run(
+        [
+            RTVAL,
+            "grade",
+            str(root / "subs"),
+            "--scene",
+            str(SCENE),
+            "--out",
+            str(tmp_path / "h"),
+            "--rubric",
+            str(bad),
+        ]
+    )
     assert proc.returncode == 4 and "bad.toml: line 4: unknown effect 'shadows'" in proc.stderr
     bad.write_text("[rubric]\npass_score = 60\n\n[effects.shadow]\nmax_flip = 'low'\n")
-    proc = run([RTVAL, "grade", str(root / "subs"), "--scene", str(SCENE), "--out", str(tmp_path / "h"),
-                "--rubric", str(bad)])
+    proc = run(
+        [
+            RTVAL,
+            "grade",
+            str(root / "subs"),
+            "--scene",
+            str(SCENE),
+            "--out",
+            str(tmp_path / "h"),
+            "--rubric",
+            str(bad),
+        ]
+    )
     assert proc.returncode == 4 and "bad.toml: line 5: max_flip must be a number" in proc.stderr

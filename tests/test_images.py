@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image as PILImage
 
-from compare.images import ImageError, linear_to_srgb, read_image, srgb_to_linear
+from compare.judge.images import ImageError, linear_to_srgb, read_image, srgb_to_linear
 
 
 def test_srgb_round_trip_and_known_value() -> None:
@@ -25,7 +25,8 @@ def test_ppm_defaults_to_linear_png_to_srgb(tmp_path: Path) -> None:
     assert read_image(tmp_path / "a.ppm").rgb[0, 0, 0] == pytest.approx(128 / 255)
     assert read_image(tmp_path / "a.png").rgb[0, 0, 0] == pytest.approx(0.2158605, abs=1e-6)
     assert read_image(tmp_path / "a.ppm", encoding="srgb").rgb[0, 0, 0] == pytest.approx(
-        0.2158605, abs=1e-6)
+        0.2158605, abs=1e-6
+    )
 
 
 def test_pfm_both_endiannesses_and_bottom_up_rows(tmp_path: Path) -> None:
@@ -36,13 +37,16 @@ def test_pfm_both_endiannesses_and_bottom_up_rows(tmp_path: Path) -> None:
         np.testing.assert_array_equal(read_image(p).rgb, img)
 
 
-@pytest.mark.parametrize("name,content,needle", [
-    ("t.pfm", b"PF\n3 2\n-1.0\n" + b"\0" * 10, "truncated"),
-    ("t.exr", b"not an exr", "cannot read EXR"),
-    ("t.png", b"\x89PNG\r\n\x1a\n garbage", "cannot read image"),
-    ("t.ppm", b"P6\n4 4\n255\n\x01\x02", "cannot read image"),
-    ("t.tga", b"x", "unsupported image type"),
-])
+@pytest.mark.parametrize(
+    "name,content,needle",
+    [
+        ("t.pfm", b"PF\n3 2\n-1.0\n" + b"\0" * 10, "truncated"),
+        ("t.exr", b"not an exr", "cannot read EXR"),
+        ("t.png", b"\x89PNG\r\n\x1a\n garbage", "cannot read image"),
+        ("t.ppm", b"P6\n4 4\n255\n\x01\x02", "cannot read image"),
+        ("t.tga", b"x", "unsupported image type"),
+    ],
+)
 def test_corrupt_files_raise_image_error_naming_the_file(
     tmp_path: Path, name: str, content: bytes, needle: str
 ) -> None:

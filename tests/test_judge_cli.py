@@ -9,15 +9,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ROOT, SCENES, run
+from helpers import ROOT, SCENES, run
 from PIL import Image as PILImage
 
-from compare.images import read_image, write_exr
+from compare.judge.images import read_image, write_exr
+from compare.judge.mistakes import catalogue
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
-FAULTY = ROOT / "build" / "cmake" / "rtdemo_faulty"
-FAULTS = ["flipped_normal", "wrong_eta", "no_bias", "half_pixel_offset", "double_gamma",
-          "no_shadows", "fresnel_exponent", "depth_cut"]
+# Built by make test (build/tests, with the GoogleTest suite), never by pip.
+# Every named mistake (compare/judge/mistakes.json) but shadow_past_light, which is quirk Q5:
+# already present in paper and classic, and invisible in physical mode in the built-in scenes
+# (nothing lies beyond their light).
+MISTAKES = [m for m in catalogue() if m != "shadow_past_light"]
 
 
 def _exr(path: Path, rgb: np.ndarray, **aovs: np.ndarray) -> Path:
@@ -49,8 +52,18 @@ def test_exit_codes_pass_fail_size_unreadable(images: dict[str, Path]) -> None:
     assert run([RTVAL, "compare", str(images["ref"]), str(images["same"])]).returncode == 0
     bad = run([RTVAL, "compare", str(images["ref"]), str(images["bad"])])
     assert bad.returncode == 2 and "FAIL" in bad.stdout
-    assert run([RTVAL, "compare", str(images["ref"]), str(images["bad"]), "--failpercent", "5"]).returncode == 1
-    assert run([RTVAL, "compare", str(images["ref"]), str(images["nan"]), "--failpercent", "100"]).returncode == 2
+    assert (
+        run(
+            [RTVAL, "compare", str(images["ref"]), str(images["bad"]), "--failpercent", "5"]
+        ).returncode
+        == 1
+    )
+    assert (
+        run(
+            [RTVAL, "compare", str(images["ref"]), str(images["nan"]), "--failpercent", "100"]
+        ).returncode
+        == 2
+    )
     size = run([RTVAL, "compare", str(images["ref"]), str(images["small"])])
     assert size.returncode == 3 and "never resampled" in size.stderr
     corrupt = run([RTVAL, "compare", str(images["ref"]), str(images["corrupt"])])
@@ -59,19 +72,40 @@ def test_exit_codes_pass_fail_size_unreadable(images: dict[str, Path]) -> None:
 
 
 def test_min_ssim_max_flip_and_hardfail(images: dict[str, Path]) -> None:
-    args = [RTVAL, "compare", str(images["ref"]), str(images["bad"]), "--failpercent", "100", "--warnpercent", "100"]
+    args = [
+        RTVAL,
+        "compare",
+        str(images["ref"]),
+        str(images["bad"]),
+        "--failpercent",
+        "100",
+        "--warnpercent",
+        "100",
+    ]
     assert run(args).returncode == 0
-    assert run(args + ["--min-ssim", "0.999"]).returncode == 2
-    assert run(args + ["--max-flip", "0.0001"]).returncode == 2
-    assert run(args + ["--hardfail", "0.1"]).returncode == 2
+    assert run([*args, "--min-ssim", "0.999"]).returncode == 2
+    assert run([*args, "--max-flip", "0.0001"]).returncode == 2
+    assert run([*args, "--hardfail", "0.1"]).returncode == 2
 
 
 def test_json_diff_image_and_mask(images: dict[str, Path], tmp_path: Path) -> None:
     mask = np.zeros((24, 32, 3), np.uint8)
     mask[15:, 15:] = 255  # away from the damaged block
     PILImage.fromarray(mask).save(tmp_path / "mask.png")
-    proc = run([RTVAL, "compare", str(images["ref"]), str(images["bad"]), "--json", str(tmp_path / "r.json"),
-                "--diff-image", str(tmp_path / "d.png"), "--mask", str(tmp_path / "mask.png")])
+    proc = run(
+        [
+            RTVAL,
+            "compare",
+            str(images["ref"]),
+            str(images["bad"]),
+            "--json",
+            str(tmp_path / "r.json"),
+            "--diff-image",
+            str(tmp_path / "d.png"),
+            "--mask",
+            str(tmp_path / "mask.png"),
+        ]
+    )
     assert proc.returncode == 0, proc.stdout
     data = json.loads((tmp_path / "r.json").read_text())
     assert data["status"] == "pass" and data["metrics"]["pixels"] == 9 * 17
@@ -84,20 +118,76 @@ def test_ppm_is_read_as_linear_unless_told(tmp_path: Path) -> None:
     lin = np.full((16, 16, 3), 0.5, np.float32)
     _exr(tmp_path / "ref.exr", lin)
     PILImage.fromarray(np.full((16, 16, 3), 128, np.uint8)).save(tmp_path / "paper.ppm")
-    ok = run([RTVAL, "compare", str(tmp_path / "ref.exr"), str(tmp_path / "paper.ppm"), "--fail", "0.01"])
-    assert ok.returncode in (0, 1), ok.stdout
-    wrong = run([RTVAL, "compare", str(tmp_path / "ref.exr"), str(tmp_path / "paper.ppm"), "--test-encoding", "srgb"])
+    ok = run(
+        [RTVAL, "compare", str(tmp_path / "ref.exr"), str(tmp_path / "paper.ppm"), "--fail", "0.01"]
+    )
+    # 128/255 = 0.50196 against 0.5: 0.0013 apart after sRGB encoding, under the 1/255 warning.
+    assert ok.returncode == 0, ok.stdout
+    wrong = run(
+        [
+            RTVAL,
+            "compare",
+            str(tmp_path / "ref.exr"),
+            str(tmp_path / "paper.ppm"),
+            "--test-encoding",
+            "srgb",
+        ]
+    )
     assert wrong.returncode == 2
 
 
 def test_per_effect_table_names_every_visible_effect(rtdemo: str, tmp_path: Path) -> None:
     a, b = tmp_path / "a.exr", tmp_path / "b.exr"
     scene = str(SCENES / "classic.json")
-    assert run([rtdemo, "render", scene, "-o", str(a), "--mode", "classic", "--width", "160", "--height", "120"]).returncode == 0
-    assert run([rtdemo, "render", scene, "-o", str(b), "--mode", "paper", "--width", "160", "--height", "120"]).returncode == 0
-    proc = run([RTVAL, "compare", str(a), str(b), "--scene", scene, "--json", str(tmp_path / "r.json")])
+    assert (
+        run(
+            [
+                rtdemo,
+                "render",
+                scene,
+                "-o",
+                str(a),
+                "--mode",
+                "classic",
+                "--width",
+                "160",
+                "--height",
+                "120",
+            ]
+        ).returncode
+        == 0
+    )
+    assert (
+        run(
+            [
+                rtdemo,
+                "render",
+                scene,
+                "-o",
+                str(b),
+                "--mode",
+                "paper",
+                "--width",
+                "160",
+                "--height",
+                "120",
+            ]
+        ).returncode
+        == 0
+    )
+    proc = run(
+        [RTVAL, "compare", str(a), str(b), "--scene", scene, "--json", str(tmp_path / "r.json")]
+    )
     data = json.loads((tmp_path / "r.json").read_text())
-    assert set(data["per_effect"]) == {"background", "emitter", "direct", "shadow", "reflection", "refraction", "edges"} - {"emitter"}
+    assert set(data["per_effect"]) == {
+        "background",
+        "emitter",
+        "direct",
+        "shadow",
+        "reflection",
+        "refraction",
+        "edges",
+    } - {"emitter"}
     # classic vs paper differ in glass (Q2) and shadows (Q4/Q9), not in the background
     assert data["per_effect"]["background"]["status"] == "pass"
     assert data["per_effect"]["refraction"]["status"] == "fail"
@@ -109,15 +199,25 @@ def test_ztest_passes_noise_and_fails_bias(tmp_path: Path) -> None:
     rng = np.random.default_rng(11)
     mean = rng.uniform(0.2, 0.8, (32, 32, 3)).astype(np.float32)
     var = np.full_like(mean, 0.04)
-    write_exr(tmp_path / "ref.exr", mean, aovs={f"var.{c}": var[..., i] for i, c in enumerate("RGB")})
+    write_exr(
+        tmp_path / "ref.exr", mean, aovs={f"var.{c}": var[..., i] for i, c in enumerate("RGB")}
+    )
     spp = 16
     noisy = mean + rng.normal(0, np.sqrt(0.04 / spp), mean.shape).astype(np.float32)
     write_exr(tmp_path / "ok.exr", noisy, header={"rtval.spp": str(spp)})
     write_exr(tmp_path / "biased.exr", noisy + 0.2, header={"rtval.spp": str(spp)})
     ok = run([RTVAL, "ztest", str(tmp_path / "ref.exr"), str(tmp_path / "ok.exr")])
     assert ok.returncode == 0 and "PASS" in ok.stdout
-    bad = run([RTVAL, "ztest", str(tmp_path / "ref.exr"), str(tmp_path / "biased.exr"),
-               "--pvalue-image", str(tmp_path / "p.exr")])
+    bad = run(
+        [
+            RTVAL,
+            "ztest",
+            str(tmp_path / "ref.exr"),
+            str(tmp_path / "biased.exr"),
+            "--pvalue-image",
+            str(tmp_path / "p.exr"),
+        ]
+    )
     assert bad.returncode == 2 and float(np.median(read_image(tmp_path / "p.exr").rgb)) < 1e-3
     no_var = run([RTVAL, "ztest", str(tmp_path / "ok.exr"), str(tmp_path / "ok.exr")])
     assert no_var.returncode == 4 and "var.R" in no_var.stderr
@@ -126,36 +226,53 @@ def test_ztest_passes_noise_and_fails_bias(tmp_path: Path) -> None:
 def _check(baseline: Path, *extra: str, env: dict[str, str] | None = None) -> tuple[int, str]:
     import os
 
-    proc = run([RTVAL, "check", "--baseline", str(baseline), *extra], env={**os.environ, **(env or {})})
+    proc = run(
+        [RTVAL, "check", "--baseline", str(baseline), *extra], env={**os.environ, **(env or {})}
+    )
     return proc.returncode, proc.stdout + proc.stderr
 
 
 def test_check_passes_unchanged_renderer_repeatedly_and_writes_junit(tmp_path: Path) -> None:
     baseline = ROOT / "tests" / "baselines"
     for _ in range(2):
-        code, out = _check(baseline, "--junit", str(tmp_path / "j.xml"), "--json", str(tmp_path / "c.json"))
+        code, out = _check(
+            baseline, "--junit", str(tmp_path / "j.xml"), "--json", str(tmp_path / "c.json")
+        )
         assert code == 0, out
     suite = ET.parse(tmp_path / "j.xml").getroot()
     assert suite.get("tests") == "6" and suite.get("failures") == "0"
-    code, out = _check(baseline, "--backends", "gl", "--modes", "paper")
-    assert code in (0, 1), out  # the GL twin reproduces the CPU baselines (warn: a few px over 1/255)
     assert json.loads((tmp_path / "c.json").read_text())["status"] == "pass"
+    # The GL twin reproduces the CPU baselines within the check's tolerance (0.02 % = 15 px of
+    # 320x240 may exceed 2/255). On llvmpipe (Mesa 22.3) the paper scene has 8 silhouette pixels
+    # over it (a warning, measured 2026-12-01); another driver may round them differently.
+    gl_json = tmp_path / "gl.json"
+    code, out = _check(baseline, "--backends", "gl", "--modes", "paper", "--json", str(gl_json))
+    cases = {c["name"]: c for c in json.loads(gl_json.read_text())["cases"]}
+    assert code != 2, out
+    assert all(c["failing_pixels"] <= 15 for c in cases.values()), out
+    assert cases["classic/gl-paper"]["status"] == "pass", out
 
 
-@pytest.mark.parametrize("fault", FAULTS)
-def test_check_fails_on_every_injected_fault(fault: str) -> None:
-    if not FAULTY.is_file():
-        pytest.fail(f"{FAULTY} missing: it is built with the test suite (BUILD_TESTING)")
-    code, out = _check(ROOT / "tests" / "baselines", "--rtdemo", str(FAULTY), env={"RTDEMO_FAULT": fault})
+@pytest.mark.parametrize("mistake", MISTAKES)
+def test_check_fails_on_every_named_mistake(mistake: str, rtdemo: str, tmp_path: Path) -> None:
+    # rtdemo with the mistake switched on, as a renderer `check` runs like any other build.
+    mistaken = tmp_path / "rtdemo_mistaken"
+    mistaken.write_text(f'#!/bin/sh\nexec "{rtdemo}" "$@" --mistake {mistake}\n')
+    mistaken.chmod(0o755)
+    code, out = _check(ROOT / "tests" / "baselines", "--rtdemo", str(mistaken))
     assert code == 2, out
 
 
 def test_missing_baseline_fails_and_update_writes_only_what_failed(tmp_path: Path) -> None:
     code, out = _check(tmp_path, "--scenes", str(SCENES / "classic.json"), "--modes", "paper")
     assert code == 2 and "no baseline" in out
-    code, out = _check(tmp_path, "--scenes", str(SCENES / "classic.json"), "--modes", "paper,classic", "--update")
+    code, out = _check(
+        tmp_path, "--scenes", str(SCENES / "classic.json"), "--modes", "paper,classic", "--update"
+    )
     assert code == 0 and "updated baselines: classic/cpu-paper, classic/cpu-classic" in out
     stamp = (tmp_path / "classic" / "paper.exr").stat().st_mtime_ns
-    code, out = _check(tmp_path, "--scenes", str(SCENES / "classic.json"), "--modes", "paper", "--update")
+    code, out = _check(
+        tmp_path, "--scenes", str(SCENES / "classic.json"), "--modes", "paper", "--update"
+    )
     assert code == 0 and "updated" not in out
     assert (tmp_path / "classic" / "paper.exr").stat().st_mtime_ns == stamp

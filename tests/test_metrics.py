@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter
 
-from compare.images import linear_to_srgb
-from compare.metrics import SizeMismatch, compute_maps, compute_metrics
+from compare.judge.images import linear_to_srgb
+from compare.judge.metrics import SizeMismatch, compute_maps, compute_metrics
 
 
 def _wang_ssim_map(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -22,7 +22,9 @@ def _wang_ssim_map(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         f = lambda v: gaussian_filter(v, 1.5, truncate=3.5, mode="reflect")  # noqa: E731
         mx, my = f(x), f(y)
         sxx, syy, sxy = f(x * x) - mx * mx, f(y * y) - my * my, f(x * y) - mx * my
-        out.append(((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2)))
+        out.append(
+            ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
+        )
     return np.mean(out, axis=0)
 
 
@@ -35,7 +37,9 @@ def pair() -> tuple[np.ndarray, np.ndarray]:
     return ref, test
 
 
-def test_ssim_equals_an_independent_wang_implementation(pair: tuple[np.ndarray, np.ndarray]) -> None:
+def test_ssim_equals_an_independent_wang_implementation(
+    pair: tuple[np.ndarray, np.ndarray],
+) -> None:
     ref, test = pair
     maps = compute_maps(ref, test, hdr=False)
     expected = _wang_ssim_map(linear_to_srgb(ref), linear_to_srgb(test))[5:-5, 5:-5].mean()
@@ -52,7 +56,9 @@ def test_psnr_rmse_mae_relmse_by_hand(pair: tuple[np.ndarray, np.ndarray]) -> No
     assert m.rmse_display == pytest.approx(math.sqrt(mse), rel=1e-6)
     d = ref.astype(np.float64) - test
     assert m.mae_linear == pytest.approx(np.mean(np.abs(d)), rel=1e-9)
-    assert m.rel_mse_linear == pytest.approx(np.mean(d**2 / (ref.astype(np.float64) ** 2 + 0.01)), rel=1e-9)
+    assert m.rel_mse_linear == pytest.approx(
+        np.mean(d**2 / (ref.astype(np.float64) ** 2 + 0.01)), rel=1e-9
+    )
     assert m.max_error_at == (11, 7, 2)
     assert m.max_error_linear == pytest.approx(3.0, abs=1e-5)
     assert m.over_threshold == int((np.abs(a - b).max(-1) > 1 / 255).sum())
@@ -79,7 +85,9 @@ def test_mask_restricts_every_metric(pair: tuple[np.ndarray, np.ndarray]) -> Non
     m = compute_metrics(ref, test, maps, mask=mask)
     assert m.pixels == 200
     assert m.max_error_at is not None and 20 <= m.max_error_at[1] < 30
-    assert m.mae_linear == pytest.approx(np.abs(ref[mask].astype(np.float64) - test[mask]).mean(), rel=1e-9)
+    assert m.mae_linear == pytest.approx(
+        np.abs(ref[mask].astype(np.float64) - test[mask]).mean(), rel=1e-9
+    )
 
 
 def test_nan_and_inf_are_counted_not_averaged() -> None:

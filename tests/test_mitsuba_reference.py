@@ -1,6 +1,6 @@
 """The Mitsuba reference: export, light units, cap mesh, Whitted integrator, determinism.
 
-Each trap of mitsuba-notes.md has a test here.
+Each trap of docs/mitsuba-notes.md has a test here.
 """
 
 from __future__ import annotations
@@ -11,14 +11,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SCENES, run
+from helpers import SCENES, run
 
-from compare.images import read_image
+from compare.judge.images import read_image
 from mitsuba_ref.conductor_fit import conductor_fresnel, fit_paper_conductor, paper_fresnel
 from mitsuba_ref.export import ExportOptions, export_scene
 from mitsuba_ref.light_units import light_values
 from mitsuba_ref.reference import ReferenceSettings, render_reference
-from mitsuba_ref.scene import load_scene, parse_scene
+from scene_model.scene import load_scene, parse_scene
 
 pytestmark = pytest.mark.slow
 
@@ -51,7 +51,9 @@ def test_xml_handles_every_export_trap() -> None:
     assert mirror.find("string[@name='material']").get("value") == "none"  # type: ignore[union-attr]
     # The huge floor is a cap mesh unless asked otherwise.
     assert root.find("shape[@id='sphere_0']").get("type") == "ply"  # type: ignore[union-attr]
-    assert _xml("paper", keep_huge_spheres=True).find("shape[@id='sphere_0']").get("type") == "sphere"  # type: ignore[union-attr]
+    assert (
+        _xml("paper", keep_huge_spheres=True).find("shape[@id='sphere_0']").get("type") == "sphere"
+    )  # type: ignore[union-attr]
 
 
 def test_paper_mapping_fits_a_conductor_to_the_paper_fresnel() -> None:
@@ -91,7 +93,9 @@ def demo_physical(rtdemo: str, tmp_path_factory: pytest.TempPathFactory) -> dict
     folder = tmp_path_factory.mktemp("demo")
     for scene in ("paper", "classic"):
         exr = folder / f"{scene}.exr"
-        proc = run([rtdemo, "render", str(SCENES / f"{scene}.json"), "-o", str(exr), "--mode", "physical"])
+        proc = run(
+            [rtdemo, "render", str(SCENES / f"{scene}.json"), "-o", str(exr), "--mode", "physical"]
+        )
         assert proc.returncode == 0, proc.stderr
         out[scene] = read_image(exr)
     return out
@@ -100,7 +104,10 @@ def demo_physical(rtdemo: str, tmp_path_factory: pytest.TempPathFactory) -> dict
 @pytest.fixture(scope="module")
 def whitted_point(demo_physical: dict[str, object]) -> dict[str, object]:
     settings = ReferenceSettings(integrator="whitted", light="point", centre_rays=True)
-    return {s: render_reference(load_scene(SCENES / f"{s}.json"), settings) for s in ("paper", "classic")}
+    return {
+        s: render_reference(load_scene(SCENES / f"{s}.json"), settings)
+        for s in ("paper", "classic")
+    }
 
 
 @pytest.mark.parametrize("scene", ["paper", "classic"])
@@ -111,8 +118,11 @@ def test_id_aov_matches_the_demo(scene: str, demo_physical: dict, whitted_point:
 
 
 @pytest.mark.parametrize("scene", ["paper", "classic"])
-def test_whitted_point_reference_equals_demo_physical(scene: str, demo_physical: dict,  # type: ignore[type-arg]
-                                                      whitted_point: dict) -> None:  # type: ignore[type-arg]
+def test_whitted_point_reference_equals_demo_physical(
+    scene: str,
+    demo_physical: dict,  # type: ignore[type-arg]
+    whitted_point: dict,
+) -> None:  # type: ignore[type-arg]
     a = np.clip(demo_physical[scene].rgb, 0, 1)
     b = np.clip(whitted_point[scene].rgb, 0, 1)
     close = (np.abs(a - b) <= 1 / 255).all(axis=-1)
@@ -127,7 +137,13 @@ def test_cap_mesh_removes_the_acne_mitsuba_shows_on_the_huge_floor() -> None:
     # 4 spp: 251 floor pixels more than 50 % darker with the sphere than with the cap, and 5
     # the other way round (noise).
     scene = load_scene(SCENES / "paper.json")
-    common = dict(integrator="path", light="point", centre_rays=True, spp=4, size=(320, 240))
+    common = {
+        "integrator": "path",
+        "light": "point",
+        "centre_rays": True,
+        "spp": 4,
+        "size": (320, 240),
+    }
     cap = render_reference(scene, ReferenceSettings(**common))  # type: ignore[arg-type]
     kept = render_reference(scene, ReferenceSettings(keep_huge_spheres=True, **common))  # type: ignore[arg-type]
     floor = (cap.aovs["id"] == 0) & (kept.aovs["id"] == 0)
@@ -174,8 +190,12 @@ def test_cap_mesh_keeps_the_horizon(demo_physical: dict, whitted_point: dict) ->
 def test_whitted_on_kept_sphere_uses_its_own_offsets(demo_physical: dict) -> None:  # type: ignore[type-arg]
     # rtval_whitted offsets rays by 1e-4 (1 + |p|): even the kept sphere shows no acne there.
     scene = load_scene(SCENES / "classic.json")
-    kept = render_reference(scene, ReferenceSettings(integrator="whitted", light="point",
-                                                     centre_rays=True, keep_huge_spheres=True))
+    kept = render_reference(
+        scene,
+        ReferenceSettings(
+            integrator="whitted", light="point", centre_rays=True, keep_huge_spheres=True
+        ),
+    )
     demo = demo_physical["classic"]
     ground = demo.aovs["id"] == 0
     wrong = (np.abs(kept.rgb.mean(-1) - demo.rgb.mean(-1)) > 0.05)[ground].mean()
@@ -188,7 +208,9 @@ def test_diffuse_sphere_under_point_light_is_analytic() -> None:
       "spheres": [{"name": "ball", "center": [0, 0, -6], "radius": 1.5, "color": [0.5, 0.6, 0.7]},
                   {"name": "lamp", "center": [3, 4, -2], "radius": 0.2, "color": [0, 0, 0],
                    "emission": [1, 1, 1]}]}""")
-    ref = render_reference(scene, ReferenceSettings(integrator="whitted", light="point", centre_rays=True))
+    ref = render_reference(
+        scene, ReferenceSettings(integrator="whitted", light="point", centre_rays=True)
+    )
     intensity = light_values(scene, scene.spheres[1]).intensity[0]
     # Hit points from the AOVs: p = camera + depth * dir, dir through the pixel centre.
     h, w = 48, 64
@@ -228,8 +250,23 @@ def test_same_seed_same_image_and_cli_writes_aovs(tmp_path: Path) -> None:
     outs = []
     for name in ("a", "b"):
         out = tmp_path / f"{name}.exr"
-        proc = run([rtval, "reference", str(SCENES / "classic.json"), "-o", str(out), "--integrator",
-                    "path", "--spp", "3", "--seed", "7", "--size", "64x48"])
+        proc = run(
+            [
+                rtval,
+                "reference",
+                str(SCENES / "classic.json"),
+                "-o",
+                str(out),
+                "--integrator",
+                "path",
+                "--spp",
+                "3",
+                "--seed",
+                "7",
+                "--size",
+                "64x48",
+            ]
+        )
         assert proc.returncode == 0, proc.stderr
         outs.append(read_image(out))
     np.testing.assert_array_equal(outs[0].rgb, outs[1].rgb)
@@ -238,22 +275,38 @@ def test_same_seed_same_image_and_cli_writes_aovs(tmp_path: Path) -> None:
     assert h["rtval.variant"] == "llvm_ad_rgb" and h["rtval.spp"] == "3" and h["rtval.seed"] == "7"
     assert float(h["rtval.render_seconds"]) > 0
     other = tmp_path / "c.exr"
-    run([rtval, "reference", str(SCENES / "classic.json"), "-o", str(other), "--integrator", "path",
-         "--spp", "3", "--seed", "8", "--size", "64x48"])
+    run(
+        [
+            rtval,
+            "reference",
+            str(SCENES / "classic.json"),
+            "-o",
+            str(other),
+            "--integrator",
+            "path",
+            "--spp",
+            "3",
+            "--seed",
+            "8",
+            "--size",
+            "64x48",
+        ]
+    )
     assert not np.array_equal(read_image(other).rgb, outs[0].rgb)
 
 
 def test_time_budget_stops_early_and_says_so() -> None:
     scene = load_scene(SCENES / "classic.json")
-    r = render_reference(scene, ReferenceSettings(integrator="path", spp=10_000, time_budget=0.5,
-                                                  size=(32, 24)))
+    r = render_reference(
+        scene, ReferenceSettings(integrator="path", spp=10_000, time_budget=0.5, size=(32, 24))
+    )
     assert 1 <= r.spp_done < 10_000
     assert r.header["rtval.stopped_by"] == "time budget"
 
 
 def test_scalar_variant_agrees_with_llvm_on_whitted() -> None:
     scene = load_scene(SCENES / "classic.json")
-    s = dict(integrator="whitted", light="point", centre_rays=True, size=(24, 18))
+    s = {"integrator": "whitted", "light": "point", "centre_rays": True, "size": (24, 18)}
     a = render_reference(scene, ReferenceSettings(variant="llvm_ad_rgb", **s))  # type: ignore[arg-type]
     b = render_reference(scene, ReferenceSettings(variant="scalar_rgb", **s))  # type: ignore[arg-type]
     assert (a.aovs["id"] == b.aovs["id"]).mean() > 0.99
@@ -264,10 +317,29 @@ def test_bad_reference_options_are_clear(tmp_path: Path) -> None:
     import sys
 
     rtval = str(Path(sys.executable).with_name("rtval"))
-    proc = run([rtval, "reference", str(SCENES / "classic.json"), "-o", str(tmp_path / "x.exr"),
-                "--integrator", "path", "--no-shadows"])
+    proc = run(
+        [
+            rtval,
+            "reference",
+            str(SCENES / "classic.json"),
+            "-o",
+            str(tmp_path / "x.exr"),
+            "--integrator",
+            "path",
+            "--no-shadows",
+        ]
+    )
     assert proc.returncode == 64 and "whitted integrator only" in proc.stderr
-    proc = run([rtval, "reference", str(SCENES / "classic.json"), "-o", str(tmp_path / "x.exr"),
-                "--spp", "0"])
+    proc = run(
+        [
+            rtval,
+            "reference",
+            str(SCENES / "classic.json"),
+            "-o",
+            str(tmp_path / "x.exr"),
+            "--spp",
+            "0",
+        ]
+    )
     assert proc.returncode == 64 and "positive integer" in proc.stderr
     assert not (tmp_path / "x.exr").exists()

@@ -1,11 +1,11 @@
-"""compare.penumbra: the demo's difference from the area-light reference, inside and outside
+"""compare.judge.penumbra: the demo's difference from the area-light reference, inside and outside
 the penumbrae."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from compare.penumbra import penumbra_numbers
+from compare.judge.penumbra import penumbra_numbers
 
 
 def test_a_point_light_demo_differs_only_inside_the_penumbra() -> None:

@@ -1,5 +1,5 @@
 """Physical mode converges to the Mitsuba Whitted reference; quirk fixes move the error the
-way paper-model.md predicts. Reduced sizes here; bench/bench_physical.py runs the full study
+way docs/paper-model.md predicts. Reduced sizes here; bench/bench_physical.py runs the full study
 at 640x480 (numbers in bench/results/physical.json)."""
 
 from __future__ import annotations
@@ -8,13 +8,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SCENES, run
+from helpers import SCENES, run
 
-from compare.effects import effect_masks
-from compare.images import read_image
-from compare.metrics import compute_maps, compute_metrics
+from compare.judge.effects import effect_masks
+from compare.judge.images import read_image
+from compare.judge.metrics import compute_maps, compute_metrics
 from mitsuba_ref.reference import ReferenceSettings, render_reference
-from mitsuba_ref.scene import load_scene
+from scene_model.scene import load_scene
 
 pytestmark = pytest.mark.slow
 SIZE = (320, 240)
@@ -22,23 +22,40 @@ SIZE = (320, 240)
 
 def _demo(rtdemo: str, scene: str, tmp: Path, *args: str) -> np.ndarray:
     out = tmp / f"{scene}-{'_'.join(args)}.exr"
-    proc = run([rtdemo, "render", str(SCENES / f"{scene}.json"), "-o", str(out), "--width", str(SIZE[0]),
-                "--height", str(SIZE[1]), *args])
+    proc = run(
+        [
+            rtdemo,
+            "render",
+            str(SCENES / f"{scene}.json"),
+            "-o",
+            str(out),
+            "--width",
+            str(SIZE[0]),
+            "--height",
+            str(SIZE[1]),
+            *args,
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
     return read_image(out).rgb
 
 
 @pytest.mark.parametrize("scene", ["paper", "classic"])
 @pytest.mark.parametrize("backend", ["cpu", "gl"])
-def test_physical_matches_whitted_reference_with_centre_rays(scene: str, backend: str, rtdemo: str,
-                                                             tmp_path: Path) -> None:
+def test_physical_matches_whitted_reference_with_centre_rays(
+    scene: str, backend: str, rtdemo: str, tmp_path: Path
+) -> None:
     s = load_scene(SCENES / f"{scene}.json")
-    ref = render_reference(s, ReferenceSettings(integrator="whitted", light="point", centre_rays=True, size=SIZE))
+    ref = render_reference(
+        s, ReferenceSettings(integrator="whitted", light="point", centre_rays=True, size=SIZE)
+    )
     demo = _demo(rtdemo, scene, tmp_path, "--mode", "physical", "--backend", backend)
     maps = compute_maps(ref.rgb, demo, hdr=False)
     assert compute_metrics(ref.rgb, demo, maps).ssim >= 0.995
     masks = effect_masks(s, ref.aovs["id"], ref.aovs["depth"])
-    rel = ((ref.rgb.astype(np.float64) - demo) ** 2 / (ref.rgb.astype(np.float64) ** 2 + 0.01)).mean(-1)
+    rel = (
+        (ref.rgb.astype(np.float64) - demo) ** 2 / (ref.rgb.astype(np.float64) ** 2 + 0.01)
+    ).mean(-1)
     assert rel.mean() <= 1e-3
     # Issue 7's criterion in every effect mask, no pixel left out. Measured at 320x240
     # (2026-11-22): worst mask relMSE 2.3e-5 (paper, edges), SSIM >= 0.9998; before the cap
@@ -56,7 +73,9 @@ def converged() -> dict[str, object]:
     out = {}
     for scene in ("paper", "classic"):
         s = load_scene(SCENES / f"{scene}.json")
-        ref = render_reference(s, ReferenceSettings(integrator="whitted", light="point", spp=16, size=SIZE))
+        ref = render_reference(
+            s, ReferenceSettings(integrator="whitted", light="point", spp=16, size=SIZE)
+        )
         out[scene] = (ref, effect_masks(s, ref.aovs["id"], ref.aovs["depth"]))
     return out
 
@@ -65,14 +84,25 @@ def _flip(ref: np.ndarray, img: np.ndarray, mask: np.ndarray) -> float:
     return compute_metrics(ref, img, compute_maps(ref, img, hdr=False), mask=mask).flip_ldr
 
 
-@pytest.mark.parametrize("scene,quirk,effect", [
-    ("paper", "Q7", "direct"), ("classic", "Q7", "direct"),        # falloff and 1/pi calibrated
-    ("paper", "Q8", "reflection"), ("classic", "Q8", "reflection"),  # exact Fresnel, exact mirrors
-    ("classic", "Q9", "shadow"),                                   # glass blocks shadow rays
-    ("classic", "Q2", "refraction"),                               # correct eta leaving glass
-])
-def test_quirk_fix_reduces_the_error_it_should(scene: str, quirk: str, effect: str, converged: dict,  # type: ignore[type-arg]
-                                               rtdemo: str, tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    "scene,quirk,effect",
+    [
+        ("paper", "Q7", "direct"),
+        ("classic", "Q7", "direct"),  # falloff and 1/pi calibrated
+        ("paper", "Q8", "reflection"),
+        ("classic", "Q8", "reflection"),  # exact Fresnel, exact mirrors
+        ("classic", "Q9", "shadow"),  # glass blocks shadow rays
+        ("classic", "Q2", "refraction"),  # correct eta leaving glass
+    ],
+)
+def test_quirk_fix_reduces_the_error_it_should(
+    scene: str,
+    quirk: str,
+    effect: str,
+    converged: dict,  # type: ignore[type-arg]
+    rtdemo: str,
+    tmp_path: Path,
+) -> None:
     ref, masks = converged[scene]
     paper = _demo(rtdemo, scene, tmp_path, "--mode", "paper")
     fixed = _demo(rtdemo, scene, tmp_path, "--mode", "paper", "--fix", quirk)
@@ -81,7 +111,9 @@ def test_quirk_fix_reduces_the_error_it_should(scene: str, quirk: str, effect: s
 
 
 @pytest.mark.parametrize("quirk", ["Q3", "Q4", "Q5"])
-def test_quirks_without_a_trigger_in_the_scene_change_nothing(quirk: str, rtdemo: str, tmp_path: Path) -> None:
+def test_quirks_without_a_trigger_in_the_scene_change_nothing(
+    quirk: str, rtdemo: str, tmp_path: Path
+) -> None:
     # Q3 needs Q2 fixed (eta < 1 never reflects totally), Q4 two lights, Q5 an occluder
     # beyond the light: the built-in scenes have none, so the image is bit-identical.
     for scene in ("paper", "classic"):
@@ -90,9 +122,18 @@ def test_quirks_without_a_trigger_in_the_scene_change_nothing(quirk: str, rtdemo
         np.testing.assert_array_equal(a, b)
 
 
-def test_physical_with_spp_converges_to_the_box_filtered_reference(converged: dict, rtdemo: str,  # type: ignore[type-arg]
-                                                                   tmp_path: Path) -> None:
-    ref, masks = converged["classic"]
-    errors = [_flip(ref.rgb, _demo(rtdemo, "classic", tmp_path, "--mode", "physical", "--spp", str(n)),
-                    np.ones(ref.rgb.shape[:2], bool)) for n in (1, 4, 16)]
+def test_physical_with_spp_converges_to_the_box_filtered_reference(
+    converged: dict,
+    rtdemo: str,  # type: ignore[type-arg]
+    tmp_path: Path,
+) -> None:
+    ref, _masks = converged["classic"]
+    errors = [
+        _flip(
+            ref.rgb,
+            _demo(rtdemo, "classic", tmp_path, "--mode", "physical", "--spp", str(n)),
+            np.ones(ref.rgb.shape[:2], bool),
+        )
+        for n in (1, 4, 16)
+    ]
     assert errors[0] > errors[1] > errors[2], errors

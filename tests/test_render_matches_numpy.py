@@ -1,4 +1,4 @@
-"""The whole render against an independent numpy implementation of paper-model.md.
+"""The whole render against an independent numpy implementation of docs/paper-model.md.
 
 Criterion from issue 2: >= 99.9 % of pixels within 1/255 after clamping to [0, 1].
 The numpy tracer is float64; demo_cpp is float32 like the paper, so a few pixels on
@@ -11,18 +11,21 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SCENES, run
+from helpers import SCENES, run
 from numpy_reference import ReferenceTracer
 
-from compare.images import read_image
-from mitsuba_ref.scene import load_scene
+from compare.judge.images import read_image
+from scene_model.scene import load_scene
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("scene,mode", [("classic", "classic"), ("paper", "paper"),
-                                        ("classic", "paper"), ("paper", "classic")])
-def test_cpu_render_matches_numpy_reference(scene: str, mode: str, rtdemo: str,
-                                            tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    "scene,mode",
+    [("classic", "classic"), ("paper", "paper"), ("classic", "paper"), ("paper", "classic")],
+)
+def test_cpu_render_matches_numpy_reference(
+    scene: str, mode: str, rtdemo: str, tmp_path: Path
+) -> None:
     out = tmp_path / "demo.exr"
     proc = run([rtdemo, "render", str(SCENES / f"{scene}.json"), "-o", str(out), "--mode", mode])
     assert proc.returncode == 0, proc.stderr
@@ -39,11 +42,13 @@ def test_cpu_render_matches_numpy_reference(scene: str, mode: str, rtdemo: str,
 
 def test_numpy_reference_itself_follows_the_spec_on_a_hand_case() -> None:
     # A mirror sphere straight ahead reflecting an empty background of 1: F = 0.1 facing.
-    from mitsuba_ref.scene import parse_scene
+    from scene_model.scene import parse_scene
 
-    s = parse_scene('{"format": "rtval-scene/1", "name": "m", "background": [1, 1, 1],'
-                    ' "spheres": [{"name": "m", "center": [0, 0, -5], "radius": 1,'
-                    ' "color": [0.5, 0.5, 0.5], "reflection": 1}]}')
+    s = parse_scene(
+        '{"format": "rtval-scene/1", "name": "m", "background": [1, 1, 1],'
+        ' "spheres": [{"name": "m", "center": [0, 0, -5], "radius": 1,'
+        ' "color": [0.5, 0.5, 0.5], "reflection": 1}]}'
+    )
     tracer = ReferenceTracer(s, "paper")
     o = np.zeros((1, 3))
     d = np.array([[0.0, 0.0, -1.0]])

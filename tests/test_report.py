@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ROOT, SCENES, run
+from helpers import ROOT, SCENES, run
 from PIL import Image as PILImage
 
 pytestmark = pytest.mark.slow
@@ -20,10 +20,23 @@ ARTIFACTS = ROOT / "build" / "test-artifacts"
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.CompletedProcess[str]]:
+def report(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> tuple[Path, subprocess.CompletedProcess[str]]:
     out = tmp_path_factory.mktemp("reports")
-    proc = run([RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(out), "--size", "160x120",
-                "--jobs", "2"])
+    proc = run(
+        [
+            RTVAL,
+            "report",
+            str(SCENES / "classic.json"),
+            "--reports-dir",
+            str(out),
+            "--size",
+            "160x120",
+            "--jobs",
+            "2",
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
     return out / "classic", proc
 
@@ -36,9 +49,17 @@ def test_page_loads_without_errors_and_flip_control_works(report: tuple[Path, ob
     assert chromium, "Debian's chromium is installed by make setup"
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=chromium, args=[
-            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-            "--disable-sync", "--no-first-run"])
+        browser = p.chromium.launch(
+            executable_path=chromium,
+            args=[
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--no-first-run",
+            ],
+        )
         page = browser.new_page(viewport={"width": 1400, "height": 1000})
         errors: list[str] = []
         page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
@@ -50,7 +71,9 @@ def test_page_loads_without_errors_and_flip_control_works(report: tuple[Path, ob
         for img in page.query_selector_all("img"):
             img.scroll_into_view_if_needed()
         page.wait_for_function("Array.from(document.images).every(i => i.complete)")
-        broken = page.evaluate("Array.from(document.images).filter(i => i.naturalWidth === 0).map(i => i.src)")
+        broken = page.evaluate(
+            "Array.from(document.images).filter(i => i.naturalWidth === 0).map(i => i.src)"
+        )
         assert not broken, broken
         assert page.evaluate("document.images.length") >= 20
         a = page.eval_on_selector("#flip-a", "e => e.value")
@@ -77,21 +100,38 @@ def test_pdf_has_the_same_content(report: tuple[Path, object]) -> None:
     folder, _ = report
     pdf = folder / "report.pdf"
     assert pdf.stat().st_size > 50_000
-    text = subprocess.run(["pdftotext", str(pdf), "-"], capture_output=True, text=True, check=True).stdout
+    text = subprocess.run(
+        ["pdftotext", str(pdf), "-"], capture_output=True, text=True, check=True
+    ).stdout
     data = json.loads((folder / "report.json").read_text())
-    for needle in ("Verdict", "Speed against accuracy", "Ablation ladder", "Reproducibility", data["reference"]["label"]):
+    for needle in (
+        "Verdict",
+        "Speed against accuracy",
+        "Ablation ladder",
+        "Reproducibility",
+        data["reference"]["label"],
+    ):
         assert needle in text, needle
 
 
-def test_report_json_holds_every_section(report: tuple[Path, subprocess.CompletedProcess[str]]) -> None:
+def test_report_json_holds_every_section(
+    report: tuple[Path, subprocess.CompletedProcess[str]],
+) -> None:
     folder, proc = report
     data = json.loads((folder / "report.json").read_text())
     assert data["verdict"]["status"] in ("pass", "fail") and 0 <= data["verdict"]["score"] <= 100
-    assert {"background", "direct", "shadow", "reflection", "refraction"} <= set(data["verdict"]["effects"])
+    assert {"background", "direct", "shadow", "reflection", "refraction"} <= set(
+        data["verdict"]["effects"]
+    )
     assert len(data["sentences"]) == 3
     assert len(data["ladder"]) == 11 and data["ladder"][-1]["step"].startswith("+Q10")
     families = {r["family"] for r in data["speed_accuracy"]}
-    assert {"demo paper cpu", "demo physical gl", "mitsuba whitted llvm", "mitsuba path scalar"} <= families
+    assert {
+        "demo paper cpu",
+        "demo physical gl",
+        "mitsuba whitted llvm",
+        "mitsuba path scalar",
+    } <= families
     assert all(r["command"].startswith(("rtdemo ", "rtval ")) for r in data["renders"])
     assert len(data["contributions"]) == 6
     assert data["versions"]["mitsuba"] != "not installed"
@@ -106,28 +146,80 @@ def test_report_json_holds_every_section(report: tuple[Path, subprocess.Complete
 
 def test_rerun_renders_nothing(report: tuple[Path, object]) -> None:
     folder, _ = report
-    proc = run([RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent),
-                "--size", "160x120", "--no-pdf"])
+    proc = run(
+        [
+            RTVAL,
+            "report",
+            str(SCENES / "classic.json"),
+            "--reports-dir",
+            str(folder.parent),
+            "--size",
+            "160x120",
+            "--no-pdf",
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
-    lines = [l for l in proc.stderr.splitlines() if l.startswith("[")]
-    assert len(lines) == 41 and all(l.endswith(": cached") for l in lines), lines
+    lines = [line for line in proc.stderr.splitlines() if line.startswith("[")]
+    assert len(lines) == 41 and all(line.endswith(": cached") for line in lines), lines
 
 
 def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtdemo: str) -> None:
     folder, _ = report
     student = tmp_path / "student.ppm"
-    assert run([rtdemo, "render", str(SCENES / "classic.json"), "--ppm", str(student), "--mode", "classic",
-                "--width", "160", "--height", "120"]).returncode == 0
-    proc = run([RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent), "--size",
-                "160x120", "--test-image", str(student), "--label", "student 42", "--no-pdf"])
+    assert (
+        run(
+            [
+                rtdemo,
+                "render",
+                str(SCENES / "classic.json"),
+                "--ppm",
+                str(student),
+                "--mode",
+                "classic",
+                "--width",
+                "160",
+                "--height",
+                "120",
+            ]
+        ).returncode
+        == 0
+    )
+    proc = run(
+        [
+            RTVAL,
+            "report",
+            str(SCENES / "classic.json"),
+            "--reports-dir",
+            str(folder.parent),
+            "--size",
+            "160x120",
+            "--test-image",
+            str(student),
+            "--label",
+            "student 42",
+            "--no-pdf",
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
     data = json.loads((folder / "report.json").read_text())
     assert data["test"]["label"] == "student 42" and data["featured"][0]["key"] == "test-image"
     assert "student 42" in (folder / "index.html").read_text()
     small = tmp_path / "small.png"
     PILImage.fromarray(np.zeros((10, 10, 3), np.uint8)).save(small)
-    bad = run([RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent), "--size",
-               "160x120", "--test-image", str(small), "--no-pdf"])
+    bad = run(
+        [
+            RTVAL,
+            "report",
+            str(SCENES / "classic.json"),
+            "--reports-dir",
+            str(folder.parent),
+            "--size",
+            "160x120",
+            "--test-image",
+            str(small),
+            "--no-pdf",
+        ]
+    )
     assert bad.returncode == 4 and "never resampled" in bad.stderr
 
 

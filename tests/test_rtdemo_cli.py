@@ -7,9 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SCENES, run
+from helpers import SCENES, run
+from PIL import Image as PILImage
 
-from compare.images import read_image
+from compare.judge.images import read_image
 
 CLASSIC = str(SCENES / "classic.json")
 
@@ -17,16 +18,44 @@ CLASSIC = str(SCENES / "classic.json")
 def test_help_lists_modes_and_says_physical_has_point_lights(rtdemo: str) -> None:
     proc = run([rtdemo, "render", "--help"])
     assert proc.returncode == 0
-    for word in ("--mode", "paper", "classic", "physical", "--fix", "--spp", "--ppm", "--png",
-                 "--threads", "no soft shadows"):
+    for word in (
+        "--mode",
+        "paper",
+        "classic",
+        "physical",
+        "--fix",
+        "--spp",
+        "--ppm",
+        "--png",
+        "--ppm-rounding",
+        "truncate",
+        "round",
+        "--threads",
+        "no soft shadows",
+    ):
         assert word in proc.stdout
     assert run([rtdemo, "--help"]).returncode == 0
 
 
 def test_exr_has_colour_aovs_and_header(rtdemo: str, tmp_path: Path) -> None:
     out = tmp_path / "c.exr"
-    proc = run([rtdemo, "render", CLASSIC, "-o", str(out), "--width", "64", "--height", "48",
-                "--mode", "classic", "--threads", "2"])
+    proc = run(
+        [
+            rtdemo,
+            "render",
+            CLASSIC,
+            "-o",
+            str(out),
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--mode",
+            "classic",
+            "--threads",
+            "2",
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
     img = read_image(out)
     assert img.shape == (48, 64)
@@ -50,7 +79,23 @@ def test_exr_has_colour_aovs_and_header(rtdemo: str, tmp_path: Path) -> None:
 def test_ray_counts_follow_the_options(rtdemo: str, tmp_path: Path) -> None:
     def rays(*args: str) -> dict[str, int]:
         out = tmp_path / "r.exr"
-        assert run([rtdemo, "render", CLASSIC, "-o", str(out), "--width", "40", "--height", "30", *args]).returncode == 0
+        assert (
+            run(
+                [
+                    rtdemo,
+                    "render",
+                    CLASSIC,
+                    "-o",
+                    str(out),
+                    "--width",
+                    "40",
+                    "--height",
+                    "30",
+                    *args,
+                ]
+            ).returncode
+            == 0
+        )
         h = read_image(out).header
         return {k: int(h[f"rtval.rays_{k}"]) for k in ("camera", "secondary", "shadow")}
 
@@ -66,34 +111,118 @@ def test_exr_compression_is_lossless_and_checked(rtdemo: str, tmp_path: Path) ->
     images = {}
     for c in ("none", "rle", "zip"):
         out = tmp_path / f"{c}.exr"
-        assert run([rtdemo, "render", CLASSIC, "-o", str(out), "--width", "80", "--height", "60",
-                    "--exr-compression", c]).returncode == 0
+        assert (
+            run(
+                [
+                    rtdemo,
+                    "render",
+                    CLASSIC,
+                    "-o",
+                    str(out),
+                    "--width",
+                    "80",
+                    "--height",
+                    "60",
+                    "--exr-compression",
+                    c,
+                ]
+            ).returncode
+            == 0
+        )
         images[c] = read_image(out)
     for c in ("rle", "zip"):
         np.testing.assert_array_equal(images[c].rgb, images["none"].rgb)
         np.testing.assert_array_equal(images[c].aovs["depth"], images["none"].aovs["depth"])
     assert (tmp_path / "zip.exr").stat().st_size < (tmp_path / "none.exr").stat().st_size
-    proc = run([rtdemo, "render", CLASSIC, "-o", str(tmp_path / "bad.exr"), "--exr-compression", "lz4"])
+    proc = run(
+        [rtdemo, "render", CLASSIC, "-o", str(tmp_path / "bad.exr"), "--exr-compression", "lz4"]
+    )
     assert proc.returncode == 2 and "--exr-compression" in proc.stderr
     assert not (tmp_path / "bad.exr").exists()
 
 
 def test_ppm_is_linear_and_png_is_srgb_of_the_same_render(rtdemo: str, tmp_path: Path) -> None:
     exr, png, ppm = tmp_path / "a.exr", tmp_path / "a.png", tmp_path / "a.ppm"
-    proc = run([rtdemo, "render", CLASSIC, "-o", str(exr), "--png", str(png), "--ppm", str(ppm),
-                "--width", "80", "--height", "60"])
+    proc = run(
+        [
+            rtdemo,
+            "render",
+            CLASSIC,
+            "-o",
+            str(exr),
+            "--png",
+            str(png),
+            "--ppm",
+            str(ppm),
+            "--width",
+            "80",
+            "--height",
+            "60",
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
     ref = np.clip(read_image(exr).rgb, 0, 1)
-    assert np.abs(read_image(ppm).rgb - ref).max() <= 0.5 / 255 + 1e-6
+    # PPM is linear and truncated by default, byte = (unsigned char)(min(1, x) * 255) as the
+    # paper's program family writes it: exactly that in float32, not just within a level.
+    linear = read_image(exr).rgb.astype(np.float32)
+    truncated = (np.clip(np.nan_to_num(linear, nan=0.0), 0, 1) * np.float32(255)).astype(np.uint8)
+    ppm_bytes = np.asarray(PILImage.open(ppm))
+    assert np.array_equal(ppm_bytes, truncated)
+    assert not np.array_equal(ppm_bytes, np.rint(ref * 255).astype(np.uint8))  # not rounding
     # PNG is sRGB: decoding it back gives linear values within one sRGB step.
     assert np.abs(read_image(png).rgb - ref).max() < 0.02
+
+
+def test_ppm_rounding_option(rtdemo: str, tmp_path: Path) -> None:
+    exr, rounded = tmp_path / "a.exr", tmp_path / "round.ppm"
+    proc = run(
+        [
+            rtdemo,
+            "render",
+            CLASSIC,
+            "-o",
+            str(exr),
+            "--ppm",
+            str(rounded),
+            "--ppm-rounding",
+            "round",
+            "--width",
+            "80",
+            "--height",
+            "60",
+        ]
+    )
+    assert proc.returncode == 0, proc.stderr
+    ref = np.clip(read_image(exr).rgb, 0, 1)
+    assert np.abs(read_image(rounded).rgb - ref).max() <= 0.5 / 255 + 1e-6
+    bad = run(
+        [rtdemo, "render", CLASSIC, "--ppm", str(tmp_path / "bad.ppm"), "--ppm-rounding", "floor"]
+    )
+    assert bad.returncode == 2 and "--ppm-rounding" in bad.stderr and "floor" in bad.stderr
+    assert not (tmp_path / "bad.ppm").exists()
 
 
 def test_threads_do_not_change_the_image(rtdemo: str, tmp_path: Path) -> None:
     a, b = tmp_path / "1.exr", tmp_path / "2.exr"
     for out, threads in ((a, "1"), (b, "2")):
-        assert run([rtdemo, "render", CLASSIC, "-o", str(out), "--width", "96", "--height", "72",
-                    "--threads", threads]).returncode == 0
+        assert (
+            run(
+                [
+                    rtdemo,
+                    "render",
+                    CLASSIC,
+                    "-o",
+                    str(out),
+                    "--width",
+                    "96",
+                    "--height",
+                    "72",
+                    "--threads",
+                    threads,
+                ]
+            ).returncode
+            == 0
+        )
     np.testing.assert_array_equal(read_image(a).rgb, read_image(b).rgb)
 
 
@@ -101,29 +230,51 @@ def test_spp_averages_stratum_centres_and_needs_q10_fixed(rtdemo: str, tmp_path:
     out = tmp_path / "s.exr"
     refused = run([rtdemo, "render", CLASSIC, "-o", str(out), "--spp", "4"])
     assert refused.returncode == 2 and "Q10" in refused.stderr and not out.exists()
-    ok = run([rtdemo, "render", CLASSIC, "-o", str(out), "--spp", "4", "--fix", "Q10",
-              "--width", "32", "--height", "24"])
+    ok = run(
+        [
+            rtdemo,
+            "render",
+            CLASSIC,
+            "-o",
+            str(out),
+            "--spp",
+            "4",
+            "--fix",
+            "Q10",
+            "--width",
+            "32",
+            "--height",
+            "24",
+        ]
+    )
     assert ok.returncode == 0, ok.stderr
     # 2x2 stratum centres of a 32x24 image are the pixel centres of the 64x48 image.
     big = tmp_path / "big.exr"
-    assert run([rtdemo, "render", CLASSIC, "-o", str(big), "--width", "64",
-                "--height", "48"]).returncode == 0
+    assert (
+        run(
+            [rtdemo, "render", CLASSIC, "-o", str(big), "--width", "64", "--height", "48"]
+        ).returncode
+        == 0
+    )
     fine = read_image(big).rgb.reshape(24, 2, 32, 2, 3).mean(axis=(1, 3))
     np.testing.assert_allclose(read_image(out).rgb, fine, atol=1e-5)
 
 
-@pytest.mark.parametrize("args,code,needle", [
-    (["--mode", "physics"], 2, "unknown mode"),
-    (["--fix", "Q11"], 2, "Q11"),
-    (["--width", "0"], 2, "--width"),
-    (["--width", "16385"], 2, "--width"),
-    (["--width", "abc"], 2, "--width"),
-    (["--width", "16384", "--height", "16384"], 2, "too large"),
-    (["--spp", "3", "--mode", "physical"], 2, "perfect square"),
-    (["--max-depth", "65"], 2, "--max-depth"),
-    (["--backend", "vulkan"], 2, "--backend"),
-    (["--bogus"], 2, "unknown option"),
-])
+@pytest.mark.parametrize(
+    "args,code,needle",
+    [
+        (["--mode", "physics"], 2, "unknown mode"),
+        (["--fix", "Q11"], 2, "Q11"),
+        (["--width", "0"], 2, "--width"),
+        (["--width", "16385"], 2, "--width"),
+        (["--width", "abc"], 2, "--width"),
+        (["--width", "16384", "--height", "16384"], 2, "too large"),
+        (["--spp", "3", "--mode", "physical"], 2, "perfect square"),
+        (["--max-depth", "65"], 2, "--max-depth"),
+        (["--backend", "vulkan"], 2, "--backend"),
+        (["--bogus"], 2, "unknown option"),
+    ],
+)
 def test_bad_arguments_give_one_clear_line_and_exit_2(
     rtdemo: str, tmp_path: Path, args: list[str], code: int, needle: str
 ) -> None:
@@ -149,6 +300,22 @@ def test_unwritable_output_is_exit_4_before_rendering(rtdemo: str, tmp_path: Pat
 
 
 def test_no_temporary_files_are_left_behind(rtdemo: str, tmp_path: Path) -> None:
-    assert run([rtdemo, "render", CLASSIC, "-o", str(tmp_path / "x.exr"), "--png",
-                str(tmp_path / "x.png"), "--width", "16", "--height", "12"]).returncode == 0
+    assert (
+        run(
+            [
+                rtdemo,
+                "render",
+                CLASSIC,
+                "-o",
+                str(tmp_path / "x.exr"),
+                "--png",
+                str(tmp_path / "x.png"),
+                "--width",
+                "16",
+                "--height",
+                "12",
+            ]
+        ).returncode
+        == 0
+    )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.exr", "x.png"]

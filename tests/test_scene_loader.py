@@ -1,28 +1,49 @@
-"""The Python loader enforces every rule of scene-format.md, and agrees with the C++ one."""
+"""The Python loader enforces every rule of docs/scene-format.md, and agrees with the C++ one."""
 
 from __future__ import annotations
 
 import copy
 import json
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import pytest
-from conftest import SCENES, run
+from helpers import SCENES, run
 
-from mitsuba_ref.scene import SceneError, load_scene, parse_scene
+from scene_model.scene import SceneError, load_scene, parse_scene
 
 VALID: dict[str, Any] = {
     "format": "rtval-scene/1",
     "name": "unit",
-    "camera": {"position": [0, 0, 0], "look_at": [0, 0, -1], "up": [0, 1, 0],
-               "fov_y": 30, "width": 64, "height": 48},
-    "background": [2, 2, 2], "max_depth": 5, "bias": 1e-4,
+    "camera": {
+        "position": [0, 0, 0],
+        "look_at": [0, 0, -1],
+        "up": [0, 1, 0],
+        "fov_y": 30,
+        "width": 64,
+        "height": 48,
+    },
+    "background": [2, 2, 2],
+    "max_depth": 5,
+    "bias": 1e-4,
     "spheres": [
-        {"name": "a", "center": [0, 0, -5], "radius": 1, "color": [1, 0, 0],
-         "reflection": 1, "transparency": 0.5, "ior": 1.2},
-        {"name": "light", "center": [0, 5, 0], "radius": 1, "color": [0, 0, 0],
-         "emission": [3, 3, 3]},
+        {
+            "name": "a",
+            "center": [0, 0, -5],
+            "radius": 1,
+            "color": [1, 0, 0],
+            "reflection": 1,
+            "transparency": 0.5,
+            "ior": 1.2,
+        },
+        {
+            "name": "light",
+            "center": [0, 5, 0],
+            "radius": 1,
+            "color": [0, 0, 0],
+            "emission": [3, 3, 3],
+        },
     ],
 }
 
@@ -33,6 +54,7 @@ def _set(path: list[Any], value: Any) -> Callable[[dict[str, Any]], None]:
         for key in path[:-1]:
             node = node[key]
         node[path[-1]] = value
+
     return mutate
 
 
@@ -42,10 +64,11 @@ def _drop(path: list[Any]) -> Callable[[dict[str, Any]], None]:
         for key in path[:-1]:
             node = node[key]
         del node[path[-1]]
+
     return mutate
 
 
-# (label, mutation, JSON path the error must name) — one per rule of scene-format.md.
+# (label, mutation, JSON path the error must name) — one per rule of docs/scene-format.md.
 BAD_CASES = [
     ("format missing", _drop(["format"]), "format"),
     ("format wrong", _set(["format"], "rtval-scene/2"), "format"),
@@ -120,13 +143,29 @@ def test_cpp_loader_rejects_the_same_with_the_same_path(
 def test_both_loaders_accept_the_builtin_scenes_with_exact_numbers() -> None:
     paper = load_scene(SCENES / "paper.json")
     assert [s.name for s in paper.spheres] == [
-        "floor", "glass", "red", "gold", "blue", "green", "violet", "light"]
+        "floor",
+        "glass",
+        "red",
+        "gold",
+        "blue",
+        "green",
+        "violet",
+        "light",
+    ]
     assert paper.spheres[0].center == (0, -10004, -20) and paper.spheres[0].radius == 10000
     assert paper.spheres[1].ior == 1.2 and paper.spheres[1].transparency == 0.8
     assert paper.spheres[7].emission == (2.5, 2.5, 2.5)
     assert paper.camera.position == (0, 1, 4) and paper.camera.look_at == (0, -1.5, -18)
     assert [s.kind for s in paper.spheres] == [
-        "mirror", "glass", "diffuse", "mirror", "diffuse", "diffuse", "mirror", "light"]
+        "mirror",
+        "glass",
+        "diffuse",
+        "mirror",
+        "diffuse",
+        "diffuse",
+        "mirror",
+        "light",
+    ]
     classic = load_scene(SCENES / "classic.json")
     assert classic.spheres[1].ior == 1.1 and classic.spheres[1].color == (1.0, 0.32, 0.36)
     assert classic.spheres[-1].emission == (3, 3, 3)

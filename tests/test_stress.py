@@ -9,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SCENES, run
+from helpers import SCENES, run
 
-from compare.images import read_image
+from compare.judge.images import read_image
 from mitsuba_ref.reference import ReferenceSettings, render_reference
-from mitsuba_ref.scene import load_scene
+from scene_model.scene import load_scene
 
 pytestmark = pytest.mark.slow
 STRESS = sorted((SCENES / "stress").glob("*.json"))
@@ -21,9 +21,20 @@ STRESS = sorted((SCENES / "stress").glob("*.json"))
 
 def test_there_is_a_scene_for_every_listed_failure() -> None:
     names = {p.stem for p in STRESS}
-    assert {"tir_grazing", "camera_inside_glass", "intersecting_spheres", "nested_spheres", "huge_floor_tiny_sphere",
-            "far_objects", "facing_mirrors", "light_inside_glass", "coloured_lights", "grazing_floor", "no_light",
-            "thousand_spheres"} <= names
+    assert {
+        "tir_grazing",
+        "camera_inside_glass",
+        "intersecting_spheres",
+        "nested_spheres",
+        "huge_floor_tiny_sphere",
+        "far_objects",
+        "facing_mirrors",
+        "light_inside_glass",
+        "coloured_lights",
+        "grazing_floor",
+        "no_light",
+        "thousand_spheres",
+    } <= names
     assert len(load_scene(SCENES / "stress" / "thousand_spheres.json").spheres) == 1000
 
 
@@ -31,30 +42,60 @@ def test_there_is_a_scene_for_every_listed_failure() -> None:
 def test_physical_and_references_are_finite(scene: Path, rtdemo: str, tmp_path: Path) -> None:
     for backend in ("cpu", "gl"):
         out = tmp_path / f"{backend}.exr"
-        proc = run([rtdemo, "render", str(scene), "-o", str(out), "--mode", "physical", "--backend", backend,
-                    "--width", "48", "--height", "36"])
+        proc = run(
+            [
+                rtdemo,
+                "render",
+                str(scene),
+                "-o",
+                str(out),
+                "--mode",
+                "physical",
+                "--backend",
+                backend,
+                "--width",
+                "48",
+                "--height",
+                "36",
+            ]
+        )
         assert proc.returncode == 0, proc.stderr
         assert np.isfinite(read_image(out).rgb).all()
     s = load_scene(scene)
     for integrator in ("whitted", "path"):
-        r = render_reference(s, ReferenceSettings(integrator=integrator, light="point", centre_rays=True,
-                                                  spp=2, size=(48, 36)))
+        r = render_reference(
+            s,
+            ReferenceSettings(
+                integrator=integrator, light="point", centre_rays=True, spp=2, size=(48, 36)
+            ),
+        )
         assert np.isfinite(r.rgb).all(), integrator
 
 
 def test_stress_command_writes_an_atlas(tmp_path: Path) -> None:
     rtval = str(Path(sys.executable).with_name("rtval"))
-    picks = [str(SCENES / "stress" / f"{n}.json") for n in ("camera_inside_glass", "coloured_lights")]
+    picks = [
+        str(SCENES / "stress" / f"{n}.json") for n in ("camera_inside_glass", "coloured_lights")
+    ]
     proc = run([rtval, "stress", *picks, "--out", str(tmp_path), "--size", "48x36"])
     assert proc.returncode == 0, proc.stderr
     data = json.loads((tmp_path / "stress.json").read_text())
     assert [s["scene"] for s in data["scenes"]] == ["camera_inside_glass", "coloured_lights"]
     methods = {m["method"] for m in data["scenes"][0]["methods"]}
-    assert {"demo paper cpu", "demo classic gl", "demo physical cpu", "mitsuba whitted", "mitsuba path"} <= methods
+    assert {
+        "demo paper cpu",
+        "demo classic gl",
+        "demo physical cpu",
+        "mitsuba whitted",
+        "mitsuba path",
+    } <= methods
     for m in data["scenes"][0]["methods"]:
         assert {"bias x10", "bias /10", "camera +1e-4"} <= set(m["stability"])
         assert (tmp_path / m["thumbnail"]).is_file()
     # Q4 shows in coloured_lights: paper mode darkens the later lights.
     coloured = {m["method"]: m for m in data["scenes"][1]["methods"]}
-    assert coloured["demo paper cpu"]["flip_vs_reference"] > coloured["demo physical cpu"]["flip_vs_reference"]
+    assert (
+        coloured["demo paper cpu"]["flip_vs_reference"]
+        > coloured["demo physical cpu"]["flip_vs_reference"]
+    )
     assert "camera_inside_glass" in (tmp_path / "index.html").read_text()

@@ -1,6 +1,7 @@
 #include "exr_scanlines.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -9,6 +10,8 @@
 #include <cstring>
 #include <stdexcept>
 #include <vector>
+
+#include "file_kind.h"
 
 namespace rt {
 
@@ -33,11 +36,20 @@ void put_attribute(std::vector<char>& out, const std::string& name, const char* 
     put_bytes(out, value.data(), value.size());
 }
 
+// Only ever a regular file (as file_kind.h's outputs): opened without following a symlink and
+// without blocking on a FIFO, its type checked before anything is cut or written, so a device
+// or a FIFO under this name is refused untouched. (write_exr calls this on its temporary name.)
 class File {
 public:
     explicit File(const std::string& path) : path_(path) {
-        fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+        fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
         if (fd_ < 0) fail("cannot open for writing");
+        struct stat st {};
+        if (::fstat(fd_, &st) != 0) fail("cannot open for writing");
+        if (!S_ISREG(st.st_mode))
+            throw std::runtime_error(path_ + ": cannot write: it is " +
+                                     describe_file_type(st.st_mode) + ", not a regular file");
+        if (::ftruncate(fd_, 0) != 0) fail("cannot open for writing");
     }
     ~File() {
         if (fd_ >= 0) ::close(fd_);

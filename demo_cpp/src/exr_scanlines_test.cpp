@@ -8,6 +8,7 @@
 #include <ImfInputFile.h>
 #include <ImfStringAttribute.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
 #include <cstring>
@@ -99,6 +100,24 @@ TEST(ExrScanlines, UnwritablePathNamesTheFile) {
     } catch (const std::runtime_error& e) {
         EXPECT_NE(std::string(e.what()).find("/nonexistent-dir/x.exr"), std::string::npos);
     }
+}
+
+// Only regular files are written: a FIFO (no reader: it would block) and a device are refused
+// untouched, naming the path and what it is.
+TEST(ExrScanlines, RefusesAFifoAndADevice) {
+    const fs::path fifo = fs::temp_directory_path() / "rtdemo_exr_scanlines_fifo";
+    fs::remove(fifo);
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    for (const std::string& path : {fifo.string(), std::string("/dev/null")}) {
+        try {
+            write_exr_scanlines(path, sample_image(2, 2), {});
+            ADD_FAILURE() << "no error for " << path;
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+        }
+    }
+    EXPECT_TRUE(fs::is_fifo(fifo));
+    fs::remove(fifo);
 }
 
 }  // namespace

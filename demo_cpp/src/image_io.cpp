@@ -1,6 +1,13 @@
 #include "image_io.h"
 
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
+#include <ImfThreading.h>
 #include <emmintrin.h>
+#include <png.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,15 +20,8 @@
 #include <thread>
 #include <vector>
 
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfOutputFile.h>
-#include <ImfStringAttribute.h>
-#include <ImfThreading.h>
-#include <png.h>
-
 #include "exr_scanlines.h"
+#include "file_kind.h"
 
 namespace rt {
 namespace fs = std::filesystem;
@@ -41,6 +41,7 @@ public:
     }
     const std::string& temp() const { return temp_; }
     void commit() {
+        check_writable(path_);  // again: the target may have changed while we wrote
         std::error_code ec;
         fs::rename(temp_, path_, ec);
         if (ec) throw OutputError(path_ + ": cannot write: " + ec.message());
@@ -63,24 +64,26 @@ std::vector<unsigned char> to_8bit(const RenderedImage& image, Encode encode) {
 }
 
 // to_linear8 over a whole image, four values per SSE2 instruction (x86-64's baseline): the
-// same compares, product, truncation and rounding step, so the same bytes (checked against
-// to_linear8 for every float).
-std::vector<unsigned char> linear8_bytes(const std::vector<float>& v) {
+// same compares, product and truncation, so the same bytes (checked against to_linear8 for
+// every float, both conventions).
+std::vector<unsigned char> linear8_bytes(const std::vector<float>& v, PpmRounding rounding) {
     std::vector<unsigned char> out(v.size());
     std::size_t i = 0;
+    // Rounding adds one where the fraction x - trunc(x) is >= 0.5; truncation never does (the
+    // fraction is below 1), so one loop serves both conventions.
     const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f), scale = _mm_set1_ps(255.0f),
-                 half = _mm_set1_ps(0.5f);
+                 step = _mm_set1_ps(rounding == PpmRounding::round ? 0.5f : 1.0f);
     for (; i + 4 <= v.size(); i += 4) {
         // maxps(x, 0) is x > 0 ? x : 0 (NaN -> 0); minps(x, 1) is x < 1 ? x : 1: clamp01.
         const __m128 x = _mm_mul_ps(_mm_min_ps(_mm_max_ps(_mm_loadu_ps(&v[i]), zero), one), scale);
         const __m128i t = _mm_cvttps_epi32(x);
-        const __m128i up = _mm_castps_si128(_mm_cmpge_ps(_mm_sub_ps(x, _mm_cvtepi32_ps(t)), half));
+        const __m128i up = _mm_castps_si128(_mm_cmpge_ps(_mm_sub_ps(x, _mm_cvtepi32_ps(t)), step));
         const __m128i b = _mm_sub_epi32(t, up);  // the mask is -1 where rounding up
         const __m128i packed = _mm_packus_epi16(_mm_packs_epi32(b, b), _mm_setzero_si128());
         const int word = _mm_cvtsi128_si32(packed);
         std::memcpy(&out[i], &word, 4);
     }
-    for (; i < v.size(); ++i) out[i] = to_linear8(v[i]);
+    for (; i < v.size(); ++i) out[i] = to_linear8(v[i], rounding);
     return out;
 }
 
@@ -92,11 +95,19 @@ unsigned char to_srgb8(float linear) {
     return static_cast<unsigned char>(std::lround(s * 255.0f));
 }
 
-unsigned char to_linear8(float linear) {
+unsigned char to_linear8(float linear, PpmRounding rounding) {
+    // The float product, as the paper's program computes it; the cast truncates. Rounding is
     // std::lround for v in [0, 255] without the libm call: v - trunc(v) is exact there.
     const float v = clamp01(linear) * 255.0f;
     const int t = static_cast<int>(v);
-    return static_cast<unsigned char>(t + (v - static_cast<float>(t) >= 0.5f ? 1 : 0));
+    const bool up = rounding == PpmRounding::round && v - static_cast<float>(t) >= 0.5f;
+    return static_cast<unsigned char>(t + (up ? 1 : 0));
+}
+
+PpmRounding parse_ppm_rounding(const std::string& text) {
+    if (text == "truncate") return PpmRounding::truncate;
+    if (text == "round") return PpmRounding::round;
+    throw std::invalid_argument("expected truncate or round, got '" + text + "'");
 }
 
 void check_writable(const std::string& path) {
@@ -106,8 +117,14 @@ void check_writable(const std::string& path) {
     if (!fs::is_directory(dir, ec))
         throw OutputError(path + ": cannot write: directory '" + dir.string() + "' does not exist");
     if (::access(dir.c_str(), W_OK) != 0)
-        throw OutputError(path + ": cannot write: directory '" + dir.string() + "' is not writable");
+        throw OutputError(path + ": cannot write: directory '" + dir.string() +
+                          "' is not writable");
     if (fs::is_directory(path, ec)) throw OutputError(path + ": cannot write: it is a directory");
+    try {
+        check_replaceable(path);  // never turn /dev/full or a FIFO into a regular file
+    } catch (const FileKindError& e) {
+        throw OutputError(std::string("cannot write ") + e.what());
+    }
 }
 
 ExrCompression parse_exr_compression(const std::string& text) {
@@ -137,11 +154,11 @@ void write_exr(const std::string& path, const RenderedImage& image,
                                                                     : Imf::NO_COMPRESSION;
         if (compression == ExrCompression::zip) {
             // Compress scanline blocks on every core; level 1: about the same size, far faster.
-            Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+            Imf::setGlobalThreadCount(
+                static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
             header.zipCompressionLevel() = 1;
         }
-        for (const auto& [key, value] : attributes)
-            header.insert(key, Imf::StringAttribute(value));
+        for (const auto& [key, value] : attributes) header.insert(key, Imf::StringAttribute(value));
         const char* names[] = {"R", "G", "B", "id", "depth", "N.X", "N.Y", "N.Z"};
         for (const char* name : names) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
 
@@ -208,10 +225,10 @@ void write_png_bytes(const std::string& path, int width, int height,
     file.commit();
 }
 
-void write_ppm(const std::string& path, const RenderedImage& image) {
+void write_ppm(const std::string& path, const RenderedImage& image, PpmRounding rounding) {
     check_writable(path);
     AtomicFile file(path);
-    const std::vector<unsigned char> bytes = linear8_bytes(image.rgb);
+    const std::vector<unsigned char> bytes = linear8_bytes(image.rgb, rounding);
     std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(file.temp().c_str(), "wb"), &std::fclose);
     if (!fp) throw OutputError(path + ": cannot open for writing");
     std::fprintf(fp.get(), "P6\n%d %d\n255\n", image.width, image.height);

@@ -254,8 +254,8 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
     const packet::CameraArrays cam = camera_arrays(scene, width, height);
     const int k = strata_per_axis(settings.spp);
     const float inv_samples = 1.0f / static_cast<float>(k * k);
-    const float centre =
-        0.5f;  // the faulty build's half_pixel_offset renders with the scalar tracer
+    // Pixel centres: a run with --mistake half_pixel_offset renders with the scalar tracer.
+    const float centre = 0.5f;
     const int tiles_x = (width + kTileW - 1) / kTileW, tiles_y = (height + kTileH - 1) / kTileH;
     const int tiles = tiles_x * tiles_y;
     const int lanes = kern.lanes;

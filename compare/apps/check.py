@@ -1,0 +1,197 @@
+"""`rtval check`: the regression check for renderer changes.
+
+Renders the demo on a scene set (every backend and mode asked for), compares each render
+with its stored baseline under per-scene tolerances and reports a table, JSON and JUnit XML.
+A missing baseline is a failure; `update` rewrites only new or failing baselines.
+Baselines are per scene and mode, not per backend: the GL backend must reproduce the CPU's.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+import xml.etree.ElementTree as ET
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from compare.files import write_atomic
+from compare.judge.evaluate import evaluate_pair
+from compare.judge.images import read_image, write_exr
+from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
+from compare.render.runner import run_rtdemo
+from scene_model.scene import load_scene
+
+DEFAULT_SCENES = ("scenes/paper.json", "scenes/classic.json")
+DEFAULT_MODES = ("paper", "classic", "physical")
+DEFAULT_SIZE = (320, 240)
+# A change of 2/255 on 0.02 % of pixels (15 at 320x240) passes: compilers may round a
+# silhouette pixel differently; every deliberate bug of the fault-injection test moves more.
+DEFAULT_TOLERANCES = Tolerances(fail=2 / 255, failpercent=0.02, warn=1 / 255, warnpercent=0.0)
+
+
+@dataclass
+class CaseResult:
+    scene: str
+    backend: str
+    mode: str
+    status: str  # pass | warn | fail
+    reasons: list[str] = field(default_factory=list)
+    failing_pixels: int = 0
+    max_display_error: float = 0.0
+    ssim: float | None = None
+    seconds: float = 0.0
+    updated: bool = False
+
+    @property
+    def name(self) -> str:
+        return f"{self.scene}/{self.backend}-{self.mode}"
+
+
+def load_tolerances(baseline_dir: Path) -> dict[str, Tolerances]:
+    """tolerances.json: {"default": {...}, "<scene>": {...}}; keys are Tolerances fields."""
+    path = baseline_dir / "tolerances.json"
+    if not path.is_file():
+        return {}
+    try:
+        raw = json.loads(path.read_text())
+        return {
+            name: Tolerances(**{**DEFAULT_TOLERANCES.as_dict(), **values})
+            for name, values in raw.items()
+        }
+    except (json.JSONDecodeError, TypeError) as e:
+        raise ValueError(f"{path}: invalid tolerances: {e}") from None
+
+
+def run_check(
+    *,
+    scenes: list[str],
+    modes: list[str],
+    backends: list[str],
+    baseline_dir: Path,
+    size: tuple[int, int],
+    update: bool = False,
+    rtdemo: str | None = None,
+    progress: Callable[[str], None] = print,
+) -> list[CaseResult]:
+    tolerances = load_tolerances(baseline_dir)
+    results: list[CaseResult] = []
+    with tempfile.TemporaryDirectory(prefix="rtval-check-") as tmp:
+        for scene_path in scenes:
+            scene = load_scene(scene_path)
+            tol = tolerances.get(scene.name, tolerances.get("default", DEFAULT_TOLERANCES))
+            for backend in backends:
+                for mode in modes:
+                    out = Path(tmp) / f"{scene.name}-{backend}-{mode}.exr"
+                    args = [
+                        "render",
+                        scene_path,
+                        "-o",
+                        str(out),
+                        "--mode",
+                        mode,
+                        "--backend",
+                        backend,
+                        "--width",
+                        str(size[0]),
+                        "--height",
+                        str(size[1]),
+                        "-q",
+                    ]
+                    start = time.perf_counter()
+                    run_rtdemo(args, executable=rtdemo)
+                    case = CaseResult(
+                        scene.name, backend, mode, "pass", seconds=time.perf_counter() - start
+                    )
+                    # One baseline per scene and mode: every backend must reproduce it.
+                    baseline = baseline_dir / scene.name / f"{mode}.exr"
+                    if not baseline.is_file():
+                        case.status, case.reasons = "fail", [f"no baseline {baseline}"]
+                    else:
+                        ref, test = read_image(baseline), read_image(out)
+                        if ref.shape != test.shape:
+                            case.status = "fail"
+                            case.reasons = [
+                                f"size {test.shape[1]}x{test.shape[0]} differs from the "
+                                f"baseline's {ref.shape[1]}x{ref.shape[0]}"
+                            ]
+                        else:
+                            c = evaluate_pair(ref.rgb, test.rgb, tolerances=tol)
+                            case.status, case.reasons = c.verdict.status, c.verdict.reasons
+                            case.failing_pixels = c.verdict.failing_pixels
+                            case.max_display_error = c.verdict.max_display_error
+                            case.ssim = c.metrics.ssim
+                    if update and case.status == "fail":
+                        baseline.parent.mkdir(parents=True, exist_ok=True)
+                        # Colour only: the AOVs are not compared and would triple the size.
+                        fresh = read_image(out)
+                        write_exr(baseline, fresh.rgb, header=fresh.header)
+                        case.updated = True
+                    progress(
+                        f"{case.name:<28} {case.status.upper():<5}"
+                        + (" (baseline updated)" if case.updated else "")
+                        + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
+                    )
+                    results.append(case)
+    return results
+
+
+def exit_code(results: list[CaseResult]) -> int:
+    effective = [r for r in results if not r.updated]
+    if any(r.status == "fail" for r in effective):
+        return EXIT_FAIL
+    if any(r.status == "warn" for r in effective):
+        return EXIT_WARN
+    return EXIT_PASS
+
+
+def table(results: list[CaseResult]) -> str:
+    lines = [
+        f"{'case':<28} {'status':<7} {'failing px':>10} {'max err':>8} {'SSIM':>8} {'time s':>7}"
+    ]
+    order = sorted(results, key=lambda r: ("fail", "warn", "pass").index(r.status))
+    for r in order:
+        ssim = f"{r.ssim:.5f}" if r.ssim is not None else "-"
+        lines.append(
+            f"{r.name:<28} {r.status:<7} {r.failing_pixels:>10} "
+            f"{r.max_display_error:>8.4f} {ssim:>8} {r.seconds:>7.2f}"
+            + ("  updated" if r.updated else "")
+        )
+    n_fail = sum(r.status == "fail" for r in results)
+    lines.append(f"{len(results) - n_fail} passed, {n_fail} failed")
+    return "\n".join(lines)
+
+
+def write_json(results: list[CaseResult], path: Path) -> None:
+    data: list[dict[str, Any]] = [{**r.__dict__, "name": r.name} for r in results]
+    write_atomic(
+        path,
+        json.dumps(
+            {"status": ("pass", "warn", "fail")[exit_code(results)], "cases": data}, indent=2
+        )
+        + "\n",
+    )
+
+
+def write_junit(results: list[CaseResult], path: Path) -> None:
+    suite = ET.Element(
+        "testsuite",
+        name="rtval check",
+        tests=str(len(results)),
+        failures=str(sum(r.status == "fail" for r in results)),
+    )
+    for r in results:
+        case = ET.SubElement(
+            suite,
+            "testcase",
+            classname=f"rtval.{r.scene}",
+            name=f"{r.backend}-{r.mode}",
+            time=f"{r.seconds:.3f}",
+        )
+        if r.status == "fail":
+            ET.SubElement(case, "failure", message="; ".join(r.reasons)).text = "; ".join(r.reasons)
+        elif r.status == "warn":
+            ET.SubElement(case, "system-out").text = "warning: " + "; ".join(r.reasons)
+    ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)

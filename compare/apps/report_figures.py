@@ -1,0 +1,174 @@
+"""Matplotlib figures for the report: maps with colour bars and the charts."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.escape import mathtext_literal
+from compare.files import atomic_output
+from compare.judge.sentences import luminance
+
+
+def _plt() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig: Any, path: Path) -> None:
+    try:
+        with atomic_output(path) as tmp:
+            fig.savefig(tmp, dpi=100, bbox_inches="tight", format="png")
+    finally:
+        _plt().close(fig)
+
+
+def map_figure(
+    data: np.ndarray, path: Path, *, title: str, cmap: str, vmin: float, vmax: float, label: str
+) -> None:
+    plt = _plt()
+    h, w = data.shape
+    fig, ax = plt.subplots(figsize=(6.4, 6.4 * h / w + 0.6))
+    im = ax.imshow(data, cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
+    ax.set_title(mathtext_literal(title), fontsize=10)  # titles carry user labels
+    ax.axis("off")
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02, label=mathtext_literal(label))
+    _save(fig, path)
+
+
+def signed_difference(ref: np.ndarray, test: np.ndarray, path: Path, title: str) -> None:
+    diff = luminance(np.nan_to_num(test)) - luminance(ref)
+    finite = np.abs(diff[np.isfinite(diff)])
+    lim = float(np.percentile(finite, 99)) if finite.size else 1.0
+    lim = max(lim, 1e-3)
+    map_figure(
+        np.clip(diff, -lim, lim),
+        path,
+        title=title,
+        cmap="coolwarm",
+        vmin=-lim,
+        vmax=lim,
+        label="test - reference (linear luminance)",
+    )
+
+
+def pareto_front(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Points not beaten by a faster-and-better one, sorted by time."""
+    front = []
+    best = float("inf")
+    for t, e in sorted(points):
+        if e < best:
+            front.append((t, e))
+            best = e
+    return front
+
+
+def speed_accuracy_chart(rows: list[dict[str, Any]], path: Path) -> None:
+    plt = _plt()
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    families = sorted({r["family"] for r in rows})
+    markers = "osD^v<>ph*"
+    for ax, key, name in (
+        (axes[0], "one_minus_ssim", "1 - SSIM"),
+        (axes[1], "flip", "mean FLIP (LDR)"),
+    ):
+        pts = []
+        for i, fam in enumerate(families):
+            sel = [r for r in rows if r["family"] == fam and r[key] > 0 and r["seconds"] > 0]
+            if not sel:
+                continue
+            ax.scatter(
+                [r["seconds"] for r in sel],
+                [r[key] for r in sel],
+                marker=markers[i % len(markers)],
+                label=fam,
+                s=40,
+            )
+            for r in sel:
+                ax.annotate(
+                    f"{r['spp']}",
+                    (r["seconds"], r[key]),
+                    fontsize=7,
+                    xytext=(3, 3),
+                    textcoords="offset points",
+                )
+            pts += [(r["seconds"], r[key]) for r in sel]
+        front = pareto_front(pts)
+        if len(front) > 1:
+            ax.step(
+                [p[0] for p in front],
+                [p[1] for p in front],
+                where="post",
+                color="k",
+                lw=1,
+                alpha=0.6,
+                label="Pareto front",
+            )
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("render time, s (log)")
+        ax.set_ylabel(f"{name} vs converged reference (log)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[1].legend(fontsize=7, loc="best")
+    fig.suptitle("Speed against accuracy (numbers at points: samples per pixel)", fontsize=11)
+    _save(fig, path)
+
+
+def convergence_chart(rows: list[dict[str, Any]], path: Path) -> dict[str, float]:
+    """RMSE (display) against spp, log-log, with the fitted slope per family."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4.8))
+    slopes = {}
+    for fam in sorted({r["family"] for r in rows}):
+        sel = sorted(
+            (r for r in rows if r["family"] == fam and r["rmse"] > 0), key=lambda r: r["spp"]
+        )
+        if len({r["spp"] for r in sel}) < 2:
+            continue
+        x = np.log([r["spp"] for r in sel])
+        y = np.log([r["rmse"] for r in sel])
+        slope, _intercept = np.polyfit(x, y, 1)
+        slopes[fam] = float(slope)
+        ax.loglog(
+            [r["spp"] for r in sel],
+            [r["rmse"] for r in sel],
+            "o-",
+            label=f"{fam} (slope {slope:.2f})",
+        )
+    ax.set_xlabel("samples per pixel (log)")
+    ax.set_ylabel("RMSE (display) vs converged reference (log)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("Convergence (Monte Carlo noise alone gives slope -0.5)", fontsize=10)
+    _save(fig, path)
+    return slopes
+
+
+def ladder_chart(steps: list[dict[str, Any]], path: Path) -> None:
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    x = np.arange(len(steps))
+    ax.bar(x - 0.2, [s["flip"] for s in steps], 0.4, label="mean FLIP (LDR)")
+    ax.bar(x + 0.2, [s["one_minus_ssim"] for s in steps], 0.4, label="1 - SSIM")
+    ax.set_xticks(x, [s["step"] for s in steps], rotation=30, ha="right", fontsize=8)
+    ax.set_ylabel("error vs converged reference")
+    for i, s in enumerate(steps):
+        ax.annotate(
+            f"{s['seconds']:.2f} s",
+            (i, max(s["flip"], s["one_minus_ssim"])),
+            fontsize=7,
+            ha="center",
+            xytext=(0, 3),
+            textcoords="offset points",
+        )
+    ax.legend(fontsize=8)
+    ax.set_title(
+        "Ablation ladder: the paper's program with quirks fixed one after another", fontsize=10
+    )
+    _save(fig, path)

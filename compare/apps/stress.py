@@ -1,0 +1,198 @@
+"""`rtval stress`: where each method breaks, before it misleads anyone.
+
+For every stress scene (scenes/stress/*.json) and method (demo paper/classic/physical on CPU
+and GL, Mitsuba whitted and path): NaN/Inf counts, error against the Whitted reference, and
+stability — how far the image moves (mean FLIP) when the scene is nudged: bias x10 and /10,
+the camera moved by 1e-4, and (path only) another seed. Writes reports/stress/index.html
+(an atlas: thumbnails and a sentence per failure) and stress.json.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from jinja2 import Environment, PackageLoader, select_autoescape
+
+from compare.files import write_atomic
+from compare.judge.evaluate import evaluate_pair
+from compare.judge.images import read_image, write_png
+from compare.render.runner import run_rtdemo
+from scene_model.scene import load_scene
+
+DEMO_METHODS = [
+    (f"demo {mode} {backend}", mode, backend)
+    for mode in ("paper", "classic", "physical")
+    for backend in ("cpu", "gl")
+]
+REF_METHODS = ["mitsuba whitted", "mitsuba path"]
+UNSTABLE_FLIP = 0.05  # a nudge moving the image by more than this is called unstable
+WRONG_FLIP = 0.05  # physical mode further than this from the reference is flagged
+
+
+@dataclass
+class MethodResult:
+    method: str
+    nan: int
+    inf: int
+    flip_vs_reference: float | None
+    ssim_vs_reference: float | None
+    stability: dict[str, float] = field(default_factory=dict)
+    thumbnail: str = ""
+    sentences: list[str] = field(default_factory=list)
+
+    @property
+    def worst_stability(self) -> float:
+        return max(self.stability.values(), default=0.0)
+
+
+def _perturbed(scene_file: Path, folder: Path) -> dict[str, Path]:
+    raw = json.loads(scene_file.read_text())
+    out = {"base": scene_file}
+    nudges: tuple[tuple[str, Callable[[dict[str, Any]], None]], ...] = (
+        ("bias x10", lambda j: j.__setitem__("bias", j.get("bias", 1e-4) * 10)),
+        ("bias /10", lambda j: j.__setitem__("bias", j.get("bias", 1e-4) / 10)),
+        (
+            "camera +1e-4",
+            lambda j: j.setdefault("camera", {}).__setitem__(
+                "position", [p + 1e-4 for p in j.get("camera", {}).get("position", [0, 0, 0])]
+            ),
+        ),
+    )
+    for name, change in nudges:
+        j = json.loads(json.dumps(raw))
+        change(j)
+        p = folder / f"{scene_file.stem}-{name.replace(' ', '_').replace('/', 'div')}.json"
+        p.write_text(json.dumps(j))
+        out[name] = p
+    return out
+
+
+def _flip(a: np.ndarray, b: np.ndarray) -> float:
+    return evaluate_pair(a, b).metrics.flip_ldr
+
+
+def run_stress(
+    scene_files: list[Path],
+    out_dir: Path,
+    *,
+    size: tuple[int, int],
+    progress: Callable[[str], None] = print,
+) -> dict[str, Any]:
+    from mitsuba_ref.reference import ReferenceSettings, render_reference
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "images").mkdir(exist_ok=True)
+    results: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory(prefix="rtval-stress-") as tmp_name:
+        tmp = Path(tmp_name)
+        for n, scene_file in enumerate(scene_files, 1):
+            scene = load_scene(scene_file)
+            variants = _perturbed(scene_file, tmp)
+            renders: dict[str, dict[str, np.ndarray]] = {}
+            for method, mode, backend in DEMO_METHODS:
+                renders[method] = {}
+                for name, path in variants.items():
+                    exr = tmp / "demo.exr"
+                    run_rtdemo(
+                        [
+                            "render",
+                            str(path),
+                            "-o",
+                            str(exr),
+                            "--mode",
+                            mode,
+                            "--backend",
+                            backend,
+                            "--width",
+                            str(size[0]),
+                            "--height",
+                            str(size[1]),
+                            "-q",
+                        ]
+                    )
+                    renders[method][name] = read_image(exr).rgb
+            for method in REF_METHODS:
+                renders[method] = {}
+                names = list(variants) + (["seed 1"] if method.endswith("path") else [])
+                for name in names:
+                    s = load_scene(variants.get(name, scene_file))
+                    settings = ReferenceSettings(
+                        integrator="whitted" if method.endswith("whitted") else "path",
+                        light="point",
+                        centre_rays=True,
+                        spp=1 if method.endswith("whitted") else 16,
+                        seed=1 if name == "seed 1" else 0,
+                        size=size,
+                    )
+                    renders[method][name] = render_reference(s, settings).rgb
+            reference = renders["mitsuba whitted"]["base"]
+            scene_result: dict[str, Any] = {
+                "scene": scene.name,
+                "description": scene.description,
+                "methods": [],
+            }
+            for method, per in renders.items():
+                base = per["base"]
+                thumb = f"images/{scene.name}-{method.replace(' ', '-')}.png"
+                write_png(out_dir / thumb, base)
+                finite = np.isfinite(base).all()
+                against = (
+                    None if method == "mitsuba whitted" else evaluate_pair(reference, base).metrics
+                )
+                r = MethodResult(
+                    method=method,
+                    nan=int(np.isnan(base).any(-1).sum()),
+                    inf=int(np.isinf(base).any(-1).sum()),
+                    flip_vs_reference=None if against is None else against.flip_ldr,
+                    ssim_vs_reference=None if against is None else against.ssim,
+                    stability={k: _flip(base, v) for k, v in per.items() if k != "base"},
+                    thumbnail=thumb,
+                )
+                if not finite:
+                    r.sentences.append(f"{method}: {r.nan} NaN and {r.inf} Inf pixels.")
+                worst = max(r.stability.items(), key=lambda kv: kv[1], default=None)
+                if worst and worst[1] > UNSTABLE_FLIP:
+                    r.sentences.append(
+                        f"{method}: unstable — '{worst[0]}' moves the image by FLIP {worst[1]:.3f}."
+                    )
+                if (
+                    method.startswith("demo physical")
+                    and r.flip_vs_reference is not None
+                    and r.flip_vs_reference > WRONG_FLIP
+                ):
+                    r.sentences.append(
+                        f"{method}: FLIP {r.flip_vs_reference:.3f} from the Whitted reference."
+                    )
+                scene_result["methods"].append({**r.__dict__, "worst_stability": r.worst_stability})
+            results.append(scene_result)
+            progress(f"[{n}/{len(scene_files)}] {scene.name}")
+    data = {"size": list(size), "unstable_flip": UNSTABLE_FLIP, "scenes": results}
+    write_atomic(out_dir / "stress.json", json.dumps(data, indent=2, default=float) + "\n")
+    env = Environment(
+        loader=PackageLoader("compare.apps", "templates"),
+        autoescape=select_autoescape(["html", "j2"]),
+    )
+    html = env.get_template("stress.html.j2").render(data=data)
+    write_atomic(out_dir / "index.html", html)
+    return data
+
+
+def table(data: dict[str, Any]) -> str:
+    lines = [
+        f"{'scene':<24}{'method':<22}{'NaN':>7}{'Inf':>6}{'FLIP ref':>10}{'stability':>11}  worst nudge"
+    ]
+    for s in data["scenes"]:
+        for m in s["methods"]:
+            worst = max(m["stability"].items(), key=lambda kv: kv[1], default=("-", 0.0))
+            flip = "-" if m["flip_vs_reference"] is None else f"{m['flip_vs_reference']:.4f}"
+            lines.append(
+                f"{s['scene']:<24}{m['method']:<22}{m['nan']:>7}{m['inf']:>6}{flip:>10}"
+                f"{m['worst_stability']:>11.4f}  {worst[0]}"
+            )
+    return "\n".join(lines)

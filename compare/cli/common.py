@@ -1,0 +1,56 @@
+"""What every rtval command shares: the parser class and argument types."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Callable
+from typing import Any
+
+EXIT_USAGE = 64  # EX_USAGE: kept apart from compare's 0-4 verdict codes
+
+
+class Parser(argparse.ArgumentParser):
+    """Bad arguments exit with 64, so that 2 always means "fail" for compare and check."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.print_usage(sys.stderr)
+        print(f"{self.prog}: error: {message}", file=sys.stderr)
+        sys.exit(EXIT_USAGE)
+
+
+def size_type(text: str) -> tuple[int, int]:
+    """WIDTHxHEIGHT, each side 1-16384."""
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected WIDTHxHEIGHT, e.g. 320x240, got {text!r}"
+        ) from None
+    if not (1 <= w <= 16384 and 1 <= h <= 16384):
+        raise argparse.ArgumentTypeError(f"each side must be 1-16384, got {text!r}")
+    return w, h
+
+
+def _positive(convert: Callable[[str], Any], kind: str) -> Callable[[str], Any]:
+    """An argparse type: a positive, finite number."""
+
+    def parse(text: str) -> Any:
+        try:
+            v = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a positive {kind}, got {text!r}") from None
+        if not 0 < v < math.inf:
+            raise argparse.ArgumentTypeError(f"expected a positive {kind}, got {text!r}")
+        return v
+
+    return parse
+
+
+positive_int = _positive(int, "integer")
+positive_float = _positive(float, "number")
+
+
+def stderr_progress(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)

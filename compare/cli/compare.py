@@ -1,0 +1,113 @@
+"""`rtval compare REF TEST`: every metric and a verdict for one pair of images."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    from compare.apps.compare_pair import load_mask, run_comparison, table, write_outputs
+    from compare.judge.images import image_size, read_image
+    from compare.judge.metrics import SizeMismatch
+    from compare.judge.tolerances import EXIT_SIZE, Tolerances
+    from compare.safe_paths import check_outputs_distinct
+    from scene_model.scene import load_scene
+
+    check_outputs_distinct(
+        [("--json", args.json), ("--diff-image", args.diff_image)],
+        [
+            ("REF", args.ref),
+            ("TEST", args.test),
+            ("--mask", args.mask),
+            ("--scene", args.scene),
+            ("--aovs", args.aovs),
+        ],
+    )
+    # Sizes from the headers first: a mismatch costs no decoding (two 8192^2 EXRs or a
+    # tiny PNG declaring 9400^2 pixels would otherwise take gigabytes before the refusal).
+    ref_size, test_size = image_size(args.ref), image_size(args.test)
+    if ref_size != test_size:
+        print(
+            f"rtval: size mismatch: reference {args.ref} is {ref_size[1]}x{ref_size[0]}, "
+            f"test {args.test} is {test_size[1]}x{test_size[0]} (never resampled)",
+            file=sys.stderr,
+        )
+        return EXIT_SIZE
+    ref = read_image(args.ref, encoding=args.ref_encoding)
+    test = read_image(args.test, encoding=args.test_encoding, expected_size=ref.shape)
+    tol = Tolerances(
+        fail=args.fail,
+        failpercent=args.failpercent,
+        hardfail=args.hardfail,
+        warn=args.warn,
+        warnpercent=args.warnpercent,
+        min_ssim=args.min_ssim,
+        max_flip=args.max_flip,
+    )
+    mask = load_mask(args.mask, ref.shape) if args.mask else None
+    scene = load_scene(args.scene) if args.scene else None
+    aovs = read_image(args.aovs) if args.aovs else None
+    try:
+        result = run_comparison(ref, test, tolerances=tol, mask=mask, scene=scene, aovs=aovs)
+    except SizeMismatch as e:
+        print(f"rtval: {e}", file=sys.stderr)
+        return EXIT_SIZE
+    write_outputs(result, json_path=args.json, diff_path=args.diff_image)
+    if not args.quiet:
+        print(table(result))
+    return result.verdict.exit_code
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "compare",
+        help="metrics and a verdict for two images (EXR, PNG, PPM, PFM)",
+        description="Compares TEST against REF: SSIM, FLIP, PSNR, RMSE, MAE, relative MSE, "
+        "max error, pixels over threshold, NaN/Inf, each in a stated space; "
+        "per effect with --scene. Exit 0 pass, 1 warn, 2 fail, 3 size mismatch, "
+        "4 unreadable input.",
+    )
+    p.add_argument("ref", help="reference image")
+    p.add_argument("test", help="image under test")
+    p.add_argument(
+        "--ref-encoding",
+        choices=("srgb", "linear"),
+        default=None,
+        help="8-bit reference encoding (default: PNG srgb, PPM linear as the paper writes it)",
+    )
+    p.add_argument(
+        "--test-encoding",
+        choices=("srgb", "linear"),
+        default=None,
+        help="8-bit test encoding (default: PNG srgb, PPM linear)",
+    )
+    p.add_argument("--json", metavar="OUT.json", help="write every number as JSON")
+    p.add_argument("--diff-image", metavar="OUT.png", help="write |ref - test| (display) x 8")
+    p.add_argument("--mask", metavar="MASK.png", help="only pixels where the mask is white")
+    p.add_argument(
+        "--scene", metavar="SCENE.json", help="add per-effect metrics (masks from id/depth AOVs)"
+    )
+    p.add_argument("--aovs", metavar="FILE.exr", help="take the id/depth AOVs from this EXR")
+    g = p.add_argument_group("tolerances (per-pixel error = largest display-channel difference)")
+    g.add_argument("--fail", type=float, default=0.01, help="failing pixel error (default 0.01)")
+    g.add_argument(
+        "--failpercent",
+        type=float,
+        default=0.0,
+        help="%% of pixels allowed over --fail (default 0)",
+    )
+    g.add_argument("--hardfail", type=float, default=float("inf"), help="any pixel over this fails")
+    g.add_argument(
+        "--warn", type=float, default=1 / 255, help="warning pixel error (default 1/255)"
+    )
+    g.add_argument(
+        "--warnpercent",
+        type=float,
+        default=0.0,
+        help="%% of pixels allowed over --warn (default 0)",
+    )
+    g.add_argument("--min-ssim", type=float, default=None, help="fail below this SSIM")
+    g.add_argument("--max-flip", type=float, default=None, help="fail above this mean LDR FLIP")
+    p.add_argument("-q", "--quiet", action="store_true", help="no table on stdout")
+    p.set_defaults(func=run_compare)

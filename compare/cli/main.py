@@ -1,0 +1,68 @@
+"""`rtval`: the validation suite's command line. Each command lives in its own module
+(compare/cli/<command>.py; mitsuba_ref's export and reference in mitsuba_ref/cli.py); this one
+builds the parser and maps errors to exit codes."""
+
+from __future__ import annotations
+
+import sys
+
+from compare.cli import check, compare, diagnose, grade, report, stress, ztest
+from compare.cli.common import EXIT_USAGE, Parser
+from compare.judge.images import ImageError
+from compare.judge.rubric import RubricError
+from compare.render.runner import ToolError
+from mitsuba_ref import cli as mitsuba_cli
+from mitsuba_ref.drjit_env import MitsubaUnavailable
+from scene_model.scene import SceneError
+
+EXIT_SCENE = 3
+EXIT_IO = 4
+
+
+def build_parser() -> Parser:
+    parser = Parser(
+        prog="rtval",
+        description="Holds the course paper's ray tracer against Mitsuba 3 and reports where and "
+        "why they differ.",
+        epilog="Exit codes: 0 ok (compare/check: pass), 1 warn or renderer failure, 2 fail, "
+        "3 invalid scene (compare/check: size mismatch), 4 unreadable input or unwritable "
+        "output, 64 bad arguments.",
+    )
+    sub = parser.add_subparsers(
+        dest="command", required=True, metavar="COMMAND", parser_class=Parser
+    )
+    report.register(sub)
+    mitsuba_cli.register(sub)
+    compare.register(sub)
+    ztest.register(sub)
+    check.register(sub)
+    stress.register(sub)
+    grade.register(sub)
+    diagnose.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except SceneError as e:
+        print(f"rtval: error: {e}", file=sys.stderr)
+        return EXIT_SCENE
+    except (ImageError, OSError, RubricError) as e:
+        print(f"rtval: error: {e}", file=sys.stderr)
+        return EXIT_IO
+    except ValueError as e:  # invalid combinations of options found below argparse
+        print(f"rtval: error: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    except (ToolError, MitsubaUnavailable) as e:
+        print(f"rtval: error: {e}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("rtval: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,73 @@
+"""`rtval report`: one scene through every renderer into reports/<scene>/."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from compare.cli.common import positive_int, size_type
+
+
+def run_report(args: argparse.Namespace) -> int:
+    from compare.apps.report import build_report
+
+    index = build_report(
+        args.scene,
+        args.reports_dir,
+        size=args.size,
+        test_image=args.test_image,
+        test_label=args.label,
+        test_encoding=args.test_encoding,
+        jobs=args.jobs,
+        pdf=not args.no_pdf,
+        progress=lambda m: print(m, file=sys.stderr, flush=True),
+    )
+    print(index)
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "report",
+        help="render a scene with every renderer and write reports/<scene>/index.html",
+        description="Renders SCENE with every renderer and writes reports/<scene>/index.html, report.json and images.",
+    )
+    p.add_argument(
+        "scene",
+        nargs="?",
+        default="scenes/paper.json",
+        help="scene file (default: scenes/paper.json)",
+    )
+    p.add_argument(
+        "--reports-dir",
+        type=Path,
+        default=Path("reports"),
+        help="where reports go (default: reports)",
+    )
+    p.add_argument(
+        "--size",
+        type=size_type,
+        default=None,
+        metavar="WxH",
+        help="override the camera's image size",
+    )
+    p.add_argument(
+        "--test-image",
+        metavar="IMAGE",
+        help="grade this render (EXR, PNG, PPM, PFM) in the demo's place",
+    )
+    p.add_argument("--label", default=None, help="name of the --test-image renderer in the report")
+    p.add_argument(
+        "--test-encoding",
+        choices=("srgb", "linear"),
+        default=None,
+        help="8-bit encoding of --test-image (default: PNG srgb, PPM linear)",
+    )
+    p.add_argument(
+        "--jobs", type=positive_int, default=1, help="renders run in parallel (default 1)"
+    )
+    p.add_argument(
+        "--no-pdf", action="store_true", help="skip report.pdf (printed by headless Chromium)"
+    )
+    p.set_defaults(func=run_report)

@@ -1,0 +1,49 @@
+"""`rtval stress`: the stress atlas."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from compare.cli.common import size_type
+
+
+def run_stress(args: argparse.Namespace) -> int:
+    from compare.apps import stress
+
+    files = (
+        [Path(p) for p in args.scenes]
+        if args.scenes
+        else sorted(Path("scenes/stress").glob("*.json"))
+    )
+    if not files:
+        raise OSError(
+            "no stress scenes: give files, or run from the project folder (scenes/stress/*.json)"
+        )
+    data = stress.run_stress(
+        files, Path(args.out), size=args.size, progress=lambda m: print(m, file=sys.stderr)
+    )
+    print(stress.table(data))
+    print(Path(args.out) / "index.html")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "stress",
+        help="render the stress scenes with every method; NaN, error and stability atlas",
+        description="Renders each stress scene with every demo mode and backend and both Mitsuba "
+        "references; reports NaN/Inf, error against the Whitted reference and stability "
+        "under tiny nudges; writes an atlas to OUT/index.html.",
+    )
+    p.add_argument("scenes", nargs="*", help="scene files (default: scenes/stress/*.json)")
+    p.add_argument("--out", default="reports/stress", help="output folder (default reports/stress)")
+    p.add_argument(
+        "--size",
+        type=size_type,
+        default=(160, 120),
+        metavar="WxH",
+        help="render size (default 160x120)",
+    )
+    p.set_defaults(func=run_stress)

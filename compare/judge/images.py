@@ -1,0 +1,281 @@
+"""Reading the images the judge compares: EXR, PNG, PPM and PFM, as linear float32 RGB.
+
+8-bit inputs carry an encoding: PNG defaults to sRGB, PPM to linear (the paper writes
+linear values straight to 8 bits). EXR AOV channels (id, depth, N.*) are kept when present.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import stat
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import BinaryIO
+
+import numpy as np
+from numpy.typing import NDArray
+
+from compare.files import atomic_output
+from compare.safe_paths import UnsafePathError, check_regular_input
+
+F32 = NDArray[np.float32]
+
+
+class ImageError(ValueError):
+    """An unreadable or malformed image; the message names the file."""
+
+
+@dataclass
+class Image:
+    rgb: F32  # H x W x 3, linear
+    path: str = ""
+    aovs: dict[str, F32] = field(default_factory=dict)  # H x W each
+    header: dict[str, str] = field(default_factory=dict)
+    encoding: str = "linear"  # how 8-bit data was decoded; "float" for EXR/PFM
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return int(self.rgb.shape[0]), int(self.rgb.shape[1])
+
+
+def srgb_to_linear(v: F32) -> F32:
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def linear_to_srgb(v: F32) -> F32:
+    """Display encoding: clamp to [0, 1] (NaN -> 0), then the sRGB curve."""
+    c = np.clip(np.nan_to_num(v, nan=0.0), 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055).astype(np.float32)
+
+
+# The judge keeps a few float maps per pixel: refuse sizes beyond the scene format's
+# largest image (16384 x 16384) before decoding anything.
+MAX_PIXELS = 16384 * 16384
+_PFM_HEADER_MAX = 256  # "PF\n<w> <h>\n<scale>\n" is far shorter
+
+
+class ImageSizeError(ImageError):
+    """An image whose declared size is not the one required (found in the header)."""
+
+    def __init__(self, message: str, size: tuple[int, int], expected: tuple[int, int]) -> None:
+        super().__init__(message)
+        self.size = size  # (height, width) declared by the file
+        self.expected = expected
+
+
+def _open_regular(path: Path) -> BinaryIO:
+    """Opens a regular file for reading, never blocking on a FIFO and never reading a
+    device (a symlink to /dev/zero included)."""
+    try:
+        check_regular_input(path)
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except OSError as e:
+        raise ImageError(str(e) if isinstance(e, UnsafePathError) else f"{path}: {e}") from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):  # swapped after the check
+        os.close(fd)
+        raise ImageError(f"{path}: not a regular file")
+    return os.fdopen(fd, "rb")
+
+
+def _exr_size(path: Path) -> tuple[int, int]:
+    import OpenEXR
+
+    try:
+        with OpenEXR.File(str(path), header_only=True) as f:
+            lo, hi = f.header()["dataWindow"]
+    except Exception as e:  # the binding raises bare RuntimeError / OSError
+        raise ImageError(f"{path}: cannot read EXR: {e}") from None
+    return int(hi[1]) - int(lo[1]) + 1, int(hi[0]) - int(lo[0]) + 1
+
+
+def _pil_size(path: Path) -> tuple[int, int]:
+    from PIL import Image as PILImage
+
+    with _open_regular(path) as f:
+        try:
+            with PILImage.open(f) as im:  # reads the header only
+                w, h = im.size
+        except Exception as e:
+            raise ImageError(f"{path}: cannot read image: {type(e).__name__}: {e}") from None
+    return int(h), int(w)
+
+
+def _pfm_header(path: Path, head: bytes) -> tuple[int, int, int, float, int]:
+    """(width, height, channels, scale, offset of the pixels) from the first bytes."""
+    tokens: list[bytes] = []
+    pos = 0
+    while len(tokens) < 4:
+        while pos < len(head) and head[pos : pos + 1].isspace():
+            pos += 1
+        start = pos
+        while pos < len(head) and not head[pos : pos + 1].isspace():
+            pos += 1
+        if start == pos or pos >= len(head):
+            raise ImageError(f"{path}: truncated or malformed PFM header")
+        tokens.append(head[start:pos])
+    pos += 1  # the single whitespace byte that ends the header
+    try:
+        kind, w, h, scale = tokens[0], int(tokens[1]), int(tokens[2]), float(tokens[3])
+    except ValueError:
+        raise ImageError(f"{path}: malformed PFM header {b' '.join(tokens)!r}") from None
+    if kind not in (b"PF", b"Pf") or w <= 0 or h <= 0:
+        raise ImageError(f"{path}: not a PFM file (expected PF or Pf and a positive size)")
+    if not math.isfinite(scale) or scale == 0:
+        raise ImageError(f"{path}: PFM scale: expected a finite number != 0, got {tokens[3]!r}")
+    return w, h, 3 if kind == b"PF" else 1, scale, pos
+
+
+def image_size(path: str | Path) -> tuple[int, int]:
+    """(height, width) from the file's header, without decoding its pixels."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix == ".exr":
+        with _open_regular(p):  # the type check; the binding opens by name
+            pass
+        return _exr_size(p)
+    if suffix == ".pfm":
+        with _open_regular(p) as f:
+            w, h, *_ = _pfm_header(p, f.read(_PFM_HEADER_MAX))
+        return h, w
+    if suffix in (".png", ".ppm", ".pnm"):
+        return _pil_size(p)
+    raise ImageError(f"{p}: unsupported image type '{suffix}' (expected .exr, .png, .ppm, .pfm)")
+
+
+def _check_size(path: Path, size: tuple[int, int], expected: tuple[int, int] | None) -> None:
+    h, w = size
+    if expected is not None and size != expected:
+        raise ImageSizeError(
+            f"{path}: wrong size {w}x{h}, expected {expected[1]}x{expected[0]}", size, expected
+        )
+    if h <= 0 or w <= 0 or h * w > MAX_PIXELS:
+        raise ImageError(f"{path}: declares {w}x{h} pixels; at most {MAX_PIXELS} are read")
+
+
+def _read_exr(path: Path) -> Image:
+    import OpenEXR
+
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as f:
+            header = {k: v for k, v in f.header().items() if isinstance(v, str)}
+            channels = {name: np.asarray(c.pixels) for name, c in f.channels().items()}
+    except Exception as e:  # the binding raises bare RuntimeError / OSError
+        raise ImageError(f"{path}: cannot read EXR: {e}") from None
+    missing = [c for c in "RGB" if c not in channels]
+    if missing:
+        raise ImageError(
+            f"{path}: EXR has no {', '.join(missing)} channel "
+            f"(channels: {', '.join(sorted(channels)) or 'none'})"
+        )
+    rgb = np.stack([channels[c].astype(np.float32) for c in "RGB"], axis=-1)
+    aovs = {k: v.astype(np.float32) for k, v in channels.items() if k not in ("R", "G", "B")}
+    return Image(rgb=rgb, path=str(path), aovs=aovs, header=header, encoding="float")
+
+
+def _read_8bit(path: Path, encoding: str) -> Image:
+    import warnings
+
+    from PIL import Image as PILImage
+
+    try:
+        with warnings.catch_warnings(), _open_regular(path) as f:
+            warnings.simplefilter(
+                "error", PILImage.DecompressionBombWarning
+            )  # refuse, never allocate
+            with PILImage.open(f) as im:
+                im.load()
+                if im.mode not in ("RGB", "RGBA", "L"):
+                    raise ImageError(
+                        f"{path}: unsupported pixel mode {im.mode} (expected 8-bit RGB)"
+                    )
+                data = np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
+    except ImageError:
+        raise
+    except (
+        Exception
+    ) as e:  # Pillow raises OSError, ValueError, SyntaxError, DecompressionBombError ...
+        raise ImageError(f"{path}: cannot read image: {type(e).__name__}: {e}") from None
+    rgb = srgb_to_linear(data) if encoding == "srgb" else data
+    return Image(rgb=rgb.astype(np.float32), path=str(path), encoding=encoding)
+
+
+def _read_pfm(path: Path) -> Image:
+    """Portable float map: 'PF' (RGB) or 'Pf' (grey), size, scale (< 0: little-endian),
+    then float32 rows bottom to top. Reads the header first and only the pixels it declares."""
+    with _open_regular(path) as f:
+        head = f.read(_PFM_HEADER_MAX)
+        w, h, c, scale, pos = _pfm_header(path, head)
+        _check_size(path, (h, w), None)
+        need = w * h * c * 4
+        f.seek(pos)
+        raw = f.read(need)
+    if len(raw) < need:
+        raise ImageError(f"{path}: truncated PFM: {len(raw)} bytes of pixels, expected {need}")
+    px = np.frombuffer(raw, dtype="<f4" if scale < 0 else ">f4")
+    px = px.reshape(h, w, c)[::-1]
+    rgb = np.repeat(px, 3, axis=2) if c == 1 else px
+    return Image(rgb=rgb.astype(np.float32), path=str(path), encoding="float")
+
+
+def read_image(
+    path: str | Path,
+    *,
+    encoding: str | None = None,
+    expected_size: tuple[int, int] | None = None,
+) -> Image:
+    """Reads an image as linear float32 RGB.
+
+    ``encoding`` ("srgb" or "linear") applies to 8-bit files only; by default PNG is sRGB
+    and PPM linear. The path must be a regular file; its header is read first and an image
+    whose declared (height, width) differs from ``expected_size`` (ImageSizeError) or
+    exceeds MAX_PIXELS is refused before any pixel is decoded, so a small file declaring a
+    huge image costs no memory. Raises ImageError naming the file on anything unreadable.
+    """
+    p = Path(path)
+    if encoding not in (None, "srgb", "linear"):
+        raise ValueError(f"encoding must be 'srgb' or 'linear', got {encoding!r}")
+    suffix = p.suffix.lower()
+    if suffix not in (".exr", ".pfm", ".png", ".ppm", ".pnm"):
+        raise ImageError(
+            f"{p}: unsupported image type '{suffix}' (expected .exr, .png, .ppm, .pfm)"
+        )
+    _check_size(p, image_size(p), expected_size)
+    if suffix == ".exr":
+        return _read_exr(p)
+    if suffix == ".pfm":
+        return _read_pfm(p)
+    if suffix == ".png":
+        return _read_8bit(p, encoding or "srgb")
+    return _read_8bit(p, encoding or "linear")
+
+
+def write_png(path: str | Path, rgb_linear: F32) -> None:
+    """Clamped, sRGB-encoded 8-bit PNG, written atomically."""
+    from PIL import Image as PILImage
+
+    data = np.round(linear_to_srgb(rgb_linear) * 255.0).astype(np.uint8)
+    with atomic_output(path) as tmp:
+        PILImage.fromarray(data, "RGB").save(tmp, format="PNG")
+
+
+def write_exr(
+    path: str | Path,
+    rgb: F32,
+    *,
+    aovs: dict[str, F32] | None = None,
+    header: dict[str, str] | None = None,
+) -> None:
+    """Float32 EXR with R, G, B and optional AOV channels, written atomically."""
+    import OpenEXR
+
+    p = Path(path)
+    channels: dict[str, np.ndarray] = {
+        c: np.ascontiguousarray(rgb[..., i], dtype=np.float32) for i, c in enumerate("RGB")
+    }
+    for name, data in (aovs or {}).items():
+        channels[name] = np.ascontiguousarray(data, dtype=np.float32)
+    hdr: dict[str, object] = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    hdr.update(header or {})
+    with atomic_output(p) as tmp, OpenEXR.File(hdr, channels) as f:
+        f.write(str(tmp))

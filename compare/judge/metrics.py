@@ -1,0 +1,247 @@
+"""Image metrics, each computed in a stated space.
+
+display: clamp to [0, 1] (NaN -> 0), sRGB-encode — what a person sees.
+linear:  the raw linear values (HDR); NaN/Inf pixels are counted and left out.
+
+SSIM uses Wang et al. 2004's parameters (Gaussian window sigma 1.5, K1 0.01, K2 0.03,
+population covariance) on display values; its mean leaves out a 5-pixel border, as
+scikit-image does. FLIP is NVIDIA's flip-evaluator at 67 pixels per degree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from compare.judge.images import linear_to_srgb
+
+F32 = NDArray[np.float32]
+BOOL = NDArray[np.bool_]
+SSIM_WINDOW = 11  # scikit-image's Gaussian window for sigma 1.5
+SSIM_BORDER = 5  # (win - 1) / 2, left out of the mean
+FLIP_PPD = 67.0
+
+
+class SizeMismatch(ValueError):
+    """The two images differ in size; nothing is resampled."""
+
+
+@dataclass
+class Maps:
+    """Per-pixel maps kept for pictures and per-region means. The whole-image arrays below
+    them are computed once per pair, so that the metrics of each region (the per-effect
+    table asks for six) only index them."""
+
+    ssim: F32  # H x W
+    flip_ldr: F32  # H x W
+    flip_hdr: F32 | None
+    abs_display: F32  # H x W, max over channels
+    diff_display: F32  # H x W x 3, display(ref) - display(test)
+    abs_linear: NDArray[np.float64]  # H x W x 3, |ref - test|
+    finite: BOOL  # H x W, both pixels finite in every channel
+    nan_ref: BOOL  # H x W, a NaN in any channel
+    nan_test: BOOL
+    inf_ref: BOOL
+    inf_test: BOOL
+
+
+@dataclass
+class Metrics:
+    pixels: int
+    ssim: float  # display
+    flip_ldr: float  # display
+    flip_hdr: float | None  # linear, only for HDR inputs
+    psnr_db: float  # display, data range 1
+    rmse_display: float
+    mae_display: float
+    rmse_linear: float
+    mae_linear: float
+    rel_mse_linear: float  # (a - b)^2 / (b^2 + 0.01)
+    max_error_linear: float
+    max_error_at: tuple[int, int, int] | None  # (x, y, channel)
+    over_threshold: int  # pixels whose display error exceeds `threshold` in any channel
+    threshold: float
+    nan_ref: int
+    nan_test: int
+    inf_ref: int
+    inf_test: int
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["spaces"] = SPACES
+        d["flip_ppd"] = FLIP_PPD
+        return d
+
+
+SPACES = {
+    "ssim": "display",
+    "flip_ldr": "display",
+    "flip_hdr": "linear",
+    "psnr_db": "display",
+    "rmse_display": "display",
+    "mae_display": "display",
+    "rmse_linear": "linear",
+    "mae_linear": "linear",
+    "rel_mse_linear": "linear",
+    "max_error_linear": "linear",
+    "over_threshold": "display",
+}
+
+
+def check_same_size(
+    ref: F32, test: F32, ref_name: str = "reference", test_name: str = "test"
+) -> None:
+    if ref.shape != test.shape:
+        raise SizeMismatch(
+            f"size mismatch: {ref_name} is {ref.shape[1]}x{ref.shape[0]}, "
+            f"{test_name} is {test.shape[1]}x{test.shape[0]} (never resampled)"
+        )
+
+
+def display(rgb: F32) -> F32:
+    return linear_to_srgb(rgb)
+
+
+def _any_channel(per_channel: BOOL) -> BOOL:
+    return np.asarray(per_channel.any(axis=-1), bool)
+
+
+def compute_maps(ref: F32, test: F32, *, hdr: bool) -> Maps:
+    """SSIM and FLIP maps plus the display error map, for the whole image."""
+    import flip_evaluator
+    from skimage.metrics import structural_similarity
+
+    check_same_size(ref, test)
+    a, b = display(ref), display(test)
+    if min(a.shape[:2]) < SSIM_WINDOW:
+        ssim_map = np.full(a.shape[:2], np.nan, np.float32)  # too small for the 11x11 window
+    else:
+        _, full_map = structural_similarity(
+            a,
+            b,
+            data_range=1.0,
+            channel_axis=-1,
+            gaussian_weights=True,
+            sigma=1.5,
+            use_sample_covariance=False,
+            full=True,
+        )
+        ssim_map = np.asarray(full_map, np.float32).mean(axis=-1)
+    flip_ldr = flip_evaluator.evaluate(a, b, "LDR", applyMagma=False, parameters={"ppd": FLIP_PPD})[
+        0
+    ][..., 0]
+    flip_hdr = None
+
+    def clean(x: F32) -> F32:
+        return np.maximum(np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
+
+    # HDR FLIP derives its exposures from the reference; on an all-black one flip-evaluator
+    # exits the process, so it is left undefined (None) there.
+    if hdr and float(clean(ref).max()) > 0.0:
+        flip_hdr = flip_evaluator.evaluate(
+            clean(ref).astype(np.float32),
+            clean(test).astype(np.float32),
+            "HDR",
+            applyMagma=False,
+            parameters={"ppd": FLIP_PPD},
+        )[0][..., 0]
+    diff_display = a - b
+    nan_ref, nan_test = _any_channel(np.isnan(ref)), _any_channel(np.isnan(test))
+    inf_ref, inf_test = _any_channel(np.isinf(ref)), _any_channel(np.isinf(test))
+    return Maps(
+        ssim=ssim_map,
+        flip_ldr=np.asarray(flip_ldr, np.float32),
+        flip_hdr=None if flip_hdr is None else np.asarray(flip_hdr, np.float32),
+        abs_display=np.abs(diff_display).max(axis=-1),
+        diff_display=diff_display,
+        abs_linear=np.abs(ref.astype(np.float64) - test),
+        finite=~(nan_ref | nan_test | inf_ref | inf_test),
+        nan_ref=nan_ref,
+        nan_test=nan_test,
+        inf_ref=inf_ref,
+        inf_test=inf_test,
+    )
+
+
+def _interior(shape: tuple[int, int]) -> BOOL:
+    m = np.zeros(shape, bool)
+    h, w = shape
+    if h > 2 * SSIM_BORDER and w > 2 * SSIM_BORDER:
+        m[SSIM_BORDER : h - SSIM_BORDER, SSIM_BORDER : w - SSIM_BORDER] = True
+    else:
+        m[:] = True
+    return m
+
+
+def compute_metrics(
+    ref: F32, test: F32, maps: Maps, *, mask: BOOL | None = None, threshold: float = 1.0 / 255.0
+) -> Metrics:
+    """Every metric over `mask` (all pixels when None)."""
+    check_same_size(ref, test)
+    h, w = ref.shape[:2]
+    region = np.ones((h, w), bool) if mask is None else mask
+    n = int(region.sum())
+    lin = region & maps.finite
+    diff_d = maps.diff_display[region]
+    mse_d = float(np.mean(diff_d**2)) if n else float("nan")
+    ra, tb = ref[lin].astype(np.float64), test[lin].astype(np.float64)
+    dl = ra - tb
+    ssim_region = region & _interior((h, w))
+    if not ssim_region.any():
+        ssim_region = region
+    max_at = None
+    max_err = float("nan")
+    if lin.any():
+        full = np.where(lin[..., None], maps.abs_linear, -1.0)
+        y, x, c = np.unravel_index(int(np.argmax(full)), full.shape)
+        max_at, max_err = (int(x), int(y), int(c)), float(full[y, x, c])
+    return Metrics(
+        pixels=n,
+        ssim=float(maps.ssim[ssim_region].mean()) if n else float("nan"),
+        flip_ldr=float(maps.flip_ldr[region].mean()) if n else float("nan"),
+        flip_hdr=None
+        if maps.flip_hdr is None
+        else float(maps.flip_hdr[region].mean())
+        if n
+        else None,
+        psnr_db=float("inf") if mse_d == 0 else float(10 * np.log10(1.0 / mse_d)),
+        rmse_display=float(np.sqrt(mse_d)),
+        mae_display=float(np.mean(np.abs(diff_d))) if n else float("nan"),
+        rmse_linear=float(np.sqrt(np.mean(dl**2))) if dl.size else float("nan"),
+        mae_linear=float(np.mean(np.abs(dl))) if dl.size else float("nan"),
+        rel_mse_linear=float(np.mean(dl**2 / (ra**2 + 0.01))) if dl.size else float("nan"),
+        max_error_linear=max_err,
+        max_error_at=max_at,
+        over_threshold=int((maps.abs_display[region] > threshold).sum()),
+        threshold=threshold,
+        nan_ref=int(maps.nan_ref[region].sum()),
+        nan_test=int(maps.nan_test[region].sum()),
+        inf_ref=int(maps.inf_ref[region].sum()),
+        inf_test=int(maps.inf_test[region].sum()),
+    )
+
+
+def metrics_from_dict(d: dict[str, Any]) -> Metrics:
+    """The inverse of Metrics.as_dict (after a JSON round trip: null -> NaN where a float)."""
+    fields = {k: v for k, v in d.items() if k in Metrics.__dataclass_fields__}
+    for k in (
+        "ssim",
+        "flip_ldr",
+        "psnr_db",
+        "rmse_display",
+        "mae_display",
+        "rmse_linear",
+        "mae_linear",
+        "rel_mse_linear",
+        "max_error_linear",
+    ):
+        if fields.get(k) is None:
+            fields[k] = float("nan")
+    if d.get("psnr_db") is None and d.get("rmse_display") == 0:
+        fields["psnr_db"] = float("inf")  # identical display values; JSON has no Infinity
+    if fields.get("max_error_at") is not None:
+        fields["max_error_at"] = tuple(fields["max_error_at"])
+    return Metrics(**fields)

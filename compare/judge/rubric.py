@@ -1,0 +1,154 @@
+"""The grading rubric: a TOML file a teacher edits.
+
+    [rubric]
+    pass_score = 60          # overall score needed to pass (0-100)
+    flip_at_zero = 0.5       # an effect's score is 100 (1 - FLIP / flip_at_zero)
+
+    [effects.reflection]     # any of: background emitter direct shadow reflection refraction edges
+    min_ssim = 0.5
+    max_flip = 0.15
+    weight = 2.0             # multiplies the effect's pixel share in the overall score
+
+Every error names the file and the line.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import tomllib
+
+from compare.judge.effects import EFFECTS
+from compare.judge.scoring import FLIP_AT_ZERO_SCORE, EffectRule
+
+DEFAULT_RUBRIC_TEXT = """\
+# rtval default rubric: every effect needs mean FLIP <= 0.10 and SSIM >= 0.5 to pass;
+# the overall score (pixel-weighted effect scores) must reach 60 to pass.
+[rubric]
+pass_score = 60
+flip_at_zero = 0.5
+"""
+
+
+class RubricError(ValueError):
+    """An invalid rubric; the message names the file and the line."""
+
+
+@dataclass(frozen=True)
+class Rubric:
+    pass_score: float = 60.0
+    flip_at_zero: float = FLIP_AT_ZERO_SCORE
+    effects: dict[str, EffectRule] = field(default_factory=dict)
+    source: str = "default rubric"
+    digest: str = ""
+
+    def rule(self, effect: str) -> EffectRule:
+        return self.effects.get(effect, EffectRule())
+
+
+def _line_of(text: str, key: str | None, section: str | None) -> int:
+    """1-based line of `key = ...` inside [section], or of the [section] header (key None)."""
+    lines = text.splitlines()
+    start = 0
+    if section:
+        pattern = re.compile(
+            r"^\s*\[\s*" + re.escape(section).replace(r"\.", r"\s*\.\s*") + r"\s*\]"
+        )
+        start = next((i for i, line in enumerate(lines) if pattern.match(line)), 0)
+    if key is None:
+        return start + 1
+    for i in range(start, len(lines)):
+        if re.match(r"^\s*" + re.escape(key) + r"\s*=", lines[i]):
+            return i + 1
+    return start + 1
+
+
+def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise RubricError(f"{source}: invalid TOML: {e}") from None
+
+    def fail(msg: str, key: str | None, section: str | None) -> RubricError:
+        return RubricError(f"{source}: line {_line_of(text, key, section)}: {msg}")
+
+    for key in raw:
+        if key not in ("rubric", "effects"):
+            raise fail(
+                f"unknown table or key '{key}' (expected [rubric] and [effects.NAME])", key, None
+            )
+    top = raw.get("rubric", {})
+    values: dict[str, float] = {}
+    for key, value in top.items():
+        if key not in ("pass_score", "flip_at_zero"):
+            raise fail(
+                f"unknown key '{key}' in [rubric] (expected pass_score, flip_at_zero)",
+                key,
+                "rubric",
+            )
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
+            raise fail(f"{key} must be a number (finite), got {value!r}", key, "rubric")
+        values[key] = float(value)
+    if not 0 <= values.get("pass_score", 60) <= 100:
+        raise fail("pass_score must be from 0 to 100", "pass_score", "rubric")
+    if not values.get("flip_at_zero", FLIP_AT_ZERO_SCORE) > 0:
+        raise fail("flip_at_zero must be > 0", "flip_at_zero", "rubric")
+    effects: dict[str, EffectRule] = {}
+    for name, table in raw.get("effects", {}).items():
+        section = f"effects.{name}"
+        if name not in EFFECTS:
+            raise fail(
+                f"unknown effect '{name}' (expected one of {', '.join(EFFECTS)})", None, section
+            )
+        if not isinstance(table, dict):
+            raise fail(f"[{section}] must be a table", None, section)
+        rule: dict[str, float] = {}
+        for key, value in table.items():
+            if key not in ("min_ssim", "max_flip", "weight"):
+                raise fail(
+                    f"unknown key '{key}' in [{section}] (expected min_ssim, max_flip, weight)",
+                    key,
+                    section,
+                )
+            lo = -1.0 if key == "min_ssim" else 0.0  # SSIM ranges over [-1, 1]
+            hi = 1.0 if key == "min_ssim" else math.inf
+            # `not lo <= v < hi` also refuses NaN (TOML has nan and inf), which compares false
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not (lo <= value <= hi and math.isfinite(value))
+            ):
+                span = f"from {lo:g} to {hi:g}" if hi < math.inf else f">= {lo:g}"
+                raise fail(f"{key} must be a number {span} (finite), got {value!r}", key, section)
+            rule[key] = float(value)
+        effects[name] = EffectRule(**rule)
+    return Rubric(
+        pass_score=values.get("pass_score", 60.0),
+        flip_at_zero=values.get("flip_at_zero", FLIP_AT_ZERO_SCORE),
+        effects=effects,
+        source=source,
+        digest=hashlib.sha256(text.encode()).hexdigest()[:16],
+    )
+
+
+def load_rubric(path: str | Path | None) -> Rubric:
+    if path is None:
+        return parse_rubric(DEFAULT_RUBRIC_TEXT, "default rubric")
+    from compare.safe_paths import read_bounded
+
+    p = Path(path)
+    try:  # a regular file of at most 1 MiB: never a FIFO or a device
+        text = read_bounded(p, 1 << 20).decode("utf-8")
+    except OSError as e:  # the message names the path
+        raise RubricError(f"cannot read the rubric: {e}") from None
+    except UnicodeDecodeError as e:
+        raise RubricError(f"{p}: the rubric is not UTF-8 text: {e}") from None
+    return parse_rubric(text, str(p))

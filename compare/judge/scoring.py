@@ -1,0 +1,131 @@
+"""Scores and pass/fail per effect, read from an evaluation (rubric rules applied).
+
+Defaults (a rubric may override them): an effect passes with mean LDR FLIP <= 0.10 over its
+pixels and SSIM >= 0.5. FLIP decides; SSIM is only a floor against broken structure, because
+display-space SSIM collapses on faint noise in near-black regions (a render with linear noise
+of sigma 0.002 scores SSIM 0.65 in the classic scene's shadows at FLIP 0.04). An effect's
+score is 100 (1 - FLIP / flip_at_zero), clamped to [0, 100] (flip_at_zero defaults to 0.5:
+half the perceptual range scores nothing). The overall score is the mean of the effect scores
+weighted by pixel count times the rule's weight; the verdict passes when every effect does
+(and, with `pass_score`, when the overall score reaches it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from compare.judge.metrics import Metrics
+
+FLIP_AT_ZERO_SCORE = 0.5
+
+
+@dataclass(frozen=True)
+class EffectRule:
+    min_ssim: float = 0.5
+    max_flip: float = 0.10
+    weight: float = 1.0  # multiplies the pixel-count weight in the overall score
+
+
+@dataclass(frozen=True)
+class EffectScore:
+    status: str  # pass | fail
+    score: float
+    reasons: list[str]
+    pixels: int
+    ssim: float | None
+    flip: float
+    rule: EffectRule
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "status": self.status,
+            "score": self.score,
+            "reasons": self.reasons,
+            "pixels": self.pixels,
+            "ssim": self.ssim,
+            "flip": self.flip,
+            "rule": {
+                "min_ssim": self.rule.min_ssim,
+                "max_flip": self.rule.max_flip,
+                "weight": self.rule.weight,
+            },
+        }
+
+
+@dataclass(frozen=True)
+class Score:
+    status: str  # pass | fail
+    score: float
+    effects: dict[str, EffectScore] = field(default_factory=dict)
+    flip_at_zero_score: float = FLIP_AT_ZERO_SCORE
+    pass_score: float | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "status": self.status,
+            "score": self.score,
+            "effects": {k: e.as_dict() for k, e in self.effects.items()},
+            "flip_at_zero_score": self.flip_at_zero_score,
+            "pass_score": self.pass_score,
+        }
+
+    @property
+    def failing_effects(self) -> list[str]:
+        """Failing effects, the worst (most score lost, weighted) first."""
+        bad = [(k, e) for k, e in self.effects.items() if e.status != "pass"]
+        bad.sort(
+            key=lambda kv: (100.0 - kv[1].score) * kv[1].pixels * kv[1].rule.weight, reverse=True
+        )
+        return [k for k, _ in bad]
+
+
+def effect_score(flip: float, flip_at_zero: float = FLIP_AT_ZERO_SCORE) -> float:
+    """100 at FLIP 0, 0 at FLIP >= flip_at_zero, linear between."""
+    return min(100.0, max(0.0, 100.0 * (1.0 - flip / flip_at_zero)))
+
+
+def score_effect(m: Metrics, rule: EffectRule, flip_at_zero: float) -> EffectScore:
+    ssim: float | None = m.ssim if m.ssim == m.ssim else None  # NaN: window too small
+    flip = m.flip_ldr
+    reasons = []
+    if ssim is None or not ssim >= rule.min_ssim:
+        reasons.append(
+            f"SSIM {ssim:.3f} < {rule.min_ssim}" if ssim is not None else "SSIM undefined"
+        )
+    if not flip <= rule.max_flip:
+        reasons.append(f"FLIP {flip:.3f} > {rule.max_flip}")
+    return EffectScore(
+        "fail" if reasons else "pass",
+        effect_score(flip, flip_at_zero),
+        reasons,
+        m.pixels,
+        ssim,
+        flip,
+        rule,
+    )
+
+
+def score_effects(
+    per_effect: dict[str, Metrics],
+    rules: dict[str, EffectRule] | None = None,
+    *,
+    flip_at_zero: float = FLIP_AT_ZERO_SCORE,
+    pass_score: float | None = None,
+) -> Score:
+    """Per-effect metrics -> the scored verdict."""
+    rules = rules or {}
+    effects = {
+        name: score_effect(m, rules.get(name, EffectRule()), flip_at_zero)
+        for name, m in per_effect.items()
+    }
+    total_w = sum(e.pixels * e.rule.weight for e in effects.values())
+    overall = (
+        sum(e.pixels * e.rule.weight * e.score for e in effects.values()) / total_w
+        if total_w
+        else 0.0
+    )
+    ok = bool(effects) and all(e.status == "pass" for e in effects.values())
+    if pass_score is not None and overall < pass_score:
+        ok = False
+    return Score("pass" if ok else "fail", overall, effects, flip_at_zero, pass_score)

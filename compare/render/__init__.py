@@ -1,0 +1,2 @@
+"""Running the renderers (rtdemo, Mitsuba through `rtval reference`) as commands, and caching
+their outputs by content hash."""
