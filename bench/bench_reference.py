@@ -20,10 +20,10 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from common import SCENES, print_table, write_results
-from mitsuba_ref.scene import Scene, load_scene
 
 from mitsuba_ref.drjit_env import load_mitsuba
 from mitsuba_ref.reference import ReferenceSettings, render_reference
+from scene_model.scene import Scene, load_scene
 
 INTEGRATORS = ("whitted", "path")
 

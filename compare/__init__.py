@@ -11,7 +11,8 @@ The public API below is what another program needs to judge images as rtval does
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose import Diagnosis, diagnose
 from compare.judge.effects import EFFECTS, effect_masks
-from compare.judge.evaluate import EffectResult, Evaluation, evaluate_pair
+from compare.judge.evaluate import EffectResult, Evaluation, ExactInputs, evaluate_pair
+from compare.judge.exact_match import ExactMatch, exact_match
 from compare.judge.images import Image, ImageError, read_image, write_exr, write_png
 from compare.judge.metrics import Maps, Metrics, SizeMismatch, compute_maps, compute_metrics
 from compare.judge.mistakes import Mistake, catalogue
@@ -27,6 +28,8 @@ __all__ = [
     "EffectRule",
     "EffectScore",
     "Evaluation",
+    "ExactInputs",
+    "ExactMatch",
     "Image",
     "ImageError",
     "Maps",
@@ -44,6 +47,7 @@ __all__ = [
     "diagnose",
     "effect_masks",
     "evaluate_pair",
+    "exact_match",
     "load_rubric",
     "parse_rubric",
     "read_image",

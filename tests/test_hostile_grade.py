@@ -38,10 +38,10 @@ def hostile(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict,
     subs = root / "subs"
     subs.mkdir()
     out = subs / "grades"  # the --out folder inside the submissions folder
-    rc, err = _grade(subs, out)  # renders the reference the class is made from
+    rc, err = _grade(subs, out)  # renders the model (classic, the default) the class is made of
     assert rc == 0, err
     reference = root / "reference.exr"
-    shutil.copyfile(out / "references" / "classic.exr", reference)
+    shutil.copyfile(out / "cache" / "models" / SIZE / "model-classic.exr", reference)
     expected = make_hostile_class(reference, subs)
     rc, err = _grade(subs, out)
     assert rc == 0, err

@@ -203,7 +203,16 @@ def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtd
     assert proc.returncode == 0, proc.stderr
     data = json.loads((folder / "report.json").read_text())
     assert data["test"]["label"] == "student 42" and data["featured"][0]["key"] == "test-image"
-    assert "student 42" in (folder / "index.html").read_text()
+    html = (folder / "index.html").read_text()
+    assert "student 42" in html
+    # Two verdicts: rtdemo's own classic PPM is exactly classic, and far from Mitsuba.
+    mv = data["model_verdict"]
+    assert mv["model"] == "classic" and mv["basis"] == "exact"
+    assert mv["score"]["status"] == "pass" and mv["score"]["score"] >= 99
+    assert data["verdict"]["against"] == "mitsuba" and data["verdict"]["status"] == "fail"
+    assert [q["quirk"] for q in mv["quirk_costs"] if not q["present"]] == ["Q2", "Q4", "Q9"]
+    assert 'id="verdict-model"' in html and 'id="verdict-mitsuba"' in html
+    assert "What this image implements" in html and data["diagnosis"] is None
     small = tmp_path / "small.png"
     PILImage.fromarray(np.zeros((10, 10, 3), np.uint8)).save(small)
     bad = run(

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from helpers import SCENES
-from mitsuba_ref.scene import load_scene
 
 from mitsuba_ref.reference import ReferenceSettings, render_reference
+from scene_model.scene import load_scene
 
 pytestmark = pytest.mark.slow
 

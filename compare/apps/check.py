@@ -4,6 +4,10 @@ Renders the demo on a scene set (every backend and mode asked for), compares eac
 with its stored baseline under per-scene tolerances and reports a table, JSON and JUnit XML.
 A missing baseline is a failure; `update` rewrites only new or failing baselines.
 Baselines are per scene and mode, not per backend: the GL backend must reproduce the CPU's.
+
+With `against` (a target model) each render is judged against the model instead of a
+baseline: a demo model by exact match (the model rendered by the installed rtdemo, or
+$RTVAL_RTDEMO, the render by `rtdemo`), Mitsuba by the default rubric's per-effect verdict.
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ class CaseResult:
     ssim: float | None = None
     seconds: float = 0.0
     updated: bool = False
+    against: str = "baseline"  # what the render was judged against
 
     @property
     def name(self) -> str:
@@ -68,15 +73,29 @@ def load_tolerances(baseline_dir: Path) -> dict[str, Tolerances]:
 def run_check(
     *,
     scenes: list[str],
-    modes: list[str],
+    modes: list[str] | None,
     backends: list[str],
     baseline_dir: Path,
     size: tuple[int, int],
     update: bool = False,
     rtdemo: str | None = None,
+    against: str | None = None,
+    cache_dir: Path | None = None,
     progress: Callable[[str], None] = print,
 ) -> list[CaseResult]:
+    if against:
+        return _check_against(
+            scenes=scenes,
+            modes=modes,
+            backends=backends,
+            size=size,
+            rtdemo=rtdemo,
+            against=against,
+            cache_dir=cache_dir,
+            progress=progress,
+        )
     tolerances = load_tolerances(baseline_dir)
+    modes = modes or list(DEFAULT_MODES)
     results: list[CaseResult] = []
     with tempfile.TemporaryDirectory(prefix="rtval-check-") as tmp:
         for scene_path in scenes:
@@ -138,6 +157,78 @@ def run_check(
     return results
 
 
+def _check_against(
+    *,
+    scenes: list[str],
+    modes: list[str] | None,
+    backends: list[str],
+    size: tuple[int, int],
+    rtdemo: str | None,
+    against: str,
+    cache_dir: Path | None,
+    progress: Callable[[str], None],
+) -> list[CaseResult]:
+    from compare.apps.against import default_cache, judge, load, prepare
+    from compare.judge.target_model import parse_model
+
+    model = parse_model(against)
+    cache = cache_dir or default_cache()
+    # A demo model checks its own algorithm unless modes are asked for: the render under test
+    # runs with the model's options, so a correct build matches it exactly.
+    cases: list[tuple[str, list[str]]] = (
+        [(model.name, model.rtdemo_args())]
+        if model.is_demo and not modes
+        else [(m, ["--mode", m]) for m in (modes or list(DEFAULT_MODES))]
+    )
+    results: list[CaseResult] = []
+    with tempfile.TemporaryDirectory(prefix="rtval-check-") as tmp:
+        for scene_path in scenes:
+            scene = load_scene(scene_path)
+            loaded = load(prepare(model, Path(scene_path), size, cache, progress=progress))
+            for backend in backends:
+                for name, mode_args in cases:
+                    out = Path(tmp) / f"{scene.name}-{backend}-{name}.exr"
+                    start = time.perf_counter()
+                    run_rtdemo(
+                        [
+                            "render",
+                            scene_path,
+                            "-o",
+                            str(out),
+                            *mode_args,
+                            "--backend",
+                            backend,
+                            "--width",
+                            str(size[0]),
+                            "--height",
+                            str(size[1]),
+                            "-q",
+                        ],
+                        executable=rtdemo,
+                    )
+                    case = CaseResult(
+                        scene.name,
+                        backend,
+                        name,
+                        "pass",
+                        seconds=time.perf_counter() - start,
+                        against=model.name,
+                    )
+                    ev = judge(read_image(out), loaded)
+                    assert ev.score is not None
+                    case.status = ev.score.status
+                    case.reasons = ev.score.reasons()
+                    case.failing_pixels = (
+                        ev.exact.differing if ev.exact else ev.verdict.failing_pixels
+                    )
+                    progress(
+                        f"{case.name:<28} {case.status.upper():<5} against {model.name}"
+                        + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
+                    )
+                    results.append(case)
+    return results
+
+
 def exit_code(results: list[CaseResult]) -> int:
     effective = [r for r in results if not r.updated]
     if any(r.status == "fail" for r in effective):
@@ -150,13 +241,14 @@ def exit_code(results: list[CaseResult]) -> int:
 def table(results: list[CaseResult]) -> str:
     lines = [
         f"{'case':<28} {'status':<7} {'failing px':>10} {'max err':>8} {'SSIM':>8} {'time s':>7}"
+        "  against"
     ]
     order = sorted(results, key=lambda r: ("fail", "warn", "pass").index(r.status))
     for r in order:
         ssim = f"{r.ssim:.5f}" if r.ssim is not None else "-"
         lines.append(
             f"{r.name:<28} {r.status:<7} {r.failing_pixels:>10} "
-            f"{r.max_display_error:>8.4f} {ssim:>8} {r.seconds:>7.2f}"
+            f"{r.max_display_error:>8.4f} {ssim:>8} {r.seconds:>7.2f}  {r.against}"
             + ("  updated" if r.updated else "")
         )
     n_fail = sum(r.status == "fail" for r in results)
@@ -189,6 +281,9 @@ def write_junit(results: list[CaseResult], path: Path) -> None:
             classname=f"rtval.{r.scene}",
             name=f"{r.backend}-{r.mode}",
             time=f"{r.seconds:.3f}",
+        )
+        ET.SubElement(
+            ET.SubElement(case, "properties"), "property", name="against", value=r.against
         )
         if r.status == "fail":
             ET.SubElement(case, "failure", message="; ".join(r.reasons)).text = "; ".join(r.reasons)

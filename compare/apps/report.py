@@ -143,6 +143,7 @@ def build_report(
     test_image: str | None = None,
     test_label: str | None = None,
     test_encoding: str | None = None,
+    against: str | None = None,
     jobs: int = 1,
     pdf: bool = True,
     progress: Callable[[str], None] = print,
@@ -288,7 +289,12 @@ def build_report(
                 )
 
     test_effects = {k: metrics_from_dict(v) for k, v in results[test_key]["per_effect"].items()}
-    verdict = score_effects(test_effects).as_dict()
+    verdict = score_effects(test_effects).as_dict() | {"against": "mitsuba"}
+    model_verdict = None
+    if test_image:
+        model_verdict = _model_verdict(
+            imgs[test_key], against, scene_file, size, cache, ladder, progress
+        )
     sentences = difference_sentences(ref.rgb, imgs[test_key].rgb, masks, test_effects, label)
     penumbra = penumbra_numbers(ref.rgb, imgs["ref-area"].rgb, imgs["demo-physical-cpu-16spp"].rgb)
     converged = time_to_converged(
@@ -331,6 +337,8 @@ def build_report(
         command += ["--test-image", str(test_image)] + (
             ["--label", test_label] if test_label else []
         )
+        if against:
+            command += ["--against", against]
     data = _json_safe(
         {
             "scene": scene.name,
@@ -349,6 +357,8 @@ def build_report(
             },
             "test": {"key": test_key, "label": label},
             "verdict": verdict,
+            "model_verdict": model_verdict,
+            "diagnosis": _diagnosis() if test_image else None,
             "sentences": sentences,
             "contributions": contributions,
             "featured": [{"key": k, "label": name, **results[k]} for k, name in featured],
@@ -377,6 +387,56 @@ def build_report(
     if pdf:
         write_pdf(out / "index.html", out / "report.pdf")
     return out / "index.html"
+
+
+def _model_verdict(
+    test: Image,
+    against: str | None,
+    scene_file: Path,
+    size: tuple[int, int] | None,
+    cache: Path,
+    ladder: list[dict[str, Any]],
+    progress: Callable[[str], None],
+) -> dict[str, Any]:
+    """The test image against its assigned model (is the implementation right?), and what
+    each of the model's quirks costs against Mitsuba (how far is that algorithm from physics),
+    read from the ablation ladder."""
+    from compare.apps.against import GRADE_DEFAULT, judge, load, prepare
+    from compare.judge.target_model import MODE_QUIRKS, parse_model
+
+    model = parse_model(against or GRADE_DEFAULT)
+    progress(f"model {model.name} ...")
+    loaded = load(prepare(model, scene_file, size, cache, progress=progress))
+    ev = judge(test, loaded)
+    assert ev.score is not None
+    # Ladder step i fixes Q(i) on top of Q1..Q(i-1): its FLIP drop is what that quirk costs
+    # there (cumulative, so conditional on the earlier fixes).
+    present = model.quirks if model.is_demo else frozenset()
+    costs = [
+        {
+            "quirk": q,
+            "present": int(q[1:]) in present,
+            "flip_with": ladder[i - 1]["flip"],
+            "flip_fixed": ladder[i]["flip"],
+            "cost": ladder[i - 1]["flip"] - ladder[i]["flip"],
+        }
+        for i, q in enumerate(QUIRKS, start=1)
+        if i < len(ladder) and int(q[1:]) in MODE_QUIRKS["paper"]
+    ]
+    return {
+        "model": model.name,
+        "basis": ev.score.basis,
+        "score": ev.score.as_dict(),
+        "reasons": ev.score.reasons(),
+        "exact": ev.exact.as_dict() if ev.exact else None,
+        "quirk_costs": costs,
+    }
+
+
+def _diagnosis() -> dict[str, Any] | None:
+    """The hook for "What this image implements" (compare.judge.diagnose, once merged, returns
+    its findings here); None renders the section's empty state."""
+    return None
 
 
 def _sandbox_flags() -> list[str]:

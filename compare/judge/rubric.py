@@ -1,6 +1,7 @@
 """The grading rubric: a TOML file a teacher edits.
 
     [rubric]
+    against = "classic"      # the target model (target_model.py): mitsuba, classic+Q2, ...
     pass_score = 60          # overall score needed to pass (0-100)
     flip_at_zero = 0.5       # an effect's score is 100 (1 - FLIP / flip_at_zero)
 
@@ -24,6 +25,7 @@ import tomllib
 
 from compare.judge.effects import EFFECTS
 from compare.judge.scoring import FLIP_AT_ZERO_SCORE, EffectRule
+from compare.judge.target_model import ModelError, parse_model
 
 DEFAULT_RUBRIC_TEXT = """\
 # rtval default rubric: every effect needs mean FLIP <= 0.10 and SSIM >= 0.5 to pass;
@@ -45,6 +47,7 @@ class Rubric:
     effects: dict[str, EffectRule] = field(default_factory=dict)
     source: str = "default rubric"
     digest: str = ""
+    against: str | None = None  # the target model's canonical name; None: the command's default
 
     def rule(self, effect: str) -> EffectRule:
         return self.effects.get(effect, EffectRule())
@@ -83,10 +86,19 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
             )
     top = raw.get("rubric", {})
     values: dict[str, float] = {}
+    against = None
     for key, value in top.items():
+        if key == "against":
+            if not isinstance(value, str):
+                raise fail(f"against must be a string, got {value!r}", key, "rubric")
+            try:
+                against = parse_model(value).name
+            except ModelError as e:
+                raise fail(str(e), key, "rubric") from None
+            continue
         if key not in ("pass_score", "flip_at_zero"):
             raise fail(
-                f"unknown key '{key}' in [rubric] (expected pass_score, flip_at_zero)",
+                f"unknown key '{key}' in [rubric] (expected against, pass_score, flip_at_zero)",
                 key,
                 "rubric",
             )
@@ -136,6 +148,7 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
         effects=effects,
         source=source,
         digest=hashlib.sha256(text.encode()).hexdigest()[:16],
+        against=against,
     )
 
 
