@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "camera_rays.h"
+#include "packet/packet_engine.h"
 
 namespace rt {
 
@@ -16,6 +17,9 @@ int strata_per_axis(int spp) {
 }
 
 RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, RayCounts* rays) {
+    // The packet engine implements no named mistakes: a run with any takes the scalar tracer.
+    const bool packet = settings.engine == Engine::packet && !settings.trace.mistakes.any();
+    if (packet) return render_packet(scene, settings, isa_from_environment(), rays);
     RenderedImage image(settings.width, settings.height);
     const CameraRays shared_camera(scene.camera, settings.width, settings.height);
     const Tracer shared_tracer(scene, settings.trace);

@@ -7,12 +7,17 @@
 
 namespace rt {
 
+// packet: rays in SIMD lanes (packet/packet_engine.h), the default; scalar: one ray at a time
+// through Tracer, the reference the packet engine is tested against.
+enum class Engine { packet, scalar };
+
 struct RenderSettings {
     TraceOptions trace;
     int width = 640;
     int height = 480;
     int spp = 1;      // a perfect square k*k: stratum centres of a k x k grid, box filter
     int threads = 1;  // >= 1
+    Engine engine = Engine::packet;
 };
 
 // Precondition: settings were validated (sizes >= 1, spp a perfect square). With `rays`,

@@ -4,11 +4,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace rt {
 namespace {
@@ -42,6 +45,65 @@ TEST(ImageIo, LinearEncodingOfHandPickedValues) {
         EXPECT_EQ(to_linear8(-0.5f, r), 0);  // the paper's cast: undefined below -1
         EXPECT_EQ(to_linear8(-7.0f, r), 0);
         EXPECT_EQ(to_linear8(nan, r), 0);  // the paper's cast writes 255 (min(1, NaN) = 1)
+    }
+}
+
+// write_ppm converts four values at a time: every byte must be the scalar convention's, the
+// paper's cast of the clamped product (truncate) or std::lround of it (round), including ties
+// (x.5 after scaling), level edges, NaN, +-0, denormals, infinities and a sweep of bit patterns.
+TEST(ImageIo, PpmBytesFollowBothConventionsForAwkwardValues) {
+    const float inf = std::numeric_limits<float>::infinity();
+    std::vector<float> values = {0.5f / 255,  1.5f / 255,  254.5f / 255,
+                                 0.49999997f, 0.50000006f, -0.0f,
+                                 0.0f,        1e-40f,      -1e-40f,
+                                 1.0f,        0.99999994f, 1.00000012f,
+                                 inf,         -inf,        std::numeric_limits<float>::quiet_NaN()};
+    for (int k = 0; k <= 255 * 8; ++k) values.push_back(static_cast<float>(k) / (255.0f * 8));
+    for (int k = 0; k <= 255; ++k) {  // the neighbours of each tie and of each level's edge
+        for (float x : {(k + 0.5f) / 255.0f, k / 255.0f}) {
+            values.push_back(std::nextafter(x, 0.0f));
+            values.push_back(x);
+            values.push_back(std::nextafter(x, 1.0f));
+        }
+    }
+    // About a million bit patterns spread over all 2^32 (a prime stride): every sign,
+    // exponent and NaN payload class.
+    for (std::uint64_t bits = 0; bits < (std::uint64_t{1} << 32); bits += 4093) {
+        const std::uint32_t b = static_cast<std::uint32_t>(bits);
+        float x;
+        std::memcpy(&x, &b, sizeof x);
+        values.push_back(x);
+    }
+    while (values.size() % 3) values.push_back(0.25f);
+    RenderedImage img(static_cast<int>(values.size() / 3), 1);
+    img.rgb = values;
+    for (PpmRounding rounding : {PpmRounding::truncate, PpmRounding::round}) {
+        const fs::path path = fs::temp_directory_path() / "rtdemo_ppm_bytes_test.ppm";
+        write_ppm(path.string(), img, rounding);
+        std::ifstream in(path, std::ios::binary);
+        std::string magic;
+        int w = 0, h = 0, maxval = 0;
+        in >> magic >> w >> h >> maxval;
+        in.get();
+        std::vector<char> bytes(values.size());
+        in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+        ASSERT_TRUE(in);
+        in.close();
+        fs::remove(path);
+        int mismatches = 0;
+        for (std::size_t i = 0; i < values.size() && mismatches < 10; ++i) {
+            const float c =
+                std::isnan(values[i]) ? 0.0f : std::fmin(1.0f, std::fmax(0.0f, values[i]));
+            const unsigned char expected =
+                rounding == PpmRounding::truncate
+                    ? paper_byte(c)
+                    : static_cast<unsigned char>(std::lround(c * 255.0f));
+            const unsigned char got = static_cast<unsigned char>(bytes[i]);
+            if (got != expected) ++mismatches;
+            EXPECT_EQ(got, expected) << "value " << values[i] << " rounding "
+                                     << (rounding == PpmRounding::round ? "round" : "truncate");
+            EXPECT_EQ(got, to_linear8(values[i], rounding)) << "value " << values[i];
+        }
     }
 }
 

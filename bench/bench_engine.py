@@ -1,0 +1,296 @@
+"""Issue 20's targets, measured in one run with alternating processes (ratios only within the run):
+
+- whole process, classic scene, classic mode, 640x480: the plain program
+  (bench/baseline/seed_tracer.cpp, PPM) against rtdemo's packet engine writing the PPM and
+  writing the EXR with its AOVs (targets >= 15x and >= 12x);
+- physical mode at 16 spp, whole process with the EXR: the packet engine against the previous
+  engine (`--engine scalar`, the one-ray-at-a-time tracer) (target >= 5x);
+- the floors of the classic frame, each measured: an empty rtdemo process (`--version`), the
+  write alone (timed inside rtdemo around the writer), tracing alone (fastest of several frames
+  in one process), and what each technique brings: instruction sets (RTDEMO_ISA), threads,
+  packet against scalar engine.
+
+The machine's two cores are shared with other work: every comparison alternates its commands
+round by round (the order rotated each round), reports medians and the spread, and the ratio
+of medians. Usage: python bench/bench_engine.py [--rounds N] [--rtdemo PATH] [--seed PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import ROOT, SCENES, print_table, write_results
+
+# rtdemo and seed_tracer of the test build (make bench-build: BUILD_TESTING=ON, RTDEMO_BENCH=ON).
+BUILD = ROOT / "build" / "tests"
+SUMMARY = re.compile(r": ([0-9.]+) s on (\d+) threads, ([0-9.]+) M rays .* write ([0-9.]+) s")
+CLASSIC = str(SCENES / "classic.json")
+
+
+def run_once(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, float, str]:
+    """Wall time, CPU time (user + system of the child: less moved by other work waiting for
+    the same cores than wall time) and stderr of one process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    out = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
+    elapsed = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if out.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed ({out.returncode}): {out.stderr.strip()}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return elapsed, cpu, out.stderr
+
+
+def alternate(
+    cmds: dict[str, list[str]], rounds: int, envs: dict[str, dict[str, str]] | None = None
+) -> dict[str, dict[str, Any]]:
+    """Runs every command once per round, the order rotated each round; wall times and stderr."""
+    import os
+
+    names = list(cmds)
+    times: dict[str, list[float]] = {n: [] for n in names}
+    cpus: dict[str, list[float]] = {n: [] for n in names}
+    errs: dict[str, list[str]] = {n: [] for n in names}
+    for r in range(rounds):
+        for k in range(len(names)):
+            name = names[(r + k) % len(names)]
+            env = {**os.environ, **(envs or {}).get(name, {})}
+            t, cpu, err = run_once(cmds[name], env)
+            times[name].append(t)
+            cpus[name].append(cpu)
+            errs[name].append(err)
+    return {
+        n: {
+            "median_s": statistics.median(v),
+            "min_s": min(v),
+            "max_s": max(v),
+            "cpu_median_s": statistics.median(cpus[n]),
+            "runs_s": v,
+            "cpu_runs_s": cpus[n],
+            "stderr": errs[n],
+        }
+        for n, v in times.items()
+    }
+
+
+def summary(stderr: str) -> dict[str, float]:
+    m = SUMMARY.search(stderr)
+    if not m:
+        raise SystemExit(f"no rtdemo summary line in: {stderr!r}")
+    return {
+        "frame_s": float(m.group(1)),
+        "threads": int(m.group(2)),
+        "mrays": float(m.group(3)),
+        "write_s": float(m.group(4)),
+    }
+
+
+def rays_from_header(exr: str) -> dict[str, int]:
+    from compare.judge.images import read_image
+
+    h = read_image(exr).header
+    return {k: int(h[f"rtval.rays_{k}"]) for k in ("camera", "secondary", "shadow")}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--rounds", type=int, default=15, help="alternating rounds per comparison (default 15)"
+    )
+    parser.add_argument(
+        "--rtdemo", default=str(BUILD / "rtdemo"), help="rtdemo binary (default: build/tests)"
+    )
+    parser.add_argument(
+        "--seed",
+        default=str(BUILD / "seed_tracer"),
+        help="the plain program (default: build/tests)",
+    )
+    parser.add_argument(
+        "--physical-rounds", type=int, default=5, help="rounds for physical 16 spp (default 5)"
+    )
+    args = parser.parse_args()
+    rtdemo, seed = args.rtdemo, args.seed
+    for path in (rtdemo, seed):
+        if not Path(path).is_file():
+            raise SystemExit(f"{path} missing: build with make bench-build")
+    from scene_model.scene import load_scene
+
+    spheres = len(load_scene(SCENES / "classic.json").spheres)
+    results: dict[str, Any] = {"rounds": args.rounds}
+    with tempfile.TemporaryDirectory() as tmp:
+        render = [rtdemo, "render", CLASSIC, "--mode", "classic"]
+        # 1. Whole processes against the plain program, and the empty process.
+        whole = alternate(
+            {
+                "seed_ppm": [seed, CLASSIC, f"{tmp}/seed.ppm", "classic"],
+                # Rounded as the plain program rounds (rtdemo truncates by default): the same
+                # bytes, so the same work; both conventions cost the same (image_io.cpp).
+                "packet_ppm": [*render, "--ppm", f"{tmp}/p.ppm", "--ppm-rounding", "round"],
+                "packet_exr": [*render, "-o", f"{tmp}/p.exr"],
+                "empty_process": [rtdemo, "--version"],
+            },
+            args.rounds,
+        )
+        same_ppm = Path(f"{tmp}/seed.ppm").read_bytes() == Path(f"{tmp}/p.ppm").read_bytes()
+        rays = rays_from_header(f"{tmp}/p.exr")
+        base = whole["seed_ppm"]["median_s"]
+        write_ppm = statistics.median(summary(e)["write_s"] for e in whole["packet_ppm"]["stderr"])
+        write_exr = statistics.median(summary(e)["write_s"] for e in whole["packet_exr"]["stderr"])
+        frame_in_process = statistics.median(
+            summary(e)["frame_s"] for e in whole["packet_exr"]["stderr"]
+        )
+
+        # 2. Tracing alone (fastest of 10 frames in one process) per engine, ISA and thread count.
+        variants = {
+            "packet_avx512_2t": ({}, ["--threads", "2"]),
+            "packet_avx2_2t": ({"RTDEMO_ISA": "avx2"}, ["--threads", "2"]),
+            "packet_scalar_2t": ({"RTDEMO_ISA": "scalar"}, ["--threads", "2"]),
+            "packet_avx512_1t": ({}, ["--threads", "1"]),
+            "scalar_engine_2t": ({}, ["--threads", "2", "--engine", "scalar"]),
+        }
+        if "avx512f" not in Path("/proc/cpuinfo").read_text():  # the best ISA is AVX2 here
+            variants = {
+                k.replace("avx512", "best"): v for k, v in variants.items() if k != "packet_avx2_2t"
+            }
+        tracing = alternate(
+            {
+                k: [*render, "--ppm", f"{tmp}/t.ppm", "--frames", "10", *extra]
+                for k, (_, extra) in variants.items()
+            },
+            max(3, args.rounds // 3),
+            {k: env for k, (env, _) in variants.items()},
+        )
+        trace_s = {
+            k: statistics.median(summary(e)["frame_s"] for e in v["stderr"])
+            for k, v in tracing.items()
+        }
+        best = next(iter(trace_s))
+        total_rays = sum(rays.values())
+        tests = (rays["camera"] + rays["secondary"]) * spheres + rays["shadow"] * (spheres - 1)
+
+        # 3. Physical mode, 16 spp, whole process with the EXR: packet against the previous engine.
+        phys = [
+            rtdemo,
+            "render",
+            CLASSIC,
+            "--mode",
+            "physical",
+            "--spp",
+            "16",
+            "-o",
+            f"{tmp}/ph.exr",
+        ]
+        physical = alternate(
+            {"packet": phys, "scalar_engine": [*phys, "--engine", "scalar"]}, args.physical_rounds
+        )
+
+    exr_s, ppm_s, empty_s = (
+        whole["packet_exr"]["median_s"],
+        whole["packet_ppm"]["median_s"],
+        whole["empty_process"]["median_s"],
+    )
+    labels = {
+        "seed_ppm": "seed_tracer (PPM)",
+        "packet_ppm": "rtdemo packet, PPM",
+        "packet_exr": "rtdemo packet, EXR+AOVs",
+        "empty_process": "empty rtdemo process",
+    }
+    base_cpu = whole["seed_ppm"]["cpu_median_s"]
+    rows = [
+        [
+            label,
+            whole[k]["median_s"],
+            whole[k]["min_s"],
+            whole[k]["max_s"],
+            base / whole[k]["median_s"],
+            whole[k]["cpu_median_s"],
+            base_cpu / whole[k]["cpu_median_s"],
+        ]
+        for k, label in labels.items()
+    ]
+    print(
+        f"Whole processes, classic scene, classic mode, 640x480 ({args.rounds} alternating rounds; same PPM as the "
+        f"plain program: {same_ppm})"
+    )
+    print_table(
+        ["process", "median s", "min s", "max s", "x plain", "cpu s (median)", "x plain (cpu)"],
+        rows,
+    )
+    floor_ppm = empty_s + trace_s[best] + write_ppm
+    floor_exr = empty_s + trace_s[best] + write_exr
+    print(
+        f"\nfloors (medians): empty process {empty_s * 1e3:.1f} ms, tracing alone {trace_s[best] * 1e3:.1f} ms "
+        f"(in the PPM/EXR process: {frame_in_process * 1e3:.1f} ms), PPM write {write_ppm * 1e3:.1f} ms, "
+        f"EXR write {write_exr * 1e3:.1f} ms"
+    )
+    print(
+        f"  sum of floors: PPM {floor_ppm * 1e3:.1f} ms (at most {base / floor_ppm:.1f}x), EXR {floor_exr * 1e3:.1f} ms "
+        f"(at most {base / floor_exr:.1f}x)"
+    )
+    print(
+        f"  share of the frame outside tracing: PPM {100 * (1 - frame_in_process / ppm_s):.0f} %, "
+        f"EXR {100 * (1 - frame_in_process / exr_s):.0f} %"
+    )
+    print(
+        f"\nTracing alone (fastest of 10 frames per process, median of processes); {total_rays} rays "
+        f"({rays['camera']} camera, {rays['secondary']} secondary, {rays['shadow']} shadow), {tests} ray-sphere tests"
+    )
+    print_table(
+        ["variant", "frame s", "M rays/s", "G tests/s", "x scalar engine"],
+        [
+            [k, v, total_rays / v / 1e6, tests / v / 1e9, trace_s["scalar_engine_2t"] / v]
+            for k, v in trace_s.items()
+        ],
+    )
+    ph_ratio = physical["scalar_engine"]["median_s"] / physical["packet"]["median_s"]
+    print(
+        f"\nPhysical mode, 16 spp, classic scene, whole process with EXR ({args.physical_rounds} alternating rounds): "
+        f"packet {physical['packet']['median_s']:.3f} s, previous engine {physical['scalar_engine']['median_s']:.3f} s, "
+        f"{ph_ratio:.2f}x"
+    )
+    for d in (whole, tracing, physical):
+        for v in d.values():
+            v.pop("stderr", None)
+    results.update(
+        {
+            "whole": whole,
+            "same_ppm_as_plain": same_ppm,
+            "speedup_ppm": base / ppm_s,
+            "speedup_exr": base / exr_s,
+            "speedup_ppm_cpu_time": base_cpu / whole["packet_ppm"]["cpu_median_s"],
+            "speedup_exr_cpu_time": base_cpu / whole["packet_exr"]["cpu_median_s"],
+            "floors_s": {
+                "empty_process": empty_s,
+                "tracing_alone": trace_s[best],
+                "tracing_in_process": frame_in_process,
+                "write_ppm": write_ppm,
+                "write_exr": write_exr,
+            },
+            "outside_tracing_share": {
+                "ppm": 1 - frame_in_process / ppm_s,
+                "exr": 1 - frame_in_process / exr_s,
+            },
+            "rays": rays,
+            "sphere_tests": tests,
+            "tracing_s": trace_s,
+            "rays_per_s": total_rays / trace_s[best],
+            "tests_per_s": tests / trace_s[best],
+            "physical_16spp": physical,
+            "speedup_physical_16spp": ph_ratio,
+        }
+    )
+    print(f"wrote {write_results('engine', results)}")
+
+
+if __name__ == "__main__":
+    main()

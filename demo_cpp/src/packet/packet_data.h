@@ -1,0 +1,99 @@
+// The plain data the packet engine's kernels work on: the scene as arrays, the options as
+// flags, and one queue of rays per bounce. Only PODs and raw pointers cross from the driver
+// (packet_engine.cpp, baseline x86-64) into the kernels (compiled once per instruction set):
+// no std:: template is instantiated in a kernel translation unit, so the linker can never
+// choose an AVX-512 copy of shared code for a CPU without it.
+#pragma once
+
+#include <cstdint>
+
+namespace rt::packet {
+
+// Spheres as structure of arrays; every array has `count` entries.
+struct SceneArrays {
+    int count = 0;
+    const float *cx, *cy, *cz, *radius, *r2;  // r2 = radius * radius in float (the paper's test)
+    const float *col_r, *col_g, *col_b;       // surface colour
+    const float *em_r, *em_g, *em_b;          // emission
+    const float *rad_r, *rad_g, *rad_b;       // radiance seen on a light (physical units)
+    const float *transparency, *ior;
+    const int* flags;  // kLight | kSpecular
+    int light_count = 0;
+    const int* lights;                // sphere index of each light, in scene order
+    const float *li_r, *li_g, *li_b;  // point intensity per light (light_units.h)
+    float bg_r, bg_g, bg_b;
+    float bias;
+};
+constexpr int kLight = 1, kSpecular = 2;
+
+// Quirks present (q[1] .. q[10]) and effect switches: uniform over a frame.
+struct Options {
+    bool q[11];
+    int max_depth;
+    bool shadows, reflection, refraction;
+};
+
+// Camera rays exactly as CameraRays::render_from_camera computes them.
+struct CameraArrays {
+    float ox, oy, oz;
+    float fx, fy, fz, rx, ry, rz, ux, uy, uz;
+    float half_height, aspect, width, height;
+};
+
+// One bounce's rays and, at the same index, the node each becomes in the frame's tree of rays.
+// A leaf's colour is known at shading; an inner node (a specular hit below the depth limit)
+// keeps its weights and children, packed in `inner`, and gets its colour in resolve(): colour =
+// (reflected * f + refracted * w) * surface colour, the scalar tracer's exact expression.
+// Capacities: counts rounded up by one vector, so kernels read and write whole vectors.
+struct Level {
+    int count = 0;
+    float *ox, *oy, *oz, *dx, *dy, *dz;
+    int* skip;            // sphere the ray cannot hit again, or -1
+    float *cr, *cg, *cb;  // the node's colour
+    int inner = 0;        // inner nodes, packed:
+    int* node;            //   the ray index
+    float *f, *w;         //   Fresnel weight of the reflected child, weight of the refracted one
+    int* sph;             //   the sphere hit
+    int *crefl, *crefr;   //   children's indices in the next level, or -1
+};
+
+// Hits waiting for shading within one shade() call, packed by kind (diffuse, specular), so
+// that each kind's code runs on full vectors.
+struct HitQueue {
+    int count = 0;
+    float *px, *py, *pz, *nx, *ny, *nz, *dx, *dy, *dz;
+    int *sph, *node, *inside;
+};
+
+// What the camera ray saw (the AOVs), per ray of level 0; null when not wanted.
+struct Aov {
+    float *id, *depth, *nx, *ny, *nz;
+};
+
+struct Counts {
+    std::uint64_t camera = 0, secondary = 0, shadow = 0;
+};
+
+// One instruction set's kernels.
+struct Kernels {
+    const char* name;
+    int lanes;
+    // Level 0 for a tw x th tile at (x0, y0); pixel (x, y)'s ray through (x + off_x, y + off_y).
+    void (*camera)(const CameraArrays&, int x0, int y0, int tw, int th, float off_x, float off_y,
+                   Level& out);
+    // Nearest hits and shading of `cur` (rays at recursion depth `depth`); children go to `next`
+    // (capacity >= 2 * cur.count + lanes, count set by the kernel); the queues' capacity is
+    // >= cur.count + lanes.
+    void (*shade)(const SceneArrays&, const Options&, int depth, Level& cur, Level& next,
+                  HitQueue& diffuse, HitQueue& specular, Counts&, const Aov* aov);
+    // Only the AOVs of `cur` (the pixel-centre rays when spp > 1).
+    void (*primary)(const SceneArrays&, const Options&, const Level& cur, const Aov& aov);
+    // Inner nodes of `cur` from the colours of `next`.
+    void (*resolve)(const SceneArrays&, const Options&, Level& cur, const Level& next);
+};
+
+const Kernels& kernels_scalar();
+const Kernels& kernels_avx2();
+const Kernels& kernels_avx512();
+
+}  // namespace rt::packet

@@ -1,0 +1,346 @@
+#include "packet/packet_engine.h"
+
+#include <sys/mman.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <cstdlib>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "camera_rays.h"
+#include "light_units.h"
+#include "packet/packet_data.h"
+
+namespace rt {
+
+namespace {
+
+using packet::Kernels;
+using packet::Level;
+
+// Small tiles handed out dynamically: both threads stay busy to the end of the frame, and a
+// tile's queues (a few hundred rays per bounce) stay in the first-level cache.
+constexpr int kTileW = 32;
+constexpr int kTileH = 8;
+
+const Kernels& kernels_for(Isa isa) {
+    switch (isa) {
+        case Isa::avx512:
+            return packet::kernels_avx512();
+        case Isa::avx2:
+            return packet::kernels_avx2();
+        case Isa::scalar:
+            break;
+    }
+    return packet::kernels_scalar();
+}
+
+bool supported(Isa isa) {
+    switch (isa) {
+        case Isa::avx512:
+            return __builtin_cpu_supports("avx512f");
+        case Isa::avx2:
+            return __builtin_cpu_supports("avx2");
+        case Isa::scalar:
+            return true;
+    }
+    return false;
+}
+
+// The scene as arrays (packet_data.h), owning its storage.
+struct SceneStore {
+    std::vector<float> cx, cy, cz, radius, r2, col_r, col_g, col_b, em_r, em_g, em_b, rad_r, rad_g,
+        rad_b, transparency, ior, li_r, li_g, li_b;
+    std::vector<int> flags, lights;
+    packet::SceneArrays view;
+
+    explicit SceneStore(const Scene& scene) {
+        for (int i = 0; i < static_cast<int>(scene.spheres.size()); ++i) {
+            const Sphere& s = scene.spheres[i];
+            cx.push_back(s.center.x);
+            cy.push_back(s.center.y);
+            cz.push_back(s.center.z);
+            radius.push_back(s.radius);
+            r2.push_back(s.radius * s.radius);
+            col_r.push_back(s.surface_color.x);
+            col_g.push_back(s.surface_color.y);
+            col_b.push_back(s.surface_color.z);
+            em_r.push_back(s.emission.x);
+            em_g.push_back(s.emission.y);
+            em_b.push_back(s.emission.z);
+            const color rad = s.is_light() ? sphere_radiance(scene, s) : color(0.0f);
+            rad_r.push_back(rad.x);
+            rad_g.push_back(rad.y);
+            rad_b.push_back(rad.z);
+            transparency.push_back(s.transparency);
+            ior.push_back(s.ior);
+            flags.push_back((s.is_light() ? packet::kLight : 0) |
+                            (s.has_specular_flags() ? packet::kSpecular : 0));
+            if (s.is_light()) {
+                lights.push_back(i);
+                const color li = point_intensity(scene, s);
+                li_r.push_back(li.x);
+                li_g.push_back(li.y);
+                li_b.push_back(li.z);
+            }
+        }
+        view.count = static_cast<int>(cx.size());
+        // Padded to a vector of 16: a scene that fits one is read by permutes (packet/simd.h).
+        const std::size_t padded = std::max<std::size_t>(cx.size(), 16);
+        for (auto* v : {&cx, &cy, &cz, &radius, &r2, &col_r, &col_g, &col_b, &em_r, &em_g, &em_b,
+                        &rad_r, &rad_g, &rad_b, &transparency, &ior})
+            v->resize(padded, 0.0f);
+        flags.resize(padded, 0);
+        view.cx = cx.data(), view.cy = cy.data(), view.cz = cz.data();
+        view.radius = radius.data(), view.r2 = r2.data();
+        view.col_r = col_r.data(), view.col_g = col_g.data(), view.col_b = col_b.data();
+        view.em_r = em_r.data(), view.em_g = em_g.data(), view.em_b = em_b.data();
+        view.rad_r = rad_r.data(), view.rad_g = rad_g.data(), view.rad_b = rad_b.data();
+        view.transparency = transparency.data(), view.ior = ior.data();
+        view.flags = flags.data();
+        view.light_count = static_cast<int>(lights.size());
+        view.lights = lights.data();
+        view.li_r = li_r.data(), view.li_g = li_g.data(), view.li_b = li_b.data();
+        view.bg_r = scene.background.x, view.bg_g = scene.background.y,
+        view.bg_b = scene.background.z;
+        view.bias = scene.bias;
+    }
+};
+
+// One bounce's queue, owning its storage; grows between bounces, never inside a kernel.
+struct LevelStore {
+    std::vector<float> f[11];  // ox oy oz dx dy dz cr cg cb f w
+    std::vector<int> i[5];     // skip node sph crefl crefr
+    Level view;
+
+    void reserve(int n) {
+        if (n <= static_cast<int>(f[0].size())) return;
+        const std::size_t cap = static_cast<std::size_t>(n) * 3 / 2;
+        for (auto& v : f) v.resize(cap);
+        for (auto& v : i) v.resize(cap);
+        view.ox = f[0].data(), view.oy = f[1].data(), view.oz = f[2].data();
+        view.dx = f[3].data(), view.dy = f[4].data(), view.dz = f[5].data();
+        view.cr = f[6].data(), view.cg = f[7].data(), view.cb = f[8].data();
+        view.f = f[9].data(), view.w = f[10].data();
+        view.skip = i[0].data(), view.node = i[1].data(), view.sph = i[2].data();
+        view.crefl = i[3].data(), view.crefr = i[4].data();
+    }
+};
+
+struct QueueStore {
+    std::vector<float> f[9];  // px py pz nx ny nz dx dy dz
+    std::vector<int> i[3];    // sph node inside
+    packet::HitQueue view;
+
+    void reserve(int n) {
+        if (n <= static_cast<int>(f[0].size())) return;
+        const std::size_t cap = static_cast<std::size_t>(n) * 3 / 2;
+        for (auto& v : f) v.resize(cap);
+        for (auto& v : i) v.resize(cap);
+        view.px = f[0].data(), view.py = f[1].data(), view.pz = f[2].data();
+        view.nx = f[3].data(), view.ny = f[4].data(), view.nz = f[5].data();
+        view.dx = f[6].data(), view.dy = f[7].data(), view.dz = f[8].data();
+        view.sph = i[0].data(), view.node = i[1].data(), view.inside = i[2].data();
+    }
+};
+
+// Each worker on its own cache lines: counts written per bounce must not share a line with
+// the other thread's data (false sharing cost 70 % on two threads in the scalar renderer).
+struct alignas(64) Worker {
+    std::vector<LevelStore> levels;
+    QueueStore diffuse, specular;
+    std::vector<float> aov[5];  // id depth nx ny nz, per tile pixel
+    std::vector<float> sum[3];
+    packet::Counts counts;
+};
+
+// RenderedImage(w, h), with its planes asked for transparent huge pages before they are first
+// touched: the zero-fill then takes a handful of page faults instead of one per 4 KB page
+// (~2 400 for the 9.8 MB of a 640x480 frame).
+void fill_huge(std::vector<float>& v, std::size_t n, float value) {
+    v.reserve(n);
+    constexpr std::uintptr_t kHuge = 2u << 20;
+    const auto begin = reinterpret_cast<std::uintptr_t>(v.data());
+    const std::uintptr_t first = (begin + kHuge - 1) & ~(kHuge - 1);
+    const std::uintptr_t last = (begin + n * sizeof(float)) & ~(kHuge - 1);
+    if (last > first) ::madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+    v.assign(n, value);
+}
+
+RenderedImage allocate_image(int width, int height) {
+    RenderedImage image;
+    image.width = width;
+    image.height = height;
+    const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+    fill_huge(image.rgb, 3 * n, 0.0f);
+    fill_huge(image.id, n, -1.0f);
+    fill_huge(image.depth, n, 0.0f);
+    fill_huge(image.normal, 3 * n, 0.0f);
+    return image;
+}
+
+packet::CameraArrays camera_arrays(const Scene& scene, int width, int height) {
+    // The same basis as CameraRays (camera_rays.cpp) computes.
+    const Camera& cam = scene.camera;
+    const vec3 forward = normalize(cam.look_at - cam.position);
+    const vec3 right = normalize(cross(forward, cam.up));
+    const vec3 up = cross(right, forward);
+    packet::CameraArrays c{};
+    c.ox = cam.position.x, c.oy = cam.position.y, c.oz = cam.position.z;
+    c.fx = forward.x, c.fy = forward.y, c.fz = forward.z;
+    c.rx = right.x, c.ry = right.y, c.rz = right.z;
+    c.ux = up.x, c.uy = up.y, c.uz = up.z;
+    c.half_height = std::tan(cam.fov_y * 0.5f * 3.14159265358979f / 180.0f);
+    c.aspect = static_cast<float>(width) / static_cast<float>(height);
+    c.width = static_cast<float>(width);
+    c.height = static_cast<float>(height);
+    return c;
+}
+
+}  // namespace
+
+const char* isa_name(Isa isa) {
+    switch (isa) {
+        case Isa::scalar:
+            return "scalar";
+        case Isa::avx2:
+            return "avx2";
+        case Isa::avx512:
+            return "avx512";
+    }
+    return "?";
+}
+
+Isa best_isa() {
+    if (supported(Isa::avx512)) return Isa::avx512;
+    if (supported(Isa::avx2)) return Isa::avx2;
+    return Isa::scalar;
+}
+
+Isa isa_from_environment() {
+    const char* value = std::getenv("RTDEMO_ISA");
+    if (!value || !*value) return best_isa();
+    const std::string v = value;
+    Isa isa;
+    if (v == "scalar")
+        isa = Isa::scalar;
+    else if (v == "avx2")
+        isa = Isa::avx2;
+    else if (v == "avx512")
+        isa = Isa::avx512;
+    else
+        throw std::invalid_argument("RTDEMO_ISA: expected scalar, avx2 or avx512, got '" + v + "'");
+    if (!supported(isa)) throw std::invalid_argument("RTDEMO_ISA: this CPU does not support " + v);
+    return isa;
+}
+
+RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
+                            RayCounts* rays) {
+    const Kernels& kern = kernels_for(isa);
+    const int width = settings.width, height = settings.height;
+    RenderedImage image = allocate_image(width, height);
+    const SceneStore store(scene);
+    const packet::SceneArrays& s = store.view;
+    packet::Options opt{};
+    for (int q = 1; q <= kQuirkCount; ++q)
+        opt.q[q] = settings.trace.quirks.has(static_cast<Quirk>(q));
+    opt.max_depth = settings.trace.max_depth;
+    opt.shadows = settings.trace.shadows;
+    opt.reflection = settings.trace.reflection;
+    opt.refraction = settings.trace.refraction;
+    const packet::CameraArrays cam = camera_arrays(scene, width, height);
+    const int k = strata_per_axis(settings.spp);
+    const float inv_samples = 1.0f / static_cast<float>(k * k);
+    // Pixel centres: a run with --mistake half_pixel_offset renders with the scalar tracer.
+    const float centre = 0.5f;
+    const int tiles_x = (width + kTileW - 1) / kTileW, tiles_y = (height + kTileH - 1) / kTileH;
+    const int tiles = tiles_x * tiles_y;
+    const int lanes = kern.lanes;
+    const int tile_cap = kTileW * kTileH + lanes;
+
+    alignas(64) std::atomic<int> next_tile{0};
+    std::vector<Worker> workers(static_cast<std::size_t>(settings.threads));
+    auto work = [&](Worker& wk) {
+        wk.levels.resize(static_cast<std::size_t>(opt.max_depth) + 2);
+        wk.levels[0].reserve(tile_cap);
+        for (auto& v : wk.aov) v.assign(static_cast<std::size_t>(tile_cap), 0.0f);
+        for (auto& v : wk.sum) v.assign(static_cast<std::size_t>(tile_cap), 0.0f);
+        const packet::Aov aov{wk.aov[0].data(), wk.aov[1].data(), wk.aov[2].data(),
+                              wk.aov[3].data(), wk.aov[4].data()};
+        // One sample per pixel of the tile through all bounces; the colours end in level 0.
+        auto trace_tile = [&](const packet::Aov* with_aov) {
+            int last = 0;
+            for (int d = 0;; ++d) {
+                LevelStore& next = wk.levels[static_cast<std::size_t>(d) + 1];
+                const int n = wk.levels[d].view.count;
+                next.reserve(2 * n + lanes);
+                wk.diffuse.reserve(n + lanes);
+                wk.specular.reserve(n + lanes);
+                kern.shade(s, opt, d, wk.levels[d].view, next.view, wk.diffuse.view,
+                           wk.specular.view, wk.counts, d == 0 ? with_aov : nullptr);
+                last = d;
+                if (next.view.count == 0) break;
+            }
+            for (int d = last; d >= 0; --d)
+                kern.resolve(s, opt, wk.levels[d].view, wk.levels[d + 1].view);
+        };
+        for (int tile = next_tile++; tile < tiles; tile = next_tile++) {
+            const int x0 = (tile % tiles_x) * kTileW, y0 = (tile / tiles_x) * kTileH;
+            const int tw = std::min(kTileW, width - x0), th = std::min(kTileH, height - y0);
+            const int n = tw * th;
+            Level& l0 = wk.levels[0].view;
+            const float* cr = l0.cr;
+            const float* cg = l0.cg;
+            const float* cb = l0.cb;
+            if (k == 1) {
+                kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
+                trace_tile(&aov);
+            } else {
+                kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
+                kern.primary(s, opt, l0, aov);
+                wk.counts.camera += static_cast<std::uint64_t>(n);
+                for (auto& v : wk.sum) std::fill(v.begin(), v.begin() + n, 0.0f);
+                for (int sy = 0; sy < k; ++sy)
+                    for (int sx = 0; sx < k; ++sx) {
+                        const float off_x = (sx + centre) / k, off_y = (sy + centre) / k;
+                        kern.camera(cam, x0, y0, tw, th, off_x, off_y, l0);
+                        trace_tile(nullptr);
+                        for (int i = 0; i < n; ++i) {
+                            wk.sum[0][i] += l0.cr[i];
+                            wk.sum[1][i] += l0.cg[i];
+                            wk.sum[2][i] += l0.cb[i];
+                        }
+                    }
+                cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
+            }
+            for (int iy = 0; iy < th; ++iy)
+                for (int ix = 0; ix < tw; ++ix) {
+                    const int t = iy * tw + ix;
+                    const std::size_t i = static_cast<std::size_t>(y0 + iy) * width + (x0 + ix);
+                    image.rgb[3 * i + 0] = cr[t] * inv_samples;
+                    image.rgb[3 * i + 1] = cg[t] * inv_samples;
+                    image.rgb[3 * i + 2] = cb[t] * inv_samples;
+                    image.id[i] = aov.id[t];
+                    image.depth[i] = aov.depth[t];
+                    image.normal[3 * i + 0] = aov.nx[t];
+                    image.normal[3 * i + 1] = aov.ny[t];
+                    image.normal[3 * i + 2] = aov.nz[t];
+                }
+        }
+    };
+    std::vector<std::thread> pool;
+    for (std::size_t t = 1; t < workers.size(); ++t) pool.emplace_back(work, std::ref(workers[t]));
+    work(workers[0]);
+    for (auto& t : pool) t.join();
+    if (rays) {
+        *rays = {};
+        for (const Worker& w : workers)
+            *rays += RayCounts{w.counts.camera, w.counts.secondary, w.counts.shadow};
+    }
+    return image;
+}
+
+}  // namespace rt

@@ -1,0 +1,31 @@
+// The packet engine: the CPU renderer built around rays in SIMD lanes (issue 20). Camera rays
+// of a small tile fill the lanes (8 per AVX2 vector, 16 per AVX-512); each bounce's secondary
+// rays are compacted into the next queue; colours are combined bottom-up in the scalar
+// tracer's exact order, so the image is the scalar tracer's bit for bit (tested).
+#pragma once
+
+#include <string>
+
+#include "cpu_renderer.h"
+#include "image.h"
+#include "scene.h"
+#include "tracer.h"
+
+namespace rt {
+
+enum class Isa { scalar, avx2, avx512 };
+
+const char* isa_name(Isa isa);
+// The widest instruction set this CPU runs.
+Isa best_isa();
+// RTDEMO_ISA=scalar|avx2|avx512 forces a narrower one (tests, benchmarks); unset or empty: best.
+// Throws std::invalid_argument naming the variable for an unknown or unsupported value.
+Isa isa_from_environment();
+
+// Precondition: settings validated as for render_cpu, no named mistakes set
+// (settings.trace.mistakes: render_cpu takes the scalar tracer then), and `isa` supported by
+// this CPU.
+RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
+                            RayCounts* rays = nullptr);
+
+}  // namespace rt
