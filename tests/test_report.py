@@ -13,6 +13,9 @@ import numpy as np
 import pytest
 from helpers import ROOT, SCENES, run
 from PIL import Image as PILImage
+from student_variants import render_variant
+
+from scene_model.scene import load_scene
 
 pytestmark = pytest.mark.slow
 RTVAL = str(Path(sys.executable).with_name("rtval"))
@@ -212,7 +215,10 @@ def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtd
     assert data["verdict"]["against"] == "mitsuba" and data["verdict"]["status"] == "fail"
     assert [q["quirk"] for q in mv["quirk_costs"] if not q["present"]] == ["Q2", "Q4", "Q9"]
     assert 'id="verdict-model"' in html and 'id="verdict-mitsuba"' in html
-    assert "What this image implements" in html and data["diagnosis"] is None
+    # rtdemo's own classic PPM is explained as classic, nothing on top.
+    diag = data["diagnosis"]
+    assert "What this image implements" in html and 'id="diagnosis"' in html
+    assert diag["result"] == "classic" and diag["causes"] == [] and diag["unexplained"] == []
     small = tmp_path / "small.png"
     PILImage.fromarray(np.zeros((10, 10, 3), np.uint8)).save(small)
     bad = run(
@@ -230,6 +236,34 @@ def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtd
         ]
     )
     assert bad.returncode == 4 and "never resampled" in bad.stderr
+
+
+def test_diagnoses_a_student_variant(report: tuple[Path, object], tmp_path: Path) -> None:
+    """The numpy classic program with eta = 1/ior also when leaving glass: the report's "What
+    this image implements" names Q2, with evidence pictures on disk."""
+    folder, _ = report
+    student = render_variant(
+        load_scene(SCENES / "classic.json"), "wrong_eta_leaving", 160, 120, tmp_path / "eta.ppm"
+    )
+    proc = run(
+        [RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent),
+         "--size", "160x120", "--test-image", str(student), "--against", "classic", "--no-pdf"]
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads((folder / "report.json").read_text())
+    diag = data["diagnosis"]
+    assert diag["result"] == "classic+Q2" and diag["causes"] == ["+Q2"], diag["summary"]
+    assert diag["short"] == "looks like Q2 (eta = 1/ior also when leaving glass)"
+    assert diag["effects"]["refraction"]["state"] == "explained"
+    refr = diag["effects"]["refraction"]
+    assert refr["final_flip"] < refr["start_flip"] / 2
+    html = (folder / "index.html").read_text()
+    section = html[html.index('id="implements"') : html.index('id="verdict"')]
+    assert "looks like classic+Q2" in section and "refraction" in section
+    pictures = [e[k] for e in diag["evidence"] for k in ("candidate_png", "diff", "before_diff")]
+    assert pictures and all(p.startswith("images/diagnosis-") for p in pictures)
+    for p in pictures:
+        assert f'src="{p}"' in section and (folder / p).is_file(), p
 
 
 def test_invalid_scene_is_exit_3(tmp_path: Path) -> None:

@@ -8,6 +8,12 @@ Each student is an idempotent task keyed by the hashes of its files, the model's
 rubric: a re-run (or a resumed, interrupted one) skips what is done. Bad submissions become
 rows with a reason, never an aborted batch. Tasks run in a local process pool or on a Dask
 cluster.
+
+A submission that fails against a demo model is diagnosed (compare/apps/diagnosis.py): the
+gradebook's `diagnosis` column and the fail reasons say what it looks like ("looks like Q2
+(...)"), its page shows the evidence. Passing submissions cost nothing more; --no-diagnose
+skips it. Candidate renders are cached in OUT/cache/diagnose by content hash, shared by every
+student and worker.
 """
 
 from __future__ import annotations
@@ -41,12 +47,14 @@ class GradeTask:
     rubric_text: str
     rubric_source: str
     out_dir: str
+    diagnose: int = 0  # diagnose failing scenes with this many renders at once; 0: never
 
 
 def task_key(task: GradeTask) -> str:
     h = hashlib.sha256(task.rubric_text.encode())
     h.update((task.problem or "").encode())
     h.update(task.models_key.encode())
+    h.update(f"diagnose={bool(task.diagnose)}".encode())
     for scene in sorted(task.files):
         f = task.files[scene]
         h.update(scene.encode())
@@ -99,8 +107,12 @@ def _grade_scene(
             ref.rgb, img.rgb, model.masks, ev.effect_metrics(), f"{task.student}'s render"
         )
         if ev.exact is None
-        else reasons
+        else list(reasons)
     )
+    diagnosis = None
+    if verdict["status"] != "pass" and task.diagnose and model.target.is_demo:
+        diagnosis = _diagnose_scene(img, scene_name, renders, task, page_dir)
+        reasons.append(diagnosis["short"])
     # Pictures for the student's page: the submission and |difference| x 8 (display).
     from PIL import Image as PILImage
 
@@ -123,7 +135,32 @@ def _grade_scene(
         "verdict": verdict,
         "sentences": sentences,
         "nan_pixels": nan,
+        "diagnosis": diagnosis["short"] if diagnosis else "",
+        "diagnosis_detail": diagnosis,
     }
+
+
+def _diagnose_scene(
+    img: Any, scene_name: str, renders: ModelRenders, task: GradeTask, page_dir: Path
+) -> dict[str, Any]:
+    """What a failing submission looks like; a diagnosis that cannot run says why in the
+    cell instead of failing the student's grading."""
+    from compare.apps.diagnosis import diagnose_image
+    from compare.judge.diagnose import DiagnoseError
+    from compare.render.runner import ToolError
+
+    try:
+        return diagnose_image(
+            img,
+            renders.scene_file,
+            Path(task.out_dir) / "cache" / "diagnose",
+            page_dir,
+            prefix=f"{scene_name}-diagnosis",
+            assigned=renders.model,
+            parallel=task.diagnose,
+        )
+    except (DiagnoseError, ToolError, OSError) as e:
+        return {"short": f"no diagnosis: {e}", "sentences": [], "evidence": []}
 
 
 def grade_one(task: GradeTask) -> dict[str, Any]:
@@ -177,9 +214,11 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
         "score": score,
         "model": ", ".join(models),
         "reasons": reasons,
-        # The hook for compare.judge.diagnose: each scene's "diagnosis" stays empty without it.
+        # Failing scenes against a demo model: what they look like (compare/apps/diagnosis.py).
         "diagnosis": "; ".join(
-            f"{s['scene']}: {s['diagnosis']}" for s in scenes if s.get("diagnosis")
+            (f"{s['scene']}: " if len(scenes) > 1 else "") + s["diagnosis"]
+            for s in scenes
+            if s.get("diagnosis")
         ),
         "scenes": scenes,
         "rubric": rubric.source,
@@ -235,6 +274,7 @@ def run_grading(
     jobs: int = 2,
     size: tuple[int, int] | None = None,
     against: str | None = None,
+    diagnose: bool = True,
     progress: Callable[[str], None] = print,
 ) -> list[dict[str, Any]]:
     from compare.apps.against import GRADE_DEFAULT, prepare, resolve_model
@@ -254,8 +294,20 @@ def run_grading(
     for name in sorted(models):
         h.update(name.encode() + models[name].digest().encode())
     models_key = h.hexdigest()[:24]
+    # One render at a time per worker when workers run side by side; two for a lone one.
+    diagnose_parallel = 0 if not diagnose else 1 if executor == "dask" or jobs > 1 else 2
     tasks = [
-        GradeTask(student, files, problem, models, models_key, rubric_text, rubric.source, str(out))
+        GradeTask(
+            student,
+            files,
+            problem,
+            models,
+            models_key,
+            rubric_text,
+            rubric.source,
+            str(out),
+            diagnose_parallel,
+        )
         for student, files, problem in collect(
             submissions, list(models), exclude=[out], notice=progress
         )

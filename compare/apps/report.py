@@ -295,6 +295,11 @@ def build_report(
         model_verdict = _model_verdict(
             imgs[test_key], against, scene_file, size, cache, ladder, progress
         )
+    diagnosis = None
+    if test_image and model_verdict is not None:
+        diagnosis = _diagnosis(
+            imgs[test_key], scene_file, cache, images_dir, model_verdict["model"], jobs, progress
+        )
     sentences = difference_sentences(ref.rgb, imgs[test_key].rgb, masks, test_effects, label)
     penumbra = penumbra_numbers(ref.rgb, imgs["ref-area"].rgb, imgs["demo-physical-cpu-16spp"].rgb)
     converged = time_to_converged(
@@ -358,7 +363,7 @@ def build_report(
             "test": {"key": test_key, "label": label},
             "verdict": verdict,
             "model_verdict": model_verdict,
-            "diagnosis": _diagnosis() if test_image else None,
+            "diagnosis": diagnosis,
             "sentences": sentences,
             "contributions": contributions,
             "featured": [{"key": k, "label": name, **results[k]} for k, name in featured],
@@ -433,10 +438,35 @@ def _model_verdict(
     }
 
 
-def _diagnosis() -> dict[str, Any] | None:
-    """The hook for "What this image implements" (compare.judge.diagnose, once merged, returns
-    its findings here); None renders the section's empty state."""
-    return None
+def _diagnosis(
+    test: Image,
+    scene_file: Path,
+    cache: Path,
+    images_dir: Path,
+    assigned: str,
+    jobs: int,
+    progress: Callable[[str], None],
+) -> dict[str, Any]:
+    """The section "What this image implements": the test image explained as the nearest demo model
+    (compare/apps/diagnosis.py), with its evidence PNGs in images/. A diagnosis that cannot
+    run (e.g. a renderer without AOVs) leaves the section saying why, not a failed report."""
+    from compare.apps.diagnosis import diagnose_image
+    from compare.judge.diagnose import DiagnoseError
+
+    progress("diagnosis ...")
+    try:
+        return diagnose_image(
+            test,
+            scene_file,
+            cache / "diagnose",
+            images_dir,
+            prefix="diagnosis",
+            href="images/",
+            assigned=assigned,
+            parallel=max(1, jobs),
+        )
+    except (DiagnoseError, ToolError) as e:
+        return {"error": str(e)}
 
 
 def _sandbox_flags() -> list[str]:

@@ -31,6 +31,7 @@ def run_grade(args: argparse.Namespace) -> int:
         jobs=args.jobs,
         size=args.size,
         against=args.against,
+        diagnose=not args.no_diagnose,
         progress=lambda m: print(m, file=sys.stderr, flush=True),
     )
     passed = sum(r["status"] == "pass" for r in results)
@@ -81,6 +82,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         default=None,
         metavar="WxH",
         help="model render size (default: the scene's)",
+    )
+    p.add_argument(
+        "--no-diagnose",
+        action="store_true",
+        help="do not diagnose failing submissions (by default each one against a demo model "
+        "is explained as the nearest demo model, quirks and named mistakes: README, Grading)",
     )
     p.add_argument(
         "--explain", metavar="ID", help="print how student ID's score came about, then exit"

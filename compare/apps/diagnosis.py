@@ -1,0 +1,179 @@
+"""The diagnosis (compare/judge/diagnose.py) as the report and the gradebook show it: what an
+image implements, a short reason for a gradebook cell, and evidence pictures per explaining
+change (the image beside the candidate it was explained by, and their difference before and
+after the change).
+
+Candidates render through CandidateRenderer's content-hash cache, so a class's diagnoses
+share their renders. Inputs are paths and plain values, so it runs in grade's worker
+processes and on Dask workers alike.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.files import json_safe, write_atomic
+from compare.judge.candidate import Candidate
+from compare.judge.diagnose import Diagnosis, Step, diagnose
+from compare.judge.images import Image, linear_to_srgb
+from compare.judge.mistakes import catalogue
+from compare.judge.quirks import QUIRKS
+from compare.render.candidates import CandidateRenderer
+from scene_model.scene import load_scene
+
+DIFF_GAIN = 8  # |difference| x 8 in display values, as grade's difference picture
+
+
+def describe_cause(cause: str) -> str:
+    """A step's cause in words for a gradebook: "+Q2" -> "Q2 (eta = 1/ior also when leaving
+    glass)", "no_offset" -> "mistake no_offset", "--no-shadows" -> "shadows switched off"."""
+    if cause[:2] in ("+Q", "-Q") and cause[2:].isdigit():
+        q = int(cause[2:])
+        what = QUIRKS.get(q, "")
+        return f"Q{q} ({what})" if cause[0] == "+" else f"Q{q} fixed ({what})"
+    if cause.startswith("--no-"):
+        return f"{cause[5:]} switched off"
+    if cause.startswith("+") and not cause[1:].startswith("Q"):
+        return f"{cause[1:]} switched on"
+    if cause.startswith("max depth"):
+        return cause
+    name = cause.lstrip("-")
+    if name in catalogue():
+        return f"mistake {name}" if not cause.startswith("-") else f"without mistake {name}"
+    return cause
+
+
+def short_reason(d: Diagnosis, assigned: str | None = None) -> str:
+    """One gradebook cell: "looks like Q2 (eta = 1/ior also when leaving glass)", "looks like
+    mistake no_offset", "unexplained: refraction". The mode is named when it is not the
+    assigned model's ("looks like paper, Q8 fixed (...)")."""
+    items = [describe_cause(s.cause) for s in d.steps]
+    if assigned is not None and d.start != assigned:
+        items.insert(0, d.start)
+    text = f"looks like {', '.join(items)}" if items else ""
+    if d.unexplained:
+        text += ("; " if text else "") + f"unexplained: {', '.join(d.unexplained)}"
+    return text or f"looks like {d.result} (no difference beyond one 8-bit level)"
+
+
+def _display_png(path: Path, data: np.ndarray) -> None:
+    from PIL import Image as PILImage
+
+    buf = io.BytesIO()
+    PILImage.fromarray(np.round(np.clip(data, 0.0, 1.0) * 255).astype(np.uint8)).save(
+        buf, format="PNG", compress_level=1
+    )
+    write_atomic(path, buf.getvalue())
+
+
+def _write_evidence(
+    image: Image,
+    d: Diagnosis,
+    render: CandidateRenderer,
+    folder: Path,
+    prefix: str,
+    href: str,
+) -> list[dict[str, Any]]:
+    """Per step (or, with none, for the result): the candidate after it and the image's
+    difference from the candidate before and after, as PNGs in `folder`."""
+    test = linear_to_srgb(np.nan_to_num(image.rgb, nan=0.0, posinf=1.0))
+    shown: dict[str, str] = {}  # candidate name -> its PNG (a candidate is written once)
+    diffs: dict[str, str] = {}
+
+    def picture(c: Candidate) -> tuple[str, str]:
+        if c.name not in shown:
+            i = len(shown)
+            rgb = render(c).rgb
+            disp = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
+            _display_png(folder / f"{prefix}-candidate-{i}.png", disp)
+            _display_png(folder / f"{prefix}-diff-{i}.png", np.abs(test - disp) * DIFF_GAIN)
+            shown[c.name] = f"{href}{prefix}-candidate-{i}.png"
+            diffs[c.name] = f"{href}{prefix}-diff-{i}.png"
+        return shown[c.name], diffs[c.name]
+
+    def candidate(name: str) -> Candidate:
+        return d.candidate if name == d.result else render.seen[name]
+
+    out: list[dict[str, Any]] = []
+    steps: list[Step] = d.steps
+    before_name = d.start
+    for s in steps:
+        before_png, before_diff = picture(candidate(before_name))
+        after_png, after_diff = picture(candidate(s.candidate))
+        out.append(
+            {
+                "change": s.change,
+                "cause": s.cause,
+                "candidate": s.candidate,
+                "explains": list(s.explains),
+                "flip": {
+                    k: [d.effects[k].start_flip, d.effects[k].final_flip]
+                    for k in s.explains
+                    if k in d.effects
+                },
+                "before": before_name,
+                "before_png": before_png,
+                "before_diff": before_diff,
+                "candidate_png": after_png,
+                "diff": after_diff,
+            }
+        )
+        before_name = s.candidate
+    if not steps:
+        png, diff = picture(d.candidate)
+        out.append(
+            {
+                "change": f"nearest: {d.result}",
+                "cause": "",
+                "candidate": d.result,
+                "explains": [],
+                "flip": {},
+                "before": d.result,
+                "before_png": png,
+                "before_diff": diff,
+                "candidate_png": png,
+                "diff": diff,
+            }
+        )
+    return out
+
+
+def diagnose_image(
+    image: Image,
+    scene_file: str | Path,
+    cache_dir: str | Path,
+    evidence_dir: str | Path,
+    *,
+    prefix: str = "diagnosis",
+    href: str = "",
+    assigned: str | None = None,
+    parallel: int = 1,
+    progress: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """The diagnosis of `image` (a render of `scene_file`) as a JSON-ready dict: Diagnosis
+    .as_dict() plus `short` (the gradebook cell), `evidence` (pictures per explaining change,
+    written to evidence_dir as PREFIX-*.png, named href + file in the dict) and the cache's
+    renders and hits. Raises DiagnoseError or ToolError when the image cannot be diagnosed."""
+    scene = load_scene(scene_file)
+    h, w = image.shape
+    folder = Path(evidence_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    with CandidateRenderer(
+        scene_file, w, h, threads=1 if parallel > 1 else 0, cache_dir=cache_dir
+    ) as render:
+        d = diagnose(image, scene, render, progress=progress, parallel=parallel)
+        evidence = _write_evidence(image, d, render, folder, prefix, href)
+        out = d.as_dict()
+        out |= {
+            "short": short_reason(d, assigned),
+            "evidence": evidence,
+            "assigned": assigned,
+            "cache": {"rendered": render.rendered, "hits": render.cache_hits},
+        }
+    result: dict[str, Any] = json_safe(out)
+    return result
