@@ -122,7 +122,13 @@ def test_report_json_holds_every_section(
 ) -> None:
     folder, proc = report
     data = json.loads((folder / "report.json").read_text())
-    assert data["verdict"]["status"] in ("pass", "fail") and 0 <= data["verdict"]["score"] <= 100
+    # The paper-mode demo against the converged Mitsuba reference, classic scene at 160x120:
+    # measured 2026-12-01 (rtval report scenes/classic.json --size 160x120): fail, score 19.98;
+    # only the background (FLIP 0.019) passes, the lit surfaces are far too bright (Q7).
+    verdict = data["verdict"]
+    assert verdict["status"] == "fail" and abs(verdict["score"] - 20.0) <= 1.0, verdict["score"]
+    passing = {k for k, e in verdict["effects"].items() if e["status"] == "pass"}
+    assert passing == {"background"}, passing
     assert {"background", "direct", "shadow", "reflection", "refraction"} <= set(
         data["verdict"]["effects"]
     )
