@@ -1,6 +1,7 @@
 """`rtval check`: the regression check for renderer changes.
 
-Renders the demo on a scene set (every backend and mode asked for), compares each render
+Renders the demo on a scene set (every backend and mode asked for; renders come from the
+shared render cache when the same rtdemo binary made them before), compares each render
 with its stored baseline under per-scene tolerances and reports a table, JSON and JUnit XML.
 A missing baseline is a failure; `update` rewrites only new or failing baselines.
 Baselines are per scene and mode, not per backend: the GL backend must reproduce the CPU's.
@@ -8,9 +9,8 @@ Baselines are per scene and mode, not per backend: the GL backend must reproduce
 
 from __future__ import annotations
 
+import io
 import json
-import tempfile
-import time
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -21,7 +21,9 @@ from compare.files import write_atomic
 from compare.judge.evaluate import evaluate_pair
 from compare.judge.images import read_image, write_exr
 from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
-from compare.render.runner import run_rtdemo
+from compare.render.cache import RenderCache
+from compare.render.jobs import RenderJob, run_jobs
+from compare.render.progress import Progress
 from scene_model.scene import load_scene
 
 DEFAULT_SCENES = ("scenes/paper.json", "scenes/classic.json")
@@ -74,67 +76,81 @@ def run_check(
     size: tuple[int, int],
     update: bool = False,
     rtdemo: str | None = None,
+    cache_dir: Path | str | None = None,
     progress: Callable[[str], None] = print,
 ) -> list[CaseResult]:
     tolerances = load_tolerances(baseline_dir)
+    cache = RenderCache(cache_dir)
+    cases: list[tuple[str, Tolerances, str, str, RenderJob]] = []
+    for scene_path in scenes:
+        scene = load_scene(scene_path)
+        tol = tolerances.get(scene.name, tolerances.get("default", DEFAULT_TOLERANCES))
+        for backend in backends:
+            for mode in modes:
+                args = [
+                    "render",
+                    "{scene}",
+                    "-o",
+                    "{out}",
+                    "--mode",
+                    mode,
+                    "--backend",
+                    backend,
+                    "--width",
+                    str(size[0]),
+                    "--height",
+                    str(size[1]),
+                    "-q",
+                ]
+                job = RenderJob(
+                    f"{scene.name}/{backend}-{mode}",
+                    f"{scene.name} {backend} {mode}",
+                    "rtdemo",
+                    args,
+                    "check",
+                    scene=scene_path,
+                    executable=rtdemo,
+                )
+                cases.append((scene.name, tol, backend, mode, job))
+    # Renders come from the shared cache: its key holds the rtdemo binary's hash, so a
+    # changed renderer is always rendered afresh.
+    # check prints one line per case itself, after comparing: the runner's lines are dropped.
+    run_jobs([c[4] for c in cases], cache, progress=Progress(io.StringIO(), tty=False))
     results: list[CaseResult] = []
-    with tempfile.TemporaryDirectory(prefix="rtval-check-") as tmp:
-        for scene_path in scenes:
-            scene = load_scene(scene_path)
-            tol = tolerances.get(scene.name, tolerances.get("default", DEFAULT_TOLERANCES))
-            for backend in backends:
-                for mode in modes:
-                    out = Path(tmp) / f"{scene.name}-{backend}-{mode}.exr"
-                    args = [
-                        "render",
-                        scene_path,
-                        "-o",
-                        str(out),
-                        "--mode",
-                        mode,
-                        "--backend",
-                        backend,
-                        "--width",
-                        str(size[0]),
-                        "--height",
-                        str(size[1]),
-                        "-q",
-                    ]
-                    start = time.perf_counter()
-                    run_rtdemo(args, executable=rtdemo)
-                    case = CaseResult(
-                        scene.name, backend, mode, "pass", seconds=time.perf_counter() - start
-                    )
-                    # One baseline per scene and mode: every backend must reproduce it.
-                    baseline = baseline_dir / scene.name / f"{mode}.exr"
-                    if not baseline.is_file():
-                        case.status, case.reasons = "fail", [f"no baseline {baseline}"]
-                    else:
-                        ref, test = read_image(baseline), read_image(out)
-                        if ref.shape != test.shape:
-                            case.status = "fail"
-                            case.reasons = [
-                                f"size {test.shape[1]}x{test.shape[0]} differs from the "
-                                f"baseline's {ref.shape[1]}x{ref.shape[0]}"
-                            ]
-                        else:
-                            c = evaluate_pair(ref.rgb, test.rgb, tolerances=tol)
-                            case.status, case.reasons = c.verdict.status, c.verdict.reasons
-                            case.failing_pixels = c.verdict.failing_pixels
-                            case.max_display_error = c.verdict.max_display_error
-                            case.ssim = c.metrics.ssim
-                    if update and case.status == "fail":
-                        baseline.parent.mkdir(parents=True, exist_ok=True)
-                        # Colour only: the AOVs are not compared and would triple the size.
-                        fresh = read_image(out)
-                        write_exr(baseline, fresh.rgb, header=fresh.header)
-                        case.updated = True
-                    progress(
-                        f"{case.name:<28} {case.status.upper():<5}"
-                        + (" (baseline updated)" if case.updated else "")
-                        + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
-                    )
-                    results.append(case)
+    for scene_name, tol, backend, mode, job in cases:
+        out = job.exr(cache)
+        case = CaseResult(scene_name, backend, mode, "pass", seconds=job.seconds)
+        # One baseline per scene and mode: every backend must reproduce it.
+        baseline = baseline_dir / scene_name / f"{mode}.exr"
+        if not baseline.is_file():
+            case.status, case.reasons = "fail", [f"no baseline {baseline}"]
+        else:
+            ref, test = read_image(baseline), read_image(out)
+            if ref.shape != test.shape:
+                case.status = "fail"
+                case.reasons = [
+                    f"size {test.shape[1]}x{test.shape[0]} differs from the "
+                    f"baseline's {ref.shape[1]}x{ref.shape[0]}"
+                ]
+            else:
+                c = evaluate_pair(ref.rgb, test.rgb, tolerances=tol)
+                case.status, case.reasons = c.verdict.status, c.verdict.reasons
+                case.failing_pixels = c.verdict.failing_pixels
+                case.max_display_error = c.verdict.max_display_error
+                case.ssim = c.metrics.ssim
+        if update and case.status == "fail":
+            baseline.parent.mkdir(parents=True, exist_ok=True)
+            # Colour only: the AOVs are not compared and would triple the size.
+            fresh = read_image(out)
+            write_exr(baseline, fresh.rgb, header=fresh.header)
+            case.updated = True
+        progress(
+            f"{case.name:<28} {case.status.upper():<5}"
+            + (" (cached render)" if job.cached else "")
+            + (" (baseline updated)" if case.updated else "")
+            + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
+        )
+        results.append(case)
     return results
 
 

@@ -1,7 +1,8 @@
 """`rtval grade`: a class's renders against the references, one gradebook.
 
 A submission is an image (its file name is the student id; one --scene only) or a folder
-of images named after the scenes. References are rendered once and cached by content hash.
+of images named after the scenes. References come from the shared render cache (the same
+entry `rtval report` makes), rendered only when missing.
 Each student is an idempotent task keyed by the hashes of its files, the references and the
 rubric: a re-run (or a resumed, interrupted one) skips what is done. Bad submissions become
 rows with a reason, never an aborted batch. Tasks run in a local process pool or on a Dask
@@ -220,25 +221,38 @@ def run_grading(
     scheduler: str | None = None,
     jobs: int = 2,
     size: tuple[int, int] | None = None,
+    cache_dir: Path | str | None = None,
     progress: Callable[[str], None] = print,
 ) -> list[dict[str, Any]]:
     from compare.judge.rubric import DEFAULT_RUBRIC_TEXT, load_rubric
-    from compare.render.cache import run_jobs
+    from compare.render.cache import RenderCache
+    from compare.render.jobs import run_jobs
     from compare.render.plan import REFERENCE_KEY, plan
+    from compare.render.progress import Progress
     from scene_model.scene import load_scene
 
     rubric = load_rubric(rubric_path)  # validates before any work
     rubric_text = Path(rubric_path).read_text() if rubric_path else DEFAULT_RUBRIC_TEXT
     out.mkdir(parents=True, exist_ok=True)
+    (out / "references").mkdir(exist_ok=True)
+    cache = RenderCache(cache_dir)
     names = {}
     references = {}
+    ref_jobs = []
     for scene_file in scene_files:
         scene = load_scene(scene_file)
         names[scene.name] = str(scene_file)
+        # The report's own reference job: the same command, so the same cache entry.
         job = next(j for j in plan(str(scene_file), size) if j.key == REFERENCE_KEY)
-        job.key = scene.name
-        run_jobs([job], scene_file, out / "cache", out / "references", progress=progress)
-        references[scene.name] = str(out / "references" / f"{scene.name}.exr")
+        job.key, job.label = scene.name, f"reference of {scene.name}: {job.label}"
+        ref_jobs.append(job)
+    run_jobs(ref_jobs, cache, progress=progress if isinstance(progress, Progress) else Progress())
+    for job in ref_jobs:
+        # A copy beside the grades: the tasks (maybe on other machines) read it from there.
+        target = out / "references" / f"{job.key}.exr"
+        if not (target.is_file() and sha256_file(target) == job.info["sha256"]):
+            cache.copy_out(job.cache_key, target)
+        references[job.key] = str(target)
     tasks = [
         GradeTask(student, files, problem, references, names, rubric_text, rubric.source, str(out))
         for student, files, problem in collect(submissions, list(names))

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from compare.cli.common import size_type
+from compare.cli.common import add_cache_argument, size_type
 
 
 def run_check(args: argparse.Namespace) -> int:
@@ -20,6 +20,7 @@ def run_check(args: argparse.Namespace) -> int:
         size=args.size,
         update=args.update,
         rtdemo=args.rtdemo,
+        cache_dir=args.cache,
         progress=lambda m: print(m, file=sys.stderr),
     )
     print(check.table(results))
@@ -67,4 +68,5 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--rtdemo", default=None, help="the rtdemo executable to check (default: the installed one)"
     )
+    add_cache_argument(p)
     p.set_defaults(func=run_check)
