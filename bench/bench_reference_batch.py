@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import ROOT, SCENES, print_table, tool, write_results
 
 sys.path.insert(0, str(ROOT))
-from compare.render.plan import plan  # noqa: E402
+from compare.render.plan import plan
 
 
 def _timed(cmd: list[str]) -> float:
@@ -66,15 +66,16 @@ def main() -> None:
         )
         batch_file = tmp / "jobs.json"
         batch_file.write_text(
-            json.dumps(
-                {"jobs": [j.command(tmp / f"bat-{i}.exr")[2:] for i, j in enumerate(jobs)]}
-            )
+            json.dumps({"jobs": [j.command(tmp / f"bat-{i}.exr")[2:] for i, j in enumerate(jobs)]})
         )
         batch = _timed([rtval, "reference", "--batch", str(batch_file)])
     n = len(jobs)
     per_process = (separate - batch) / (n - 1)
     rows = [
-        ["import mitsuba + variant + integrator (fresh interpreter, median of 3)", sorted(imports)[1]],
+        [
+            "import mitsuba + variant + integrator (fresh interpreter, median of 3)",
+            sorted(imports)[1],
+        ],
         [f"{n} renders, one process each", separate],
         [f"{n} renders, one --batch process", batch],
         ["start-up saved per render by the batch", per_process],

@@ -18,7 +18,7 @@ from helpers import SCENES, run
 from compare.judge.convergence import mitsuba_to_converged
 from compare.judge.images import Image
 from compare.judge.pareto import pareto_front
-from compare.render.cache import RenderCache, default_cache_dir
+from compare.render.cache import RenderCache, default_cache_dir, render_key
 from compare.render.jobs import RenderJob, run_jobs
 from compare.render.progress import Progress
 
@@ -73,6 +73,17 @@ def test_second_run_is_cached_and_the_key_follows_the_content(tmp_path: Path) ->
     run_jobs(changed, cache, progress=Progress(io.StringIO(), tty=False))
     assert not changed[0].cached and changed[0].cache_key != first[0].cache_key
     assert not list(cache.tmp_dir.iterdir())  # nothing left half-written
+
+
+def test_rtdemo_environment_is_part_of_the_key(monkeypatch: pytest.MonkeyPatch) -> None:
+    """rtval check injects faults into one binary through RTDEMO_FAULT: never a cached render."""
+    args = ["render", "{scene}", "-o", "{out}"]
+    monkeypatch.delenv("RTDEMO_FAULT", raising=False)
+    plain = render_key("rtdemo", args, SCENES / "classic.json")
+    monkeypatch.setenv("RTDEMO_FAULT", "no_bias")
+    faulty = render_key("rtdemo", args, SCENES / "classic.json")
+    assert plain != faulty
+    assert render_key("rtdemo", [*args, "-q"], SCENES / "classic.json") != faulty
 
 
 def _store_many(args: tuple[str, int]) -> str:

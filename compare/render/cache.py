@@ -2,7 +2,7 @@
 
 A render is the command a person could type (`rtdemo render ...`, `rtval reference ...`).
 Its key hashes the command's arguments (scene and output paths left out), the scene file's
-bytes and the renderer's identity (the rtdemo binary's bytes, or the mitsuba_ref and
+bytes, rtdemo's RTDEMO_* environment and the renderer's identity (the rtdemo binary's bytes, or the mitsuba_ref and
 scene_model sources plus the Mitsuba version): a re-run with nothing changed renders
 nothing, any change re-renders, and the same render asked for by `report` and `grade` is
 made once.
@@ -64,10 +64,15 @@ def renderer_identity(tool: str, executable: str | None = None) -> str:
 
 
 def render_key(tool: str, args: list[str], scene_file: Path, executable: str | None = None) -> str:
-    """`args` with the scene and output as the placeholders {scene} and {out}."""
+    """`args` with the scene and output as the placeholders {scene} and {out}. rtdemo's
+    RTDEMO_* environment variables (fault injection in tests) change what it renders, so
+    they are part of the key too."""
     h = hashlib.sha256()
     h.update(tool.encode() + b"\0")
     h.update(json.dumps(args).encode())
+    if tool == "rtdemo":
+        env = sorted((k, v) for k, v in os.environ.items() if k.startswith("RTDEMO_"))
+        h.update(json.dumps(env).encode())
     h.update(sha256_file(scene_file).encode())
     h.update(renderer_identity(tool, executable).encode())
     return h.hexdigest()[:24]
