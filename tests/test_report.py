@@ -148,7 +148,10 @@ def test_report_json_holds_every_section(
     steps = [t["step"] for t in data["timings"]]
     assert steps[:3] == ["plan", "renders: demo", "renders: Mitsuba"] and "PDF (Chromium)" in steps
     assert all(t["seconds"] >= 0 for t in data["timings"])
-    assert "renders: Mitsuba" in proc.stderr.splitlines()[-len(steps) - 2]  # the table at the end
+    table = proc.stderr.splitlines()[-len(steps) - 2 :]  # the table ends the run
+    assert table[0].split() == ["step", "seconds"] and table[-1].startswith("total")
+    assert table[3].startswith("renders: Mitsuba")
+    assert any(line.startswith("metrics: ") for line in proc.stderr.splitlines())  # step done
     c = data["time_to_converged"]
     assert c["reference_spp"] == 32 and c["target_error"] > 0 and c["reference_seconds"] > 0
     assert set(c["demo_errors"]) == {"1", "4", "16"} and c["demo_yardstick_spp"] == 64

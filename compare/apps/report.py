@@ -86,12 +86,19 @@ class Evaluator:
         self.ref, self.ref_hash, self.masks, self.cache = ref, ref_hash, masks, cache
         self._maps: dict[int, Any] = {}
 
-    def evaluate(self, test: Image, test_hash: str, *, per_effect: bool) -> dict[str, Any]:
-        path = self.cache.derived(
+    def _path(self, test_hash: str, per_effect: bool) -> Path:
+        return self.cache.derived(
             f"metrics-{self.ref_hash[:16]}-{test_hash[:16]}-{int(per_effect)}.json"
         )
+
+    def evaluate(self, test: Image, test_hash: str, *, per_effect: bool) -> dict[str, Any]:
+        path = self._path(test_hash, per_effect)
         if path.is_file():
             return dict(json.loads(path.read_text()))
+        # The global metrics of a per-effect evaluation are the same numbers (HDR FLIP added).
+        full = self._path(test_hash, True)
+        if not per_effect and full.is_file():
+            return dict(json.loads(full.read_text()))
         # Pixels over 1/255 are counted in the report (compare's default failing error is 0.01).
         ev = evaluate_pair(
             self.ref.rgb,
@@ -157,19 +164,19 @@ def _machine() -> str:
 class Steps:
     """Wall time per step of the report run, for the table printed at its end."""
 
-    def __init__(self) -> None:
+    def __init__(self, progress: Progress) -> None:
         self.rows: list[tuple[str, float]] = []
+        self.progress = progress
 
     @contextlib.contextmanager
     def __call__(self, name: str) -> Iterator[None]:
         start = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.add(name, time.perf_counter() - start)
+        yield  # a failed step raises through: no time for it
+        self.add(name, time.perf_counter() - start)
 
     def add(self, name: str, seconds: float) -> None:
         self.rows.append((name, seconds))
+        self.progress.line(f"{name}: {seconds:.1f} s")  # one line per step in any log
 
     def table(self) -> str:
         total = sum(t for _, t in self.rows)
@@ -213,7 +220,7 @@ def build_report(
     """Writes reports_dir/<scene>/: a folder that holds everything its page links to
     (relative links only), so it can be zipped and opened elsewhere."""
     progress = progress or Progress()
-    steps = Steps()
+    steps = Steps(progress)
     scene_file = Path(scene_path)
     cache = RenderCache(cache_dir)
     with steps("plan"):
@@ -285,8 +292,24 @@ def build_report(
             _derived_exr(cache, hashes[test_key], imgs[test_key], out / shown(test_key))
     kept = {REFERENCE_KEY, test_key}
 
+    chart_jobs = [
+        j
+        for j in render_jobs
+        if j.family not in ("reference", "ablation", "ladder", "reference area")
+    ]
+    ladder_keys = (
+        ["demo-paper-cpu"] + [f"ladder-{i:02d}" for i in range(1, 10)] + ["demo-physical-cpu-16spp"]
+    )
     with steps("metrics"):
-        results = {k: ev.evaluate(imgs[k], hashes[k], per_effect=True) for k, _ in featured}
+        # Per effect (with HDR FLIP) for the featured renders, global for the charts'.
+        pairs = [(k, True) for k, _ in featured]
+        pairs += [(k, False) for k in dict.fromkeys([j.key for j in chart_jobs] + ladder_keys)]
+        start = time.perf_counter()
+        metrics: dict[tuple[str, bool], dict[str, Any]] = {}
+        for n, (k, per_effect) in enumerate(pairs):
+            progress.update("metrics", n, len(pairs), time.perf_counter() - start, unit="pairs")
+            metrics[k, per_effect] = ev.evaluate(imgs[k], hashes[k], per_effect=per_effect)
+        results = {k: metrics[k, True] for k, _ in featured}
 
     with steps("difference maps"):
         maps_info = []
@@ -310,10 +333,8 @@ def build_report(
     with steps("charts"):
         # Speed against accuracy, convergence.
         chart_rows = []
-        for j in render_jobs:
-            if j.family in ("reference", "ablation", "ladder", "reference area"):
-                continue
-            g = ev.evaluate(imgs[j.key], hashes[j.key], per_effect=False)["global"]
+        for j in chart_jobs:
+            g = metrics[j.key, False]["global"]
             chart_rows.append(
                 {
                     "key": j.key,
@@ -348,15 +369,10 @@ def build_report(
         slopes = json.loads(slopes_path.read_text())
 
         # Ablation ladder: paper -> Q1 fixed -> Q1,Q2 fixed ... -> physical (Q10: 16 spp).
-        ladder_keys = (
-            ["demo-paper-cpu"]
-            + [f"ladder-{i:02d}" for i in range(1, 10)]
-            + ["demo-physical-cpu-16spp"]
-        )
         ladder_names = ["paper"] + [f"+{q}" for q in QUIRKS[:9]] + ["+Q10 = physical 16 spp"]
         ladder = []
         for name, k in zip(ladder_names, ladder_keys, strict=False):
-            g = ev.evaluate(imgs[k], hashes[k], per_effect=False)["global"]
+            g = metrics[k, False]["global"]
             ladder.append(
                 {
                     "step": name,
