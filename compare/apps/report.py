@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import functools
 import hashlib
 import importlib.metadata
 import json
@@ -77,21 +78,79 @@ SAME_ESTIMATOR_AS_REFERENCE = {
 SCENE_COPY = "scene.json"  # the scene beside the page; the printed commands read it
 
 
+@functools.cache
+def judge_identity() -> str:
+    """The judge's and the figures' code: derived results are keyed by it as well, so that
+    a change to a metric or a chart is never hidden by the cache."""
+    h = hashlib.sha256()
+    root = Path(__file__).resolve().parents[1]
+    for p in [*sorted((root / "judge").glob("*.py")), root / "apps" / "report_figures.py"]:
+        h.update(p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+class LazyImages:
+    """The report's images by key, read from the cache on first use. Facts the page needs
+    of every render (its render time, its size) are kept in the cache, so that a warm run
+    reads no EXR at all."""
+
+    def __init__(self, paths: dict[str, Path], hashes: dict[str, str], cache: RenderCache) -> None:
+        self.paths, self.hashes, self.cache = paths, hashes, cache
+        self.loaded: dict[str, Image] = {}
+
+    def __getitem__(self, key: str) -> Image:
+        if key not in self.loaded:
+            self.loaded[key] = read_image(self.paths[key])
+        return self.loaded[key]
+
+    def add(self, key: str, image: Image, sha: str) -> None:
+        self.loaded[key], self.hashes[key] = image, sha
+
+    def loader(self, key: str) -> Callable[[], Image]:
+        return lambda: self[key]
+
+    def facts(self, key: str) -> dict[str, Any]:
+        def read() -> dict[str, Any]:
+            img = self[key]
+            return {"seconds": _render_seconds(img), "size": [img.shape[1], img.shape[0]]}
+
+        return _memo_json(self.cache, "facts", self.hashes[key], read)
+
+
+def _memo_json(
+    cache: RenderCache, name: str, inputs: str, compute: Callable[[], dict[str, Any]]
+) -> dict[str, Any]:
+    path = cache.derived(f"{name}-{_digest(inputs)}.json")
+    if path.is_file():
+        with contextlib.suppress(ValueError, OSError):
+            return dict(json.loads(path.read_text()))
+    value = compute()
+    write_atomic(path, json.dumps(value))
+    return value
+
+
 class Evaluator:
-    """Metrics of images against the reference, cached by the pair's content hashes."""
+    """Metrics of images against the reference, cached by the pair's content hashes (and the
+    judge's code); the reference and its masks are read only when a metric is computed."""
 
     def __init__(
-        self, ref: Image, ref_hash: str, masks: dict[str, np.ndarray], cache: RenderCache
+        self,
+        ref: Callable[[], Image],
+        ref_hash: str,
+        masks: Callable[[], dict[str, np.ndarray]],
+        cache: RenderCache,
     ) -> None:
         self.ref, self.ref_hash, self.masks, self.cache = ref, ref_hash, masks, cache
         self._maps: dict[int, Any] = {}
 
     def _path(self, test_hash: str, per_effect: bool) -> Path:
         return self.cache.derived(
-            f"metrics-{self.ref_hash[:16]}-{test_hash[:16]}-{int(per_effect)}.json"
+            f"metrics-{self.ref_hash[:16]}-{test_hash[:16]}-{judge_identity()}-{int(per_effect)}.json"
         )
 
-    def evaluate(self, test: Image, test_hash: str, *, per_effect: bool) -> dict[str, Any]:
+    def evaluate(
+        self, test: Callable[[], Image], test_hash: str, *, per_effect: bool
+    ) -> dict[str, Any]:
         path = self._path(test_hash, per_effect)
         if path.is_file():
             return dict(json.loads(path.read_text()))
@@ -101,11 +160,11 @@ class Evaluator:
             return dict(json.loads(full.read_text()))
         # Pixels over 1/255 are counted in the report (compare's default failing error is 0.01).
         ev = evaluate_pair(
-            self.ref.rgb,
-            test.rgb,
+            self.ref().rgb,
+            test().rgb,
             hdr=per_effect,
             tolerances=Tolerances(fail=1.0 / 255.0),
-            masks=self.masks if per_effect else None,
+            masks=self.masks() if per_effect else None,
         )
         out: dict[str, Any] = {
             "global": _json_safe(ev.metrics.as_dict()),
@@ -116,7 +175,7 @@ class Evaluator:
 
     def maps(self, test: Image) -> Any:
         if id(test) not in self._maps:
-            self._maps[id(test)] = evaluate_pair(self.ref.rgb, test.rgb).maps
+            self._maps[id(test)] = evaluate_pair(self.ref().rgb, test.rgb).maps
         return self._maps[id(test)]
 
 
@@ -241,9 +300,9 @@ def build_report(
         steps.add(name, seconds)
     by_key: dict[str, RenderJob] = {j.key: j for j in render_jobs}
 
-    with steps("read renders"):
-        imgs: dict[str, Image] = {k: read_image(j.exr(cache)) for k, j in by_key.items()}
-        hashes = {k: str(j.info["sha256"]) for k, j in by_key.items()}
+    hashes = {k: str(j.info["sha256"]) for k, j in by_key.items()}
+    # Renders are read when a result not yet derived needs them: a warm run reads few.
+    imgs = LazyImages({k: j.exr(cache) for k, j in by_key.items()}, hashes, cache)
 
     def shown(k: str) -> str:
         return f"images/{k}.exr"
@@ -251,10 +310,13 @@ def build_report(
     def command(k: str) -> str:
         return by_key[k].command_text(shown(k), SCENE_COPY)
 
-    ref = imgs[REFERENCE_KEY]
-    with steps("effect masks"):
-        masks = effect_masks(scene, ref.aovs["id"], ref.aovs["depth"])
-    ev = Evaluator(ref, hashes[REFERENCE_KEY], masks, cache)
+    @functools.cache
+    def masks() -> dict[str, np.ndarray]:
+        ref = imgs[REFERENCE_KEY]
+        return effect_masks(scene, ref.aovs["id"], ref.aovs["depth"])
+
+    ev = Evaluator(lambda: imgs[REFERENCE_KEY], hashes[REFERENCE_KEY], masks, cache)
+    ref_w, ref_h = imgs.facts(REFERENCE_KEY)["size"]
 
     # The image under test: the demo's paper mode, or a foreign render.
     test_key = "demo-paper-cpu"
@@ -263,15 +325,15 @@ def build_report(
     test_copy = ""
     if test_image:
         foreign = read_image(test_image, encoding=test_encoding)
-        if foreign.shape != ref.shape:
+        if foreign.shape != (ref_h, ref_w):
             raise ImageError(
                 f"{test_image}: {foreign.shape[1]}x{foreign.shape[0]}, the scene renders at "
-                f"{ref.shape[1]}x{ref.shape[0]} (never resampled)"
+                f"{ref_w}x{ref_h} (never resampled)"
             )
         test_key = "test-image"
         label = test_label or Path(test_image).stem
-        imgs[test_key] = foreign
         hashes[test_key] = sha256_file(Path(test_image))
+        imgs.add(test_key, foreign, hashes[test_key])
         featured.insert(0, (test_key, label))
         test_copy = f"images/test-image{Path(test_image).suffix.lower()}"
 
@@ -280,16 +342,20 @@ def build_report(
         # (reference and image under test), ZIP-compressed; the rest regenerable.
         for j in render_jobs:
             if j.family != "ablation":
-                _derived_png(cache, hashes[j.key], imgs[j.key], images_dir / f"{j.key}.png")
-        _derived_exr(cache, hashes[REFERENCE_KEY], imgs[REFERENCE_KEY], out / shown(REFERENCE_KEY))
+                _derived_png(cache, hashes[j.key], imgs.loader(j.key), images_dir / f"{j.key}.png")
+        _derived_exr(
+            cache, hashes[REFERENCE_KEY], imgs.loader(REFERENCE_KEY), out / shown(REFERENCE_KEY)
+        )
         if test_image:
-            _derived_png(cache, hashes[test_key], imgs[test_key], images_dir / "test-image.png")
+            _derived_png(
+                cache, hashes[test_key], imgs.loader(test_key), images_dir / "test-image.png"
+            )
             if test_copy.endswith(".exr"):
-                _derived_exr(cache, hashes[test_key], imgs[test_key], out / test_copy)
+                _derived_exr(cache, hashes[test_key], imgs.loader(test_key), out / test_copy)
             else:
                 _copy(Path(test_image), out / test_copy)
         else:
-            _derived_exr(cache, hashes[test_key], imgs[test_key], out / shown(test_key))
+            _derived_exr(cache, hashes[test_key], imgs.loader(test_key), out / shown(test_key))
     kept = {REFERENCE_KEY, test_key}
 
     chart_jobs = [
@@ -308,7 +374,7 @@ def build_report(
         metrics: dict[tuple[str, bool], dict[str, Any]] = {}
         for n, (k, per_effect) in enumerate(pairs):
             progress.update("metrics", n, len(pairs), time.perf_counter() - start, unit="pairs")
-            metrics[k, per_effect] = ev.evaluate(imgs[k], hashes[k], per_effect=per_effect)
+            metrics[k, per_effect] = ev.evaluate(imgs.loader(k), hashes[k], per_effect=per_effect)
         results = {k: metrics[k, True] for k, _ in featured}
 
     with steps("difference maps"):
@@ -323,8 +389,8 @@ def build_report(
                     ev,
                     kind,
                     title,
-                    ref,
-                    imgs[k],
+                    imgs.loader(REFERENCE_KEY),
+                    imgs.loader(k),
                     hashes[REFERENCE_KEY] + hashes[k],
                     out / files[kind],
                 )
@@ -341,7 +407,7 @@ def build_report(
                     "label": j.label,
                     "family": j.family,
                     "spp": j.spp,
-                    "seconds": _render_seconds(imgs[j.key]),
+                    "seconds": imgs.facts(j.key)["seconds"],
                     "one_minus_ssim": max(1.0 - (g["ssim"] or 0.0), 1e-7),
                     "flip": g["flip_ldr"],
                     "rmse": g["rmse_display"],
@@ -379,7 +445,7 @@ def build_report(
                     "key": k,
                     "flip": g["flip_ldr"],
                     "one_minus_ssim": 1.0 - (g["ssim"] or 0.0),
-                    "seconds": _render_seconds(imgs[k]),
+                    "seconds": imgs.facts(k)["seconds"],
                     "command": command(k),
                 }
             )
@@ -392,53 +458,81 @@ def build_report(
         )
 
     with steps("analysis"):
-        # Effect contributions at pixel centres: what shadows / reflection / refraction add.
-        contributions = []
-        if not test_image:
-            for effect in EFFECT_SWITCHES:
-                for demo_mode in ("paper", "physical"):
-                    base = "demo-paper-cpu" if demo_mode == "paper" else "demo-physical-cpu-1spp"
-                    contributions.append(
-                        {
-                            "mode": demo_mode,
-                            **contribution_sentence(
-                                effect,
-                                imgs[base].rgb,
-                                imgs[f"demo-{demo_mode}-cpu-no-{effect}"].rgb,
-                                imgs["ref-centre"].rgb,
-                                imgs[f"ref-centre-no-{effect}"].rgb,
-                                f"the demo ({demo_mode} mode)",
-                            ),
-                        }
-                    )
-
         test_effects = {k: metrics_from_dict(v) for k, v in results[test_key]["per_effect"].items()}
         verdict = score_effects(test_effects).as_dict()
-        sentences = difference_sentences(ref.rgb, imgs[test_key].rgb, masks, test_effects, label)
-        penumbra = penumbra_numbers(
-            ref.rgb, imgs["ref-area"].rgb, imgs["demo-physical-cpu-16spp"].rgb
+        mitsuba_jobs = [
+            j for j in render_jobs if j.family.startswith("mitsuba") or j.key == REFERENCE_KEY
+        ]
+
+        def analyse() -> dict[str, Any]:
+            ref = imgs[REFERENCE_KEY]
+            # Effect contributions at pixel centres: what shadows / reflection / refraction add.
+            contributions = []
+            if not test_image:
+                for effect in EFFECT_SWITCHES:
+                    for demo_mode in ("paper", "physical"):
+                        base = (
+                            "demo-paper-cpu" if demo_mode == "paper" else "demo-physical-cpu-1spp"
+                        )
+                        contributions.append(
+                            {
+                                "mode": demo_mode,
+                                **contribution_sentence(
+                                    effect,
+                                    imgs[base].rgb,
+                                    imgs[f"demo-{demo_mode}-cpu-no-{effect}"].rgb,
+                                    imgs["ref-centre"].rgb,
+                                    imgs[f"ref-centre-no-{effect}"].rgb,
+                                    f"the demo ({demo_mode} mode)",
+                                ),
+                            }
+                        )
+            converged = time_to_converged(
+                ref,
+                {
+                    spp: imgs[f"demo-physical-cpu-{spp}spp"]
+                    for spp in (1, 4, 16, DEMO_YARDSTICK_SPP)
+                },
+            )
+            converged["mitsuba"] = mitsuba_to_converged(
+                ref,
+                [
+                    {"key": j.key, "label": j.label, "spp": j.spp, "image": imgs[j.key]}
+                    for j in mitsuba_jobs
+                ],
+                SAME_ESTIMATOR_AS_REFERENCE,
+            )
+            return {
+                "contributions": contributions,
+                "sentences": difference_sentences(
+                    ref.rgb, imgs[test_key].rgb, masks(), test_effects, label
+                ),
+                "penumbra": penumbra_numbers(
+                    ref.rgb, imgs["ref-area"].rgb, imgs["demo-physical-cpu-16spp"].rgb
+                ),
+                "converged": converged,
+                "effect_pixels": {k: int(v.sum()) for k, v in masks().items()},
+            }
+
+        # Every input's hash, the labels and the judge's code: the same inputs, the same result.
+        inputs = json.dumps(
+            [hashes, label, bool(test_image), [(j.key, j.label) for j in mitsuba_jobs]],
+            sort_keys=True,
         )
-        converged = time_to_converged(
-            ref,
-            {spp: imgs[f"demo-physical-cpu-{spp}spp"] for spp in (1, 4, 16, DEMO_YARDSTICK_SPP)},
-        )
-        mitsuba = mitsuba_to_converged(
-            ref,
-            [
-                {"key": j.key, "label": j.label, "spp": j.spp, "image": imgs[j.key]}
-                for j in render_jobs
-                if j.family.startswith("mitsuba") or j.key == REFERENCE_KEY
-            ],
-            SAME_ESTIMATOR_AS_REFERENCE,
-        )
-        converged["mitsuba"] = mitsuba
+        analysis = _memo_json(cache, "analysis", inputs + judge_identity(), analyse)
+        contributions = analysis["contributions"]
+        sentences = analysis["sentences"]
+        penumbra = analysis["penumbra"]
+        converged = analysis["converged"]
+        mitsuba = converged["mitsuba"]
         if converged["demo_spp"]:
             k = f"demo-physical-cpu-{converged['demo_spp']}spp"
             converged["demo"] = {"key": k, "label": by_key[k].label}
         fastest = mitsuba["fastest"]
+        demo_seconds = converged["demo_seconds"]
         converged["speedup_vs_fastest_mitsuba"] = (
-            fastest["seconds"] / converged["demo_seconds"]
-            if fastest and converged["demo_spp"] and converged["demo_seconds"] > 0
+            fastest["seconds"] / demo_seconds
+            if fastest and converged["demo_spp"] and demo_seconds and demo_seconds > 0
             else float("nan")
         )
 
@@ -450,7 +544,7 @@ def build_report(
             "exr": shown(j.key) if j.key in kept else None,
             "command": command(j.key),
             "family": j.family,
-            "seconds": _render_seconds(imgs[j.key]),
+            "seconds": imgs.facts(j.key)["seconds"],
             "cached": j.cached,
             "sha256": hashes[j.key],
         }
@@ -482,7 +576,7 @@ def build_report(
         "scene_file": _shown_path(scene_file),
         "scene_copy": SCENE_COPY,
         "scene_sha256": sha256_file(scene_file),
-        "size": [ref.shape[1], ref.shape[0]],
+        "size": [ref_w, ref_h],
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "machine": _machine(),
         "versions": _versions(),
@@ -506,7 +600,7 @@ def build_report(
         "penumbra": penumbra,
         "time_to_converged": converged,
         "renders": renders,
-        "effect_pixels": {k: int(v.sum()) for k, v in masks.items()},
+        "effect_pixels": analysis["effect_pixels"],
     }
     data["timings"] = steps.as_list()  # so far; report.json gets every step
     with steps("page"):
@@ -523,11 +617,7 @@ def build_report(
         with steps("PDF (Chromium)"):
             write_pdf(out / "index.html", out / "report.pdf")
     data["timings"] = steps.as_list()
-    data["cache"] = {
-        "folder": "(user cache; see `rtval cache --size`)",
-        "renders_cached": sum(j.cached for j in render_jobs),
-        "renders_made": sum(not j.cached for j in render_jobs),
-    }
+    data["renders_made"] = sum(not j.cached for j in render_jobs)  # 0: all from the cache
     write_atomic(out / "report.json", json.dumps(_json_safe(data), indent=2) + "\n")
     progress.line(steps.table())
     return out / "index.html"
@@ -541,27 +631,28 @@ def _digest(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
-def _derived_png(cache: RenderCache, sha: str, img: Image, target: Path) -> None:
+def _derived_png(cache: RenderCache, sha: str, img: Callable[[], Image], target: Path) -> None:
     """The display PNG of a render, encoded once per render content."""
     cached = cache.derived(f"png-{sha[:24]}.png")
     if not cached.is_file():
-        write_png(cached, img.rgb)
+        write_png(cached, img().rgb)
     _copy(cached, target)
 
 
-def _derived_exr(cache: RenderCache, sha: str, img: Image, target: Path) -> None:
+def _derived_exr(cache: RenderCache, sha: str, img: Callable[[], Image], target: Path) -> None:
     """A render as a ZIP-compressed EXR with all its channels (lossless)."""
     cached = cache.derived(f"exr-zip-{sha[:24]}.exr")
     if not cached.is_file():
-        write_exr(cached, img.rgb, aovs=img.aovs, header=img.header)
+        image = img()
+        write_exr(cached, image.rgb, aovs=image.aovs, header=image.header)
     _copy(cached, target)
 
 
 def _derived_figure(
     cache: RenderCache, name: str, inputs: str, target: Path, draw: Callable[[Path], None]
 ) -> None:
-    """A chart drawn once per input data."""
-    cached = cache.derived(f"{name}-{_digest(inputs)}.png")
+    """A chart drawn once per input data (and figure code)."""
+    cached = cache.derived(f"{name}-{_digest(inputs + judge_identity())}.png")
     if not cached.is_file():
         draw(cached)
     _copy(cached, target)
@@ -572,17 +663,17 @@ def _derived_map(
     ev: Evaluator,
     kind: str,
     title: str,
-    ref: Image,
-    test: Image,
+    ref: Callable[[], Image],
+    test: Callable[[], Image],
     pair: str,
     target: Path,
 ) -> None:
     def draw(p: Path) -> None:
         if kind == "diff":
-            figs.signed_difference(ref.rgb, test.rgb, p, f"signed difference: {title}")
+            figs.signed_difference(ref().rgb, test().rgb, p, f"signed difference: {title}")
         elif kind == "flip":
             figs.map_figure(
-                ev.maps(test).flip_ldr,
+                ev.maps(test()).flip_ldr,
                 p,
                 title=f"FLIP (LDR, 67 ppd): {title}",
                 cmap="magma",
@@ -592,7 +683,7 @@ def _derived_map(
             )
         else:
             figs.map_figure(
-                np.nan_to_num(ev.maps(test).ssim, nan=1.0),
+                np.nan_to_num(ev.maps(test()).ssim, nan=1.0),
                 p,
                 title=f"SSIM map: {title}",
                 cmap="viridis",
