@@ -243,6 +243,7 @@ def test_check_passes_unchanged_renderer_repeatedly_and_writes_junit(tmp_path: P
             baseline, "--junit", str(tmp_path / "j.xml"), "--json", str(tmp_path / "c.json")
         )
         assert code == 0, out
+    assert out.count("(cached render)") == 6  # the same binary: renders from the shared cache
     suite = ET.parse(tmp_path / "j.xml").getroot()
     assert suite.get("tests") == "6" and suite.get("failures") == "0"
     code, out = _check(baseline, "--backends", "gl", "--modes", "paper")
