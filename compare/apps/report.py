@@ -422,7 +422,7 @@ def build_report(
             for error in ("flip", "one_minus_ssim")
         }
         chart = json.dumps(_json_safe(chart_rows), sort_keys=True)
-        slopes_path = cache.derived(f"slopes-{_digest(chart)}.json")
+        slopes_path = cache.derived(f"slopes-{_digest(chart + judge_identity())}.json")
         _derived_figure(
             cache,
             "speed-accuracy",
@@ -430,10 +430,20 @@ def build_report(
             images_dir / "speed-accuracy.png",
             lambda p: figs.speed_accuracy_chart(chart_rows, p),
         )
-        if not slopes_path.is_file() or not (images_dir / "convergence.png").is_file():
-            slopes = figs.convergence_chart(chart_rows, images_dir / "convergence.png")
-            write_atomic(slopes_path, json.dumps(slopes))
-        slopes = json.loads(slopes_path.read_text())
+        fitted: dict[str, float] = {}
+
+        def draw_convergence(p: Path) -> None:
+            fitted.update(figs.convergence_chart(chart_rows, p))
+            write_atomic(slopes_path, json.dumps(fitted))
+
+        _derived_figure(
+            cache, "convergence", chart, images_dir / "convergence.png", draw_convergence
+        )
+        if not fitted and slopes_path.is_file():
+            fitted = json.loads(slopes_path.read_text())
+        elif not fitted:  # the figure is cached but its slopes were lost: draw it again
+            draw_convergence(cache.derived("convergence-again.png"))
+        slopes = fitted
 
         # Ablation ladder: paper -> Q1 fixed -> Q1,Q2 fixed ... -> physical (Q10: 16 spp).
         ladder_names = ["paper"] + [f"+{q}" for q in QUIRKS[:9]] + ["+Q10 = physical 16 spp"]
