@@ -317,6 +317,15 @@ def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtd
         ]
     )
     assert bad.returncode == 4 and "never resampled" in bad.stderr
+    # The report's own test EXR as the image under test: read before images/ is rebuilt.
+    own = run(
+        [RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent),
+         "--size", "160x120", "--test-image", str(folder / "images" / "demo-paper-cpu.exr"),
+         "--no-pdf"]
+    )  # fmt: skip
+    assert own.returncode == 0, own.stderr
+    assert (folder / "images" / "test-image.exr").is_file()
+    assert json.loads((folder / "report.json").read_text())["test"]["label"] == "demo-paper-cpu"
 
 
 def test_invalid_scene_is_exit_3(tmp_path: Path) -> None:

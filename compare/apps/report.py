@@ -23,7 +23,7 @@ import shlex
 import shutil
 import subprocess
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -31,18 +31,28 @@ import numpy as np
 from jinja2 import Environment, PackageLoader, select_autoescape
 
 from compare.apps import report_figures as figs
+from compare.apps.report_derived import (
+    Evaluator,
+    LazyImages,
+    copy_file,
+    derived_exr,
+    derived_figure,
+    derived_map,
+    derived_png,
+    digest,
+    judge_identity,
+    memo_json,
+)
 from compare.files import json_safe as _json_safe
-from compare.files import sha256_file, unique_sibling, write_atomic
+from compare.files import sha256_file, write_atomic
 from compare.judge.convergence import mitsuba_to_converged, time_to_converged
 from compare.judge.effects import effect_masks
-from compare.judge.evaluate import evaluate_pair
-from compare.judge.images import Image, ImageError, read_image, write_exr, write_png
+from compare.judge.images import Image, ImageError, read_image
 from compare.judge.metrics import metrics_from_dict
 from compare.judge.pareto import pareto_front
 from compare.judge.penumbra import penumbra_numbers
 from compare.judge.scoring import score_effects
 from compare.judge.sentences import contribution_sentence, difference_sentences
-from compare.judge.tolerances import Tolerances
 from compare.render.cache import RenderCache
 from compare.render.jobs import RenderJob, run_jobs
 from compare.render.plan import (
@@ -76,107 +86,6 @@ SAME_ESTIMATOR_AS_REFERENCE = {
     "mitsuba-whitted-scalar-1spp",
 }
 SCENE_COPY = "scene.json"  # the scene beside the page; the printed commands read it
-
-
-@functools.cache
-def judge_identity() -> str:
-    """The judge's and the figures' code: derived results are keyed by it as well, so that
-    a change to a metric or a chart is never hidden by the cache."""
-    h = hashlib.sha256()
-    root = Path(__file__).resolve().parents[1]
-    for p in [*sorted((root / "judge").glob("*.py")), root / "apps" / "report_figures.py"]:
-        h.update(p.read_bytes())
-    return h.hexdigest()[:16]
-
-
-class LazyImages:
-    """The report's images by key, read from the cache on first use. Facts the page needs
-    of every render (its render time, its size) are kept in the cache, so that a warm run
-    reads no EXR at all."""
-
-    def __init__(self, paths: dict[str, Path], hashes: dict[str, str], cache: RenderCache) -> None:
-        self.paths, self.hashes, self.cache = paths, hashes, cache
-        self.loaded: dict[str, Image] = {}
-
-    def __getitem__(self, key: str) -> Image:
-        if key not in self.loaded:
-            self.loaded[key] = read_image(self.paths[key])
-        return self.loaded[key]
-
-    def add(self, key: str, image: Image, sha: str) -> None:
-        self.loaded[key], self.hashes[key] = image, sha
-
-    def loader(self, key: str) -> Callable[[], Image]:
-        return lambda: self[key]
-
-    def facts(self, key: str) -> dict[str, Any]:
-        def read() -> dict[str, Any]:
-            img = self[key]
-            return {"seconds": _render_seconds(img), "size": [img.shape[1], img.shape[0]]}
-
-        return _memo_json(self.cache, "facts", self.hashes[key], read)
-
-
-def _memo_json(
-    cache: RenderCache, name: str, inputs: str, compute: Callable[[], dict[str, Any]]
-) -> dict[str, Any]:
-    path = cache.derived(f"{name}-{_digest(inputs)}.json")
-    if path.is_file():
-        with contextlib.suppress(ValueError, OSError):
-            return dict(json.loads(path.read_text()))
-    value = compute()
-    write_atomic(path, json.dumps(value))
-    return value
-
-
-class Evaluator:
-    """Metrics of images against the reference, cached by the pair's content hashes (and the
-    judge's code); the reference and its masks are read only when a metric is computed."""
-
-    def __init__(
-        self,
-        ref: Callable[[], Image],
-        ref_hash: str,
-        masks: Callable[[], dict[str, np.ndarray]],
-        cache: RenderCache,
-    ) -> None:
-        self.ref, self.ref_hash, self.masks, self.cache = ref, ref_hash, masks, cache
-        self._maps: dict[int, Any] = {}
-
-    def _path(self, test_hash: str, per_effect: bool) -> Path:
-        return self.cache.derived(
-            f"metrics-{self.ref_hash[:16]}-{test_hash[:16]}-{judge_identity()}-{int(per_effect)}.json"
-        )
-
-    def evaluate(
-        self, test: Callable[[], Image], test_hash: str, *, per_effect: bool
-    ) -> dict[str, Any]:
-        path = self._path(test_hash, per_effect)
-        if path.is_file():
-            return dict(json.loads(path.read_text()))
-        # The global metrics of a per-effect evaluation are the same numbers (HDR FLIP added).
-        full = self._path(test_hash, True)
-        if not per_effect and full.is_file():
-            return dict(json.loads(full.read_text()))
-        # Pixels over 1/255 are counted in the report (compare's default failing error is 0.01).
-        ev = evaluate_pair(
-            self.ref().rgb,
-            test().rgb,
-            hdr=per_effect,
-            tolerances=Tolerances(fail=1.0 / 255.0),
-            masks=self.masks() if per_effect else None,
-        )
-        out: dict[str, Any] = {
-            "global": _json_safe(ev.metrics.as_dict()),
-            "per_effect": {k: _json_safe(e.metrics.as_dict()) for k, e in ev.per_effect.items()},
-        }
-        write_atomic(path, json.dumps(out))
-        return out
-
-    def maps(self, test: Image) -> Any:
-        if id(test) not in self._maps:
-            self._maps[id(test)] = evaluate_pair(self.ref().rgb, test.rgb).maps
-        return self._maps[id(test)]
 
 
 def _versions() -> dict[str, str]:
@@ -254,15 +163,6 @@ def _shown_path(path: Path) -> str:
     return path.name if rel.startswith("..") or os.path.isabs(rel) else rel
 
 
-def _copy(src: Path, dst: Path) -> None:
-    tmp = unique_sibling(dst)
-    try:
-        shutil.copyfile(src, tmp)
-        tmp.replace(dst)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def build_report(
     scene_path: str | Path,
     reports_dir: str | Path = "reports",
@@ -282,6 +182,11 @@ def build_report(
     steps = Steps(progress)
     scene_file = Path(scene_path)
     cache = RenderCache(cache_dir)
+    foreign: Image | None = None
+    foreign_bytes = b""
+    if test_image:  # read first: it may lie in the images/ folder this run rebuilds
+        foreign = read_image(test_image, encoding=test_encoding)
+        foreign_bytes = Path(test_image).read_bytes()
     with steps("plan"):
         scene = load_scene(scene_file)
         out = Path(reports_dir) / scene.name
@@ -293,7 +198,7 @@ def build_report(
         shutil.rmtree(out / "cache", ignore_errors=True)
         for d in (out, images_dir):
             d.mkdir(parents=True, exist_ok=True)
-        _copy(scene_file, out / SCENE_COPY)
+        copy_file(scene_file, out / SCENE_COPY)
         render_jobs = plan(str(scene_file), size)
     for name, seconds in run_jobs(
         render_jobs, cache, jobs_in_parallel=jobs, progress=progress
@@ -324,8 +229,7 @@ def build_report(
     label = test_label or "the demo (paper mode)"
     featured = list(FEATURED)
     test_copy = ""
-    if test_image:
-        foreign = read_image(test_image, encoding=test_encoding)
+    if test_image and foreign is not None:
         if foreign.shape != (ref_h, ref_w):
             raise ImageError(
                 f"{test_image}: {foreign.shape[1]}x{foreign.shape[0]}, the scene renders at "
@@ -333,7 +237,7 @@ def build_report(
             )
         test_key = "test-image"
         label = test_label or Path(test_image).stem
-        hashes[test_key] = sha256_file(Path(test_image))
+        hashes[test_key] = hashlib.sha256(foreign_bytes).hexdigest()
         imgs.add(test_key, foreign, hashes[test_key])
         featured.insert(0, (test_key, label))
         test_copy = f"images/test-image{Path(test_image).suffix.lower()}"
@@ -343,20 +247,20 @@ def build_report(
         # (reference and image under test), ZIP-compressed; the rest regenerable.
         for j in render_jobs:
             if j.family != "ablation":
-                _derived_png(cache, hashes[j.key], imgs.loader(j.key), images_dir / f"{j.key}.png")
-        _derived_exr(
+                derived_png(cache, hashes[j.key], imgs.loader(j.key), images_dir / f"{j.key}.png")
+        derived_exr(
             cache, hashes[REFERENCE_KEY], imgs.loader(REFERENCE_KEY), out / shown(REFERENCE_KEY)
         )
         if test_image:
-            _derived_png(
+            derived_png(
                 cache, hashes[test_key], imgs.loader(test_key), images_dir / "test-image.png"
             )
             if test_copy.endswith(".exr"):
-                _derived_exr(cache, hashes[test_key], imgs.loader(test_key), out / test_copy)
+                derived_exr(cache, hashes[test_key], imgs.loader(test_key), out / test_copy)
             else:
-                _copy(Path(test_image), out / test_copy)
+                write_atomic(out / test_copy, foreign_bytes)
         else:
-            _derived_exr(cache, hashes[test_key], imgs.loader(test_key), out / shown(test_key))
+            derived_exr(cache, hashes[test_key], imgs.loader(test_key), out / shown(test_key))
     kept = {REFERENCE_KEY, test_key}
 
     chart_jobs = [
@@ -385,7 +289,7 @@ def build_report(
             files = {}
             for kind in ("diff", "flip", "ssim"):
                 files[kind] = f"images/map-{k}-{kind}.png"
-                _derived_map(
+                derived_map(
                     cache,
                     ev,
                     kind,
@@ -422,8 +326,8 @@ def build_report(
             for error in ("flip", "one_minus_ssim")
         }
         chart = json.dumps(_json_safe(chart_rows), sort_keys=True)
-        slopes_path = cache.derived(f"slopes-{_digest(chart + judge_identity())}.json")
-        _derived_figure(
+        slopes_path = cache.derived(f"slopes-{digest(chart + judge_identity())}.json")
+        derived_figure(
             cache,
             "speed-accuracy",
             chart,
@@ -436,7 +340,7 @@ def build_report(
             fitted.update(figs.convergence_chart(chart_rows, p))
             write_atomic(slopes_path, json.dumps(fitted))
 
-        _derived_figure(
+        derived_figure(
             cache, "convergence", chart, images_dir / "convergence.png", draw_convergence
         )
         if not fitted and slopes_path.is_file():
@@ -460,7 +364,7 @@ def build_report(
                     "command": command(k),
                 }
             )
-        _derived_figure(
+        derived_figure(
             cache,
             "ladder",
             json.dumps(_json_safe(ladder), sort_keys=True),
@@ -530,7 +434,7 @@ def build_report(
             [hashes, label, bool(test_image), [(j.key, j.label) for j in mitsuba_jobs]],
             sort_keys=True,
         )
-        analysis = _memo_json(cache, "analysis", inputs + judge_identity(), analyse)
+        analysis = memo_json(cache, "analysis", inputs + judge_identity(), analyse)
         contributions = analysis["contributions"]
         sentences = analysis["sentences"]
         penumbra = analysis["penumbra"]
@@ -632,78 +536,6 @@ def build_report(
     write_atomic(out / "report.json", json.dumps(_json_safe(data), indent=2) + "\n")
     progress.line(steps.table())
     return out / "index.html"
-
-
-def _render_seconds(img: Image) -> float:
-    return float(img.header.get("rtval.render_seconds", "nan"))
-
-
-def _digest(text: str) -> str:
-    return hashlib.sha256(text.encode()).hexdigest()[:20]
-
-
-def _derived_png(cache: RenderCache, sha: str, img: Callable[[], Image], target: Path) -> None:
-    """The display PNG of a render, encoded once per render content."""
-    cached = cache.derived(f"png-{sha[:24]}.png")
-    if not cached.is_file():
-        write_png(cached, img().rgb)
-    _copy(cached, target)
-
-
-def _derived_exr(cache: RenderCache, sha: str, img: Callable[[], Image], target: Path) -> None:
-    """A render as a ZIP-compressed EXR with all its channels (lossless)."""
-    cached = cache.derived(f"exr-zip-{sha[:24]}.exr")
-    if not cached.is_file():
-        image = img()
-        write_exr(cached, image.rgb, aovs=image.aovs, header=image.header)
-    _copy(cached, target)
-
-
-def _derived_figure(
-    cache: RenderCache, name: str, inputs: str, target: Path, draw: Callable[[Path], None]
-) -> None:
-    """A chart drawn once per input data (and figure code)."""
-    cached = cache.derived(f"{name}-{_digest(inputs + judge_identity())}.png")
-    if not cached.is_file():
-        draw(cached)
-    _copy(cached, target)
-
-
-def _derived_map(
-    cache: RenderCache,
-    ev: Evaluator,
-    kind: str,
-    title: str,
-    ref: Callable[[], Image],
-    test: Callable[[], Image],
-    pair: str,
-    target: Path,
-) -> None:
-    def draw(p: Path) -> None:
-        if kind == "diff":
-            figs.signed_difference(ref().rgb, test().rgb, p, f"signed difference: {title}")
-        elif kind == "flip":
-            figs.map_figure(
-                ev.maps(test()).flip_ldr,
-                p,
-                title=f"FLIP (LDR, 67 ppd): {title}",
-                cmap="magma",
-                vmin=0,
-                vmax=1,
-                label="FLIP error",
-            )
-        else:
-            figs.map_figure(
-                np.nan_to_num(ev.maps(test()).ssim, nan=1.0),
-                p,
-                title=f"SSIM map: {title}",
-                cmap="viridis",
-                vmin=0,
-                vmax=1,
-                label="SSIM",
-            )
-
-    _derived_figure(cache, f"map-{kind}", pair + title, target, draw)
 
 
 def write_pdf(html: Path, pdf: Path) -> None:
