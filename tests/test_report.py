@@ -317,7 +317,12 @@ def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtd
         ]
     )
     assert bad.returncode == 4 and "never resampled" in bad.stderr
-    # The report's own test EXR as the image under test: read before images/ is rebuilt.
+    assert (folder / "index.html").read_text().count("student 42") >= 1  # the bad run left it
+    # The report's own test EXR as the image under test (read before images/ is tidied).
+    plain = [RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent),
+             "--size", "160x120", "--no-pdf"]  # fmt: skip
+    assert run(plain).returncode == 0
+    assert not list((folder / "images").glob("test-image*"))  # nothing of the last run stays
     own = run(
         [RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent),
          "--size", "160x120", "--test-image", str(folder / "images" / "demo-paper-cpu.exr"),

@@ -191,11 +191,7 @@ def build_report(
         scene = load_scene(scene_file)
         out = Path(reports_dir) / scene.name
         images_dir = out / "images"
-        # Nothing of an earlier run stays behind (another test image, the pre-cache layout's
-        # cache/ and EXRs): the folder holds what this page links to. Copies from the cache
-        # are cheap.
-        shutil.rmtree(images_dir, ignore_errors=True)
-        shutil.rmtree(out / "cache", ignore_errors=True)
+        shutil.rmtree(out / "cache", ignore_errors=True)  # the layout before the shared cache
         for d in (out, images_dir):
             d.mkdir(parents=True, exist_ok=True)
         copy_file(scene_file, out / SCENE_COPY)
@@ -517,6 +513,14 @@ def build_report(
         "renders": renders,
         "effect_pixels": analysis["effect_pixels"],
     }
+    # Nothing of an earlier run stays (another test image, the EXRs of the layout before the
+    # shared cache): images/ holds what this page links to.
+    linked = {r[k] for r in renders for k in ("png", "exr") if r[k]}
+    linked |= {m[k] for m in maps_info for k in ("diff", "flip", "ssim")}
+    linked |= {f"images/{n}.png" for n in ("speed-accuracy", "convergence", "ablation-ladder")}
+    for p in images_dir.iterdir():
+        if f"images/{p.name}" not in linked:
+            p.unlink()
     data["timings"] = steps.as_list()  # so far; report.json gets every step
     with steps("page"):
         env = Environment(
