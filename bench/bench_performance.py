@@ -28,14 +28,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from common import ROOT, SCENES, print_table, time_process, tool, write_results
 
-BUILD = ROOT / "build" / "cmake"
+# seed_tracer and sphere_test_peak: built by make bench (never by pip) in the test build folder.
+BUILD = ROOT / "build" / "tests"
 GL_RUNS = 5
 
 
 def built(name: str) -> str:
     path = BUILD / name
     if not path.is_file():
-        raise SystemExit(f"{path} missing: it is built with the test suite (make setup)")
+        raise SystemExit(f"{path} missing: run `make bench` first (or `make bench-build`)")
     return str(path)
 
 

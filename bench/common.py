@@ -66,12 +66,31 @@ def machine() -> dict[str, Any]:
     }
 
 
+def source_state() -> dict[str, Any]:
+    """The commit measured and whether the work tree had uncommitted changes."""
+
+    def git(*args: str) -> str:
+        proc = subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=False)
+        return proc.stdout.strip() if proc.returncode == 0 else ""
+
+    commit = git("rev-parse", "HEAD")
+    return {
+        "commit": commit or None,
+        "dirty": bool(git("status", "--porcelain")) if commit else None,
+    }
+
+
 def write_results(name: str, data: dict[str, Any]) -> Path:
+    """bench/results/NAME.json holds the latest run; NAME.history.jsonl keeps every run, one
+    JSON object a line, so a slower commit can be found later."""
     RESULTS.mkdir(parents=True, exist_ok=True)
+    record = {"machine": machine(), "source": source_state(), **data}
     path = RESULTS / f"{name}.json"
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps({"machine": machine(), **data}, indent=2) + "\n")
+    tmp.write_text(json.dumps(record, indent=2) + "\n")
     tmp.replace(path)
+    with (RESULTS / f"{name}.history.jsonl").open("a", encoding="utf-8") as history:
+        history.write(json.dumps(record) + "\n")
     return path
 
 

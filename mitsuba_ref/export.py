@@ -80,15 +80,17 @@ class ExportedScene:
         return [p, *written]
 
     def load(self, mi: Any) -> Any:
-        """The same scene loaded from a dict (PLY meshes written to a temporary folder)."""
-        folder = Path(tempfile.mkdtemp(prefix="rtval-meshes-"))
-        for name, mesh in self.meshes.items():
-            write_ply(folder / name, mesh)
-        d = to_dict(self.tree, mi)
-        for _key, value in d.items():
-            if isinstance(value, dict) and value.get("type") == "ply":
-                value["filename"] = str(folder / value["filename"])
-        return mi.load_dict(d)
+        """The same scene loaded from a dict. The PLY meshes go to a temporary folder that is
+        removed once Mitsuba has read them (load_dict reads every mesh before it returns)."""
+        with tempfile.TemporaryDirectory(prefix="rtval-meshes-") as tmp:
+            folder = Path(tmp)
+            for name, mesh in self.meshes.items():
+                write_ply(folder / name, mesh)
+            d = to_dict(self.tree, mi)
+            for value in d.values():
+                if isinstance(value, dict) and value.get("type") == "ply":
+                    value["filename"] = str(folder / value["filename"])
+            return mi.load_dict(d)
 
 
 @functools.lru_cache(maxsize=1)
@@ -170,7 +172,7 @@ def export_scene(scene: Scene, options: ExportOptions = ExportOptions()) -> Expo
         root.props["integrator"] = Plugin(
             "integrator",
             options.integrator,
-            {"max_depth": scene.max_depth},
+            {"max_depth": scene.max_depth, "bias": scene.bias},
             comment="rtval's Whitted integrator (register it with mitsuba_ref.whitted.register())",
         )
     if options.centre_rays:

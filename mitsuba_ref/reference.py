@@ -101,6 +101,7 @@ def render_reference(
             {
                 "type": whitted.NAME,
                 "max_depth": scene.max_depth,
+                "bias": scene.bias,
                 "shadows": settings.shadows,
                 "reflection": settings.reflection,
                 "refraction": settings.refraction,
@@ -275,8 +276,11 @@ def _primary_aovs(
         pos = _film_positions(dr, mi, None, width, height, True)
         ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
         si = mscene.ray_intersect(ray)
+        hit_shape = dr.reinterpret_array(mi.UInt32, si.shape)
+        # One kernel for every field read below; each lazy read would trace the rays again.
+        dr.eval(si.is_valid(), hit_shape, si.t, si.sh_frame.n, ray.d)
         valid = np.asarray(si.is_valid()).reshape(height, width)
-        registry = np.asarray(dr.reinterpret_array(mi.UInt32, si.shape)).reshape(height, width)
+        registry = np.asarray(hit_shape).reshape(height, width)
         lookup = {}
         for shape in mscene.shapes():
             rid = int(np.asarray(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape)))[0])

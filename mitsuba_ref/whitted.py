@@ -8,11 +8,13 @@ physical mode, noise-free with point lights and centre rays.
   weights F * tint and (1 - F) * tint * eta_ti^2), mirrors follow their one lobe;
 - chains stop at max_depth (a specular hit there carries nothing); a light's sphere is
   emitter-only;
-- secondary rays leave from p + n * 1e-4 (1 + |p|), shadow rays end before the light, so
-  float32 rounding at large coordinates cannot self-intersect (mitsuba-notes.md).
+- secondary rays leave from p + n * bias (1 + |p|) (the scene's bias, 1e-4 by default, scaled
+  as the demo's physical mode scales it), shadow rays end before the light, so
+  float32 rounding at large coordinates cannot self-intersect (docs/mitsuba-notes.md).
 
 Switches shadows / reflection / refraction drop one effect for per-effect ablation.
-Works in JIT variants (wide arrays, recursion per depth) and scalar variants (one ray).
+Works in JIT variants (one compacted wavefront per depth, each front traced once, light summed
+back up the tree in a fixed order) and scalar variants (one ray, depth-first).
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import drjit as dr
 import mitsuba as mi
 
 NAME = "rtval_whitted"
-OFFSET_SCALE = 1e-4
+DEFAULT_BIAS = 1e-4  # the scene format's default
 
 
 def _jit() -> bool:
@@ -37,7 +39,8 @@ def _not(mask: Any) -> Any:
 
 
 def _concat(parts: list[Any]) -> Any:
-    """Arrays of one drjit type laid end to end."""
+    """Arrays of one drjit type laid end to end. The offsets are opaque so that the scatter
+    kernels do not bake them in as literals (a new kernel to compile for every width)."""
     if len(parts) == 1:
         return parts[0]
     total = sum(dr.width(p) for p in parts)
@@ -45,16 +48,25 @@ def _concat(parts: list[Any]) -> Any:
     offset = 0
     for p in parts:
         w = dr.width(p)
-        dr.scatter(out, p, dr.arange(mi.UInt32, w) + offset)
+        dr.scatter(out, p, dr.arange(mi.UInt32, w) + dr.opaque(mi.UInt32, offset))
         offset += w
     return out
 
 
-def _offset_origin(p: Any, n: Any, d: Any) -> Any:
-    """p moved off the surface by 1e-4 (1 + max|p_i|), to the side `d` leaves on."""
-    scale = OFFSET_SCALE * (1.0 + dr.max(dr.abs(p)))
+def _offset_origin(p: Any, n: Any, d: Any, bias: float) -> Any:
+    """p moved off the surface by bias (1 + max|p_i|), to the side `d` leaves on."""
+    scale = bias * (1.0 + dr.max(dr.abs(p)))
     side = dr.select(dr.dot(d, n) >= 0, 1.0, -1.0)
     return p + n * (scale * side)
+
+
+def _draw_for_front(sampler: Any, idx: Any) -> Any:
+    """The sampler's next 2D sample of each front ray's camera ray. The sampler draws for the
+    whole wavefront (the same stream whatever the front), evaluated in one kernel before the
+    gather (which would otherwise evaluate x and y in a kernel each)."""
+    sample = sampler.next_2d()
+    dr.eval(sample)
+    return dr.gather(mi.Point2f, sample, idx)
 
 
 @functools.cache
@@ -63,10 +75,11 @@ def integrator_class(variant: str) -> type:
     Precondition: `variant` is the active one (mitsuba_ref.drjit_env.load_mitsuba)."""
     assert mi.variant() == variant, (mi.variant(), variant)
 
-    class WhittedIntegrator(mi.SamplingIntegrator):  # type: ignore[misc]
+    class WhittedIntegrator(mi.SamplingIntegrator):
         def __init__(self, props: Any) -> None:
             super().__init__(props)
             self.max_depth = int(props.get("max_depth", 5))
+            self.bias = float(props.get("bias", DEFAULT_BIAS))
             self.shadows = bool(props.get("shadows", True))
             self.reflection = bool(props.get("reflection", True))
             self.refraction = bool(props.get("refraction", True))
@@ -118,7 +131,7 @@ def integrator_class(variant: str) -> type:
         ) -> Any:
             """Is the segment from the offset hit point to ds.p blocked? It ends `shorten`
             before ds.p (the light's radius for a point at a sphere's centre), minus rel_eps."""
-            o = _offset_origin(si.p, si.n, ds.d)
+            o = _offset_origin(si.p, si.n, ds.d, self.bias)
             to_light = ds.p - o
             dist = dr.norm(to_light)
             shadow = mi.Ray3f(o, to_light / dist)
@@ -156,26 +169,32 @@ def integrator_class(variant: str) -> type:
             si = scene.ray_intersect(ray, active)
             hit = active & si.is_valid()
             miss = active & _not(si.is_valid())
-            result = dr.select(miss, self._background(ray, miss), 0.0)
-            children: list[tuple[Any, Any, Any]] = []
-            if not dr.any(hit):
-                return result, children
+            if not _jit() and not hit:  # scalar: a miss has no BSDF to ask for its flags
+                return self._background(ray, miss) if miss else mi.Color3f(0.0), []
             light = self._is_light(scene, si, hit)
-            result += dr.select(light, self._emission(scene, si, light), 0.0)
             surface = hit & _not(light)
             bsdf = si.bsdf(ray)
             flags = bsdf.flags()
             diffuse = surface & mi.has_flag(flags, mi.BSDFFlags.DiffuseReflection)
-            if dr.any(diffuse):
-                result += dr.select(diffuse, self._direct(scene, draw2d, si, bsdf, diffuse), 0.0)
             specular = surface & mi.has_flag(flags, mi.BSDFFlags.Delta)
-            if depth >= self.max_depth or not dr.any(specular):
-                return result, children  # a specular chain cut at max_depth carries nothing
             lobes = []
             if self.reflection:
                 lobes.append((0, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaReflection)))
             if self.refraction:
                 lobes.append((1, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaTransmission)))
+            if _jit():
+                # Store the intersection and every mask in one kernel. Left lazy, each
+                # dr.any below and each later kernel would trace these rays again.
+                dr.eval(si, bsdf, hit, miss, light, diffuse, specular, [m for _, m in lobes])
+            result = dr.select(miss, self._background(ray, miss), 0.0)
+            children: list[tuple[Any, Any, Any]] = []
+            if not dr.any(hit):
+                return result, children
+            result += dr.select(light, self._emission(scene, si, light), 0.0)
+            if dr.any(diffuse):
+                result += dr.select(diffuse, self._direct(scene, draw2d, si, bsdf, diffuse), 0.0)
+            if depth >= self.max_depth or not dr.any(specular):
+                return result, children  # a specular chain cut at max_depth carries nothing
             for component, mask in lobes:
                 if not dr.any(mask):
                     continue
@@ -184,7 +203,7 @@ def integrator_class(variant: str) -> type:
                 bs, w = bsdf.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5), mask)
                 mask = mask & dr.any(w != 0.0)
                 wo = si.to_world(bs.wo)
-                children.append((mask, mi.Ray3f(_offset_origin(si.p, si.n, wo), wo), w))
+                children.append((mask, mi.Ray3f(_offset_origin(si.p, si.n, wo, self.bias), wo), w))
             return result, children
 
         def _trace_recursive(
@@ -199,38 +218,84 @@ def integrator_class(variant: str) -> type:
 
         def _trace_wavefront(self, scene: Any, sampler: Any, ray: Any, active: Any) -> Any:
             """JIT variants: per depth one compacted front holding every live ray of every
-            lobe; contributions are scattered back to their camera ray."""
+            lobe. Each ray's weighted contribution is kept per front; after the last depth the
+            fronts are summed back up the tree (a ray's own light, then its lobe 0 child's
+            total, then its lobe 1 child's), by gathers in a fixed order: the image is the
+            same from run to run (atomic adds from several threads are not)."""
             n = dr.width(ray.o)
-            result = dr.zeros(mi.Color3f, n)
-            idx = dr.compress(mi.Bool(active) | dr.zeros(mi.Bool, n))
+            root: Any = dr.compress(mi.Bool(active) | dr.zeros(mi.Bool, n))
+            idx = root
             origins = dr.gather(mi.Point3f, ray.o, idx)
             dirs = dr.gather(mi.Vector3f, ray.d, idx)
             weight = dr.full(mi.Color3f, 1.0, dr.width(idx))
+            # Per depth: the front's own weighted light and, per lobe, (mask, the child's
+            # position in the next front).
+            fronts: list[tuple[Any, list[tuple[Any, Any]]]] = []
             for depth in range(self.max_depth + 1):
                 width = dr.width(idx)
                 if width == 0:
                     break
-                draw2d = lambda idx=idx: dr.gather(mi.Point2f, sampler.next_2d(), idx)  # noqa: E731
+                draw2d = functools.partial(_draw_for_front, sampler, idx)
                 contrib, children = self.shade(
                     scene, draw2d, mi.Ray3f(origins, dirs), depth, dr.full(mi.Bool, True, width)
                 )
-                dr.scatter_reduce(dr.ReduceOp.Add, result, weight * contrib, idx)
-                parts = []
-                for mask, child, w in children:
-                    keep = dr.compress(mask)
-                    if dr.width(keep) > 0:
-                        parts.append(
-                            (
-                                dr.gather(mi.Point3f, child.o, keep),
-                                dr.gather(mi.Vector3f, child.d, keep),
-                                dr.gather(mi.Color3f, weight * w, keep),
-                                dr.gather(mi.UInt32, idx, keep),
-                            )
-                        )
-                if not parts:
+                own = weight * contrib
+                if not children:
+                    dr.eval(own)
+                    fronts.append((own, []))
                     break
-                origins, dirs, weight, idx = (_concat([p[k] for p in parts]) for k in range(4))
+                masks = [mask for mask, _, _ in children]
+                weights = [weight * w for _, _, w in children]
+                # One kernel shades the front (direct light, shadow rays) and stores its
+                # light and every child ray.
+                dr.eval(
+                    own,
+                    masks,
+                    [c.o for _, c, _ in children],
+                    [c.d for _, c, _ in children],
+                    weights,
+                )
+                # Compact all lobes at once: lobe k's rays sit at [k * width, (k+1) * width)
+                # of the concatenated mask, so the order is lobe 0's rays, then lobe 1's.
+                keep: Any = dr.compress(_concat(masks))
+                kept = dr.width(keep)
+                position = dr.zeros(mi.UInt32, len(children) * width)
+                if kept > 0:
+                    dr.scatter(position, dr.arange(mi.UInt32, kept), keep)
+                wide = dr.opaque(mi.UInt32, width)
+                links = [
+                    (mask, dr.gather(mi.UInt32, position, dr.arange(mi.UInt32, width) + wide * k))
+                    for k, mask in enumerate(masks)
+                ]
+                dr.eval(links)
+                fronts.append((own, links))
+                if kept == 0:
+                    break
+                lobe = keep // wide
+                j = keep - lobe * wide
+                o_parts = [dr.gather(mi.Point3f, c.o, j) for _, c, _ in children]
+                d_parts = [dr.gather(mi.Vector3f, c.d, j) for _, c, _ in children]
+                w_parts = [dr.gather(mi.Color3f, w, j) for w in weights]
+                origins, dirs, weight = o_parts[0], d_parts[0], w_parts[0]
+                for k in range(1, len(children)):
+                    at_k = lobe == k
+                    origins = dr.select(at_k, o_parts[k], origins)
+                    dirs = dr.select(at_k, d_parts[k], dirs)
+                    weight = dr.select(at_k, w_parts[k], weight)
+                idx = dr.gather(mi.UInt32, idx, j)
                 dr.eval(origins, dirs, weight, idx)
+            result = dr.zeros(mi.Color3f, n)
+            if not fronts:
+                return result
+            below: Any = None  # totals of the front one depth deeper
+            for own, links in reversed(fronts):
+                total = own
+                if below is not None:
+                    for mask, at in links:
+                        total = total + dr.gather(mi.Color3f, below, at, mask)
+                dr.eval(total)
+                below = total
+            dr.scatter(result, below, root)  # one root per camera ray: no two writes collide
             return result
 
         def sample(

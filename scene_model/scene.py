@@ -19,6 +19,10 @@ Vec3 = tuple[float, float, float]
 FORMAT = "rtval-scene/1"
 FLOAT32_MAX = 3.4028234663852886e38
 _NAME_RULE = re.compile(r"[a-z0-9_-]+")
+MAX_SCENE_BYTES = 16 << 20  # the built-in scenes are ~2 KB; a stress scene ~100 KB
+MAX_NESTING = 64
+_BOM = "\ufeff"
+_STRUCTURE = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{}]')  # a whole string, or a bracket
 
 
 class SceneError(ValueError):
@@ -191,14 +195,45 @@ def _parse_sphere(j: Any, path: str, c: _Checker) -> Sphere:
     )
 
 
+def _parse_int(digits: str) -> int | float:
+    """An integer beyond 64 bits is read as a float, as nlohmann json (the C++ loader) does:
+    a huge one becomes inf, which the checks refuse naming the field, instead of an
+    OverflowError (or Python's digit-limit ValueError) escaping."""
+    if len(digits.lstrip("-")) > 19:
+        return float(digits)
+    return int(digits)
+
+
+def _nesting_depth(text: str) -> int:
+    """The deepest nesting of [ and { outside strings. json.loads recurses once per level
+    and would end in a RecursionError; a scene needs 4 levels."""
+    depth = deepest = 0
+    for m in _STRUCTURE.finditer(text):
+        tok = m.group()
+        if tok in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif tok in "]}":
+            depth -= 1
+    return deepest
+
+
 def _reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not valid JSON")
 
 
 def parse_scene(text: str, source: str = "<string>") -> Scene:
     """Parses and validates scene JSON text; ``source`` names it in errors."""
+    # RFC 8259 lets a parser ignore a leading byte order mark; the C++ loader (nlohmann
+    # json) skips it, so this one does too: both accept the same files.
+    text = text.removeprefix(_BOM)
+    depth = _nesting_depth(text)
+    if depth > MAX_NESTING:
+        raise SceneError(
+            f"{source}: invalid JSON: nested {depth} levels deep, at most {MAX_NESTING} allowed"
+        )
     try:
-        root = json.loads(text, parse_constant=_reject_constant)
+        root = json.loads(text, parse_constant=_reject_constant, parse_int=_parse_int)
     except json.JSONDecodeError as e:
         raise SceneError(
             f"{source}: invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}"
@@ -256,10 +291,18 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Reads and validates a scene file."""
+    """Reads and validates a scene file: a regular file (never a FIFO, which would block,
+    or a device such as a symlink to /dev/zero, which never ends) of at most
+    MAX_SCENE_BYTES, UTF-8 with or without a BOM."""
+    from compare.safe_paths import read_bounded
+
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise SceneError(f"{p}: cannot read the scene file: {e}") from None
+        raw = read_bounded(p, MAX_SCENE_BYTES)
+    except OSError as e:
+        raise SceneError(f"cannot read the scene file: {e}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{p}: not UTF-8 text: {e}") from None
     return parse_scene(text, str(p))

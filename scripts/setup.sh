@@ -9,7 +9,7 @@ DEBIAN_PACKAGES=(
   libopenexr-dev libpng-dev nlohmann-json3-dev libgtest-dev
   libglfw3-dev libglm-dev libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev
   xvfb xauth libllvm19 chromium poppler-utils
-  clang libclang-rt-14-dev
+  clang libclang-rt-14-dev clang-format
   python3-venv
 )
 

@@ -1,5 +1,7 @@
-"""`rtval grade` on a generated class of 33 submissions: every verdict as expected, local and
-Dask executors, resume, rubric errors with line numbers, --explain."""
+"""`rtval grade --against mitsuba` on a generated class of 33 submissions made from the
+Mitsuba reference: every verdict as expected, every fail with a reason, local and Dask
+executors, resume, rubric errors with line numbers, --explain. (Grading against a demo model:
+test_against.py.)"""
 
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ from helpers import SCENES, run
 pytestmark = pytest.mark.slow
 RTVAL = str(Path(sys.executable).with_name("rtval"))
 SCENE = SCENES / "classic.json"
+SIZE = ["--size", "160x120", "--against", "mitsuba"]
 
 
 @pytest.fixture(scope="module")
@@ -22,11 +25,10 @@ def graded(tmp_path_factory: pytest.TempPathFactory, rtdemo: str) -> tuple[Path,
     root = tmp_path_factory.mktemp("class")
     out = root / "grades"
     # First run renders the reference, which the class is made from.
-    warm = run(
-        [RTVAL, "grade", str(root), "--scene", str(SCENE), "--out", str(out), "--size", "160x120"]
-    )
+    warm = run([RTVAL, "grade", str(root), "--scene", str(SCENE), "--out", str(out), *SIZE])
     assert warm.returncode == 0, warm.stderr
-    expected = make_class(out / "references" / "classic.exr", SCENE, rtdemo, root / "subs")
+    reference = out / "references" / "classic-mitsuba.exr"
+    expected = make_class(reference, SCENE, rtdemo, root / "subs")
     proc = run(
         [
             RTVAL,
@@ -36,8 +38,7 @@ def graded(tmp_path_factory: pytest.TempPathFactory, rtdemo: str) -> tuple[Path,
             str(SCENE),
             "--out",
             str(out),
-            "--size",
-            "160x120",
+            *SIZE,
             "--jobs",
             "2",
         ]
@@ -61,7 +62,10 @@ def test_every_verdict_is_the_expected_one(graded: tuple[Path, dict, Path]) -> N
         if book[sid]["status"] != status
     }
     assert not wrong, wrong
+    assert all(row["model"] == "mitsuba" for row in book.values())
+    assert all(row["reasons"] for row in book.values() if row["status"] == "fail")
     reasons = {sid: book[sid]["reasons"] for sid in book}
+    assert "shadow: SSIM" in reasons["no_shadows_0"] and "> 0.1" in reasons["no_shadows_0"]
     assert all("wrong size 80x60, expected 160x120" in reasons[f"wrong_size_{i}"] for i in range(3))
     assert all("unreadable" in reasons[f"corrupt_{i}"] for i in range(3))
     assert all("no image for scene 'classic'" in reasons[f"missing_{i}"] for i in range(3))
@@ -90,8 +94,7 @@ def test_rerun_resumes_everything(graded: tuple[Path, dict, Path]) -> None:  # t
             str(SCENE),
             "--out",
             str(out),
-            "--size",
-            "160x120",
+            *SIZE,
         ]
     )
     assert proc.returncode == 0
@@ -104,7 +107,7 @@ def test_dask_cluster_gives_the_same_gradebook(
     from dask.distributed import LocalCluster
 
     out, _expected, root = graded
-    dask_out = tmp_path / "dask"  # the reference comes from the session's render cache
+    dask_out = tmp_path / "dask"  # the model's render comes from the session's render cache
     with LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
     ) as cluster:
@@ -117,8 +120,7 @@ def test_dask_cluster_gives_the_same_gradebook(
                 str(SCENE),
                 "--out",
                 str(dask_out),
-                "--size",
-                "160x120",
+                *SIZE,
                 "--executor",
                 "dask",
                 "--scheduler",
@@ -165,8 +167,7 @@ def test_rubric_changes_verdicts_and_errors_name_the_line(
             str(SCENE),
             "--out",
             str(tmp_path / "g"),
-            "--size",
-            "160x120",
+            *SIZE,
             "--rubric",
             str(lenient),
         ]

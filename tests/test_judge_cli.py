@@ -13,19 +13,14 @@ from helpers import ROOT, SCENES, run
 from PIL import Image as PILImage
 
 from compare.judge.images import read_image, write_exr
+from compare.judge.mistakes import catalogue
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
-FAULTY = ROOT / "build" / "cmake" / "rtdemo_faulty"
-FAULTS = [
-    "flipped_normal",
-    "wrong_eta",
-    "no_bias",
-    "half_pixel_offset",
-    "double_gamma",
-    "no_shadows",
-    "fresnel_exponent",
-    "depth_cut",
-]
+# Built by make test (build/tests, with the GoogleTest suite), never by pip.
+# Every named mistake (compare/judge/mistakes.json) but shadow_past_light, which is quirk Q5:
+# already present in paper and classic, and invisible in physical mode in the built-in scenes
+# (nothing lies beyond their light).
+MISTAKES = [m for m in catalogue() if m != "shadow_past_light"]
 
 
 def _exr(path: Path, rgb: np.ndarray, **aovs: np.ndarray) -> Path:
@@ -126,7 +121,8 @@ def test_ppm_is_read_as_linear_unless_told(tmp_path: Path) -> None:
     ok = run(
         [RTVAL, "compare", str(tmp_path / "ref.exr"), str(tmp_path / "paper.ppm"), "--fail", "0.01"]
     )
-    assert ok.returncode in (0, 1), ok.stdout
+    # 128/255 = 0.50196 against 0.5: 0.0013 apart after sRGB encoding, under the 1/255 warning.
+    assert ok.returncode == 0, ok.stdout
     wrong = run(
         [
             RTVAL,
@@ -246,20 +242,25 @@ def test_check_passes_unchanged_renderer_repeatedly_and_writes_junit(tmp_path: P
     assert out.count("(cached render)") == 6  # the same binary: renders from the shared cache
     suite = ET.parse(tmp_path / "j.xml").getroot()
     assert suite.get("tests") == "6" and suite.get("failures") == "0"
-    code, out = _check(baseline, "--backends", "gl", "--modes", "paper")
-    assert code in (0, 1), (
-        out
-    )  # the GL twin reproduces the CPU baselines (warn: a few px over 1/255)
     assert json.loads((tmp_path / "c.json").read_text())["status"] == "pass"
+    # The GL twin reproduces the CPU baselines within the check's tolerance (0.02 % = 15 px of
+    # 320x240 may exceed 2/255). On llvmpipe (Mesa 22.3) the paper scene has 8 silhouette pixels
+    # over it (a warning, measured 2026-12-01); another driver may round them differently.
+    gl_json = tmp_path / "gl.json"
+    code, out = _check(baseline, "--backends", "gl", "--modes", "paper", "--json", str(gl_json))
+    cases = {c["name"]: c for c in json.loads(gl_json.read_text())["cases"]}
+    assert code != 2, out
+    assert all(c["failing_pixels"] <= 15 for c in cases.values()), out
+    assert cases["classic/gl-paper"]["status"] == "pass", out
 
 
-@pytest.mark.parametrize("fault", FAULTS)
-def test_check_fails_on_every_injected_fault(fault: str) -> None:
-    if not FAULTY.is_file():
-        pytest.fail(f"{FAULTY} missing: it is built with the test suite (BUILD_TESTING)")
-    code, out = _check(
-        ROOT / "tests" / "baselines", "--rtdemo", str(FAULTY), env={"RTDEMO_FAULT": fault}
-    )
+@pytest.mark.parametrize("mistake", MISTAKES)
+def test_check_fails_on_every_named_mistake(mistake: str, rtdemo: str, tmp_path: Path) -> None:
+    # rtdemo with the mistake switched on, as a renderer `check` runs like any other build.
+    mistaken = tmp_path / "rtdemo_mistaken"
+    mistaken.write_text(f'#!/bin/sh\nexec "{rtdemo}" "$@" --mistake {mistake}\n')
+    mistaken.chmod(0o755)
+    code, out = _check(ROOT / "tests" / "baselines", "--rtdemo", str(mistaken))
     assert code == 2, out
 
 

@@ -226,18 +226,26 @@ def test_report_folder_is_self_contained_and_small(report: tuple[Path, object]) 
 def test_grading_right_after_the_report_renders_nothing(
     report: tuple[Path, object], tmp_path: Path
 ) -> None:
+    """The model renders grade needs are the report's own cache entries: its converged
+    reference for `--against mitsuba`, its classic-mode render for the default `classic`."""
     (tmp_path / "subs").mkdir()
-    proc = run(
-        [RTVAL, "grade", str(tmp_path / "subs"), "--scene", str(SCENES / "classic.json"),
-         "--out", str(tmp_path / "grades"), "--size", "160x120"]
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    assert "[1/1] reference of classic: Mitsuba whitted" in proc.stderr
-    assert proc.stderr.splitlines()[0].endswith(": cached"), proc.stderr
     folder, _ = report
-    ref = tmp_path / "grades" / "references" / "classic.exr"
-    data = json.loads((folder / "report.json").read_text())
-    assert hashlib.sha256(ref.read_bytes()).hexdigest() == data["renders"][0]["sha256"]
+    made = {
+        r["key"]: r["sha256"] for r in json.loads((folder / "report.json").read_text())["renders"]
+    }
+    for model, key, line in (
+        ("mitsuba", "ref-converged", "[1/1] Mitsuba whitted, point lights, 32 spp"),
+        ("classic", "demo-classic-cpu", "[1/1] classic model: cached"),
+    ):
+        proc = run(
+            [RTVAL, "grade", str(tmp_path / "subs"), "--scene", str(SCENES / "classic.json"),
+             "--out", str(tmp_path / "grades"), "--size", "160x120", "--against", model]
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        first = next(x for x in proc.stderr.splitlines() if x.startswith("[1/1]"))
+        assert first.startswith(line) and first.endswith(": cached"), proc.stderr
+        ref = tmp_path / "grades" / "references" / f"classic-{model}.exr"
+        assert hashlib.sha256(ref.read_bytes()).hexdigest() == made[key]
 
 
 def test_rerun_renders_nothing(report: tuple[Path, object]) -> None:
@@ -299,7 +307,16 @@ def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtd
     assert proc.returncode == 0, proc.stderr
     data = json.loads((folder / "report.json").read_text())
     assert data["test"]["label"] == "student 42" and data["featured"][0]["key"] == "test-image"
-    assert "student 42" in (folder / "index.html").read_text()
+    html = (folder / "index.html").read_text()
+    assert "student 42" in html
+    # Two verdicts: rtdemo's own classic PPM is exactly classic, and far from Mitsuba.
+    mv = data["model_verdict"]
+    assert mv["model"] == "classic" and mv["basis"] == "exact"
+    assert mv["score"]["status"] == "pass" and mv["score"]["score"] >= 99
+    assert data["verdict"]["against"] == "mitsuba" and data["verdict"]["status"] == "fail"
+    assert [q["quirk"] for q in mv["quirk_costs"] if not q["present"]] == ["Q2", "Q4", "Q9"]
+    assert 'id="verdict-model"' in html and 'id="verdict-mitsuba"' in html
+    assert "What this image implements" in html and data["diagnosis"] is None
     small = tmp_path / "small.png"
     PILImage.fromarray(np.zeros((10, 10, 3), np.uint8)).save(small)
     bad = run(

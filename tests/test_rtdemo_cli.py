@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from helpers import SCENES, run
+from PIL import Image as PILImage
 
 from compare.judge.images import read_image
 
@@ -26,6 +27,9 @@ def test_help_lists_modes_and_says_physical_has_point_lights(rtdemo: str) -> Non
         "--spp",
         "--ppm",
         "--png",
+        "--ppm-rounding",
+        "truncate",
+        "round",
         "--threads",
         "no soft shadows",
     ):
@@ -158,9 +162,44 @@ def test_ppm_is_linear_and_png_is_srgb_of_the_same_render(rtdemo: str, tmp_path:
     )
     assert proc.returncode == 0, proc.stderr
     ref = np.clip(read_image(exr).rgb, 0, 1)
-    assert np.abs(read_image(ppm).rgb - ref).max() <= 0.5 / 255 + 1e-6
+    # PPM is linear and truncated by default, byte = (unsigned char)(min(1, x) * 255) as the
+    # paper's program family writes it: exactly that in float32, not just within a level.
+    linear = read_image(exr).rgb.astype(np.float32)
+    truncated = (np.clip(np.nan_to_num(linear, nan=0.0), 0, 1) * np.float32(255)).astype(np.uint8)
+    ppm_bytes = np.asarray(PILImage.open(ppm))
+    assert np.array_equal(ppm_bytes, truncated)
+    assert not np.array_equal(ppm_bytes, np.rint(ref * 255).astype(np.uint8))  # not rounding
     # PNG is sRGB: decoding it back gives linear values within one sRGB step.
     assert np.abs(read_image(png).rgb - ref).max() < 0.02
+
+
+def test_ppm_rounding_option(rtdemo: str, tmp_path: Path) -> None:
+    exr, rounded = tmp_path / "a.exr", tmp_path / "round.ppm"
+    proc = run(
+        [
+            rtdemo,
+            "render",
+            CLASSIC,
+            "-o",
+            str(exr),
+            "--ppm",
+            str(rounded),
+            "--ppm-rounding",
+            "round",
+            "--width",
+            "80",
+            "--height",
+            "60",
+        ]
+    )
+    assert proc.returncode == 0, proc.stderr
+    ref = np.clip(read_image(exr).rgb, 0, 1)
+    assert np.abs(read_image(rounded).rgb - ref).max() <= 0.5 / 255 + 1e-6
+    bad = run(
+        [rtdemo, "render", CLASSIC, "--ppm", str(tmp_path / "bad.ppm"), "--ppm-rounding", "floor"]
+    )
+    assert bad.returncode == 2 and "--ppm-rounding" in bad.stderr and "floor" in bad.stderr
+    assert not (tmp_path / "bad.ppm").exists()
 
 
 def test_threads_do_not_change_the_image(rtdemo: str, tmp_path: Path) -> None:

@@ -1,17 +1,16 @@
 // The speed baseline of issue 10: the paper's program as the seed structures it — a plain,
 // single-threaded, scalar, per-pixel recursive trace over a vector of spheres, writing a PPM.
-// Written here from paper-model.md (paper mode), not copied. It reads the same scene files.
+// Written here from docs/paper-model.md (paper mode), not copied. It reads the same scene files.
 // Usage: seed_tracer SCENE.json OUT.ppm [classic]  (classic: the scratchapixel rules, Q2 Q4 Q9)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 namespace {
 
@@ -22,7 +21,10 @@ struct V {
     V operator*(float s) const { return {x * s, y * s, z * s}; }
     V operator*(const V& o) const { return {x * o.x, y * o.y, z * o.z}; }
     float dot(const V& o) const { return x * o.x + y * o.y + z * o.z; }
-    V norm() const { float l = std::sqrt(dot(*this)); return {x / l, y / l, z / l}; }
+    V norm() const {
+        float l = std::sqrt(dot(*this));
+        return {x / l, y / l, z / l};
+    }
 };
 
 struct Orb {
@@ -54,7 +56,10 @@ V trace(const V& o, const V& d, int depth) {
         float t0, t1;
         if (s.hit(o, d, t0, t1)) {
             if (t0 < 0) t0 = t1;
-            if (t0 < tnear) { tnear = t0; orb = &s; }
+            if (t0 < tnear) {
+                tnear = t0;
+                orb = &s;
+            }
         }
     }
     if (!orb) return background;
@@ -67,7 +72,8 @@ V trace(const V& o, const V& d, int depth) {
         V r = (d - n * 2 * d.dot(n)).norm();
         V refl = trace(p + n * bias, r, depth + 1), refr{0, 0, 0};
         if (orb->transparency > 0) {
-            float eta = (classic && inside) ? orb->ior : 1 / orb->ior, cosi = -n.dot(d), k = 1 - eta * eta * (1 - cosi * cosi);
+            float eta = (classic && inside) ? orb->ior : 1 / orb->ior, cosi = -n.dot(d),
+                  k = 1 - eta * eta * (1 - cosi * cosi);
             V t = (d * eta + n * (eta * cosi - std::sqrt(k))).norm();
             refr = trace(p - n * bias, t, depth + 1);
         }
@@ -101,7 +107,10 @@ V vec(const nlohmann::json& j, V fallback) { return j.is_null() ? fallback : V{j
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 3 || argc > 4) { std::fprintf(stderr, "usage: seed_tracer SCENE.json OUT.ppm [classic]\n"); return 2; }
+    if (argc < 3 || argc > 4) {
+        std::fprintf(stderr, "usage: seed_tracer SCENE.json OUT.ppm [classic]\n");
+        return 2;
+    }
     classic = argc == 4 && std::string(argv[3]) == "classic";
     std::ifstream in(argv[1]);
     nlohmann::json s = nlohmann::json::parse(in);
@@ -115,9 +124,11 @@ int main(int argc, char** argv) {
     max_depth = s.value("max_depth", 5);
     bias = s.value("bias", 1e-4f);
     for (const auto& o : s["spheres"])
-        orbs.push_back({vec(o["center"], {}), vec(o["color"], {}), vec(o.value("emission", nlohmann::json()), {0, 0, 0}),
-                        o["radius"].get<float>() * o["radius"].get<float>(), o.value("reflection", 0.0f),
-                        o.value("transparency", 0.0f), o.value("ior", 1.1f)});
+        orbs.push_back({vec(o["center"], {}), vec(o["color"], {}),
+                        vec(o.value("emission", nlohmann::json()), {0, 0, 0}),
+                        o["radius"].get<float>() * o["radius"].get<float>(),
+                        o.value("reflection", 0.0f), o.value("transparency", 0.0f),
+                        o.value("ior", 1.1f)});
     V fw = (at - eye).norm();
     V rt{fw.y * up.z - fw.z * up.y, fw.z * up.x - fw.x * up.z, fw.x * up.y - fw.y * up.x};
     rt = rt.norm();
@@ -132,7 +143,9 @@ int main(int argc, char** argv) {
     std::ofstream out(argv[2], std::ios::binary);
     out << "P6\n" << w << " " << h << "\n255\n";
     for (const V& c : image) {
-        auto byte = [](float v) { return static_cast<char>(std::lround(std::min(1.0f, std::max(0.0f, v)) * 255)); };
+        auto byte = [](float v) {
+            return static_cast<char>(std::lround(std::min(1.0f, std::max(0.0f, v)) * 255));
+        };
         out << byte(c.x) << byte(c.y) << byte(c.z);
     }
     return 0;

@@ -12,8 +12,8 @@
 
 namespace {
 
-constexpr int kRays = 4096;    // fits in L1/L2 with the spheres: compute-bound, as the demo is
-constexpr int kSpheres = 8;    // the paper scene's count
+constexpr int kRays = 4096;  // fits in L1/L2 with the spheres: compute-bound, as the demo is
+constexpr int kSpheres = 8;  // the paper scene's count
 constexpr int kRounds = 400;
 
 // One ray against one sphere as the paper tests it (geometric form), branch-free: the
@@ -31,27 +31,39 @@ inline float hit_t(float ox, float oy, float oz, float dx, float dy, float dz, f
 }
 
 double run(unsigned seed, double* sink) {
-    std::vector<float> ox(kRays), oy(kRays), oz(kRays), dx(kRays), dy(kRays), dz(kRays), best(kRays);
+    std::vector<float> ox(kRays), oy(kRays), oz(kRays), dx(kRays), dy(kRays), dz(kRays),
+        best(kRays);
     std::srand(seed);
     auto u = [] { return static_cast<float>(std::rand()) / RAND_MAX - 0.5f; };
     for (int i = 0; i < kRays; ++i) {
-        ox[i] = u(); oy[i] = u(); oz[i] = u();
+        ox[i] = u();
+        oy[i] = u();
+        oz[i] = u();
         float x = u(), y = u(), z = -1.0f, l = std::sqrt(x * x + y * y + z * z);
-        dx[i] = x / l; dy[i] = y / l; dz[i] = z / l;
+        dx[i] = x / l;
+        dy[i] = y / l;
+        dz[i] = z / l;
     }
     float cx[kSpheres], cy[kSpheres], cz[kSpheres], r2[kSpheres];
-    for (int s = 0; s < kSpheres; ++s) { cx[s] = u() * 8; cy[s] = u() * 8; cz[s] = -10 - s; r2[s] = 1 + s; }
+    for (int s = 0; s < kSpheres; ++s) {
+        cx[s] = u() * 8;
+        cy[s] = u() * 8;
+        cz[s] = -10 - s;
+        r2[s] = 1 + s;
+    }
     const auto start = std::chrono::steady_clock::now();
     for (int round = 0; round < kRounds; ++round) {
         for (int i = 0; i < kRays; ++i) best[i] = INFINITY;
         for (int s = 0; s < kSpheres; ++s)
             for (int i = 0; i < kRays; ++i) {
-                const float t = hit_t(ox[i], oy[i], oz[i], dx[i], dy[i], dz[i], cx[s], cy[s], cz[s], r2[s]);
+                const float t =
+                    hit_t(ox[i], oy[i], oz[i], dx[i], dy[i], dz[i], cx[s], cy[s], cz[s], r2[s]);
                 best[i] = t < best[i] ? t : best[i];
             }
         ox[round % kRays] += best[(round * 7) % kRays] * 1e-9f;  // keep the rounds dependent
     }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     double sum = 0;
     for (float b : best) sum += std::isfinite(b) ? b : 0;
     *sink = sum;
@@ -61,7 +73,8 @@ double run(unsigned seed, double* sink) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    const int threads = argc > 1 ? std::atoi(argv[1]) : static_cast<int>(std::thread::hardware_concurrency());
+    const int threads =
+        argc > 1 ? std::atoi(argv[1]) : static_cast<int>(std::thread::hardware_concurrency());
     if (threads < 1) {
         std::fprintf(stderr, "usage: sphere_test_peak [THREADS >= 1]\n");
         return 2;
@@ -70,7 +83,8 @@ int main(int argc, char** argv) {
     for (int trial = 0; trial < 3; ++trial) {  // best of 3: the peak, not the average
         std::vector<double> seconds(threads), sinks(threads);
         std::vector<std::thread> pool;
-        for (int t = 0; t < threads; ++t) pool.emplace_back([&, t] { seconds[t] = run(1 + t, &sinks[t]); });
+        for (int t = 0; t < threads; ++t)
+            pool.emplace_back([&, t] { seconds[t] = run(1 + t, &sinks[t]); });
         for (auto& t : pool) t.join();
         double slowest = 0;
         for (double s : seconds) slowest = std::fmax(slowest, s);

@@ -5,6 +5,10 @@ shared render cache when the same rtdemo binary made them before), compares each
 with its stored baseline under per-scene tolerances and reports a table, JSON and JUnit XML.
 A missing baseline is a failure; `update` rewrites only new or failing baselines.
 Baselines are per scene and mode, not per backend: the GL backend must reproduce the CPU's.
+
+With `against` (a target model) each render is judged against the model instead of a
+baseline: a demo model by exact match (the model rendered by the installed rtdemo, or
+$RTVAL_RTDEMO, the render by `rtdemo`), Mitsuba by the default rubric's per-effect verdict.
 """
 
 from __future__ import annotations
@@ -12,7 +16,6 @@ from __future__ import annotations
 import io
 import json
 import xml.etree.ElementTree as ET
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,6 +49,7 @@ class CaseResult:
     ssim: float | None = None
     seconds: float = 0.0
     updated: bool = False
+    against: str = "baseline"  # what the render was judged against
 
     @property
     def name(self) -> str:
@@ -70,16 +74,30 @@ def load_tolerances(baseline_dir: Path) -> dict[str, Tolerances]:
 def run_check(
     *,
     scenes: list[str],
-    modes: list[str],
+    modes: list[str] | None,
     backends: list[str],
     baseline_dir: Path,
     size: tuple[int, int],
     update: bool = False,
     rtdemo: str | None = None,
+    against: str | None = None,
     cache_dir: Path | str | None = None,
-    progress: Callable[[str], None] = print,
+    progress: Progress | None = None,
 ) -> list[CaseResult]:
+    progress = progress or Progress()
+    if against:
+        return _check_against(
+            scenes=scenes,
+            modes=modes,
+            backends=backends,
+            size=size,
+            rtdemo=rtdemo,
+            against=against,
+            cache_dir=cache_dir,
+            progress=progress,
+        )
     tolerances = load_tolerances(baseline_dir)
+    modes = modes or list(DEFAULT_MODES)
     cache = RenderCache(cache_dir)
     cases: list[tuple[str, Tolerances, str, str, RenderJob]] = []
     for scene_path in scenes:
@@ -87,35 +105,14 @@ def run_check(
         tol = tolerances.get(scene.name, tolerances.get("default", DEFAULT_TOLERANCES))
         for backend in backends:
             for mode in modes:
-                args = [
-                    "render",
-                    "{scene}",
-                    "-o",
-                    "{out}",
-                    "--mode",
-                    mode,
-                    "--backend",
-                    backend,
-                    "--width",
-                    str(size[0]),
-                    "--height",
-                    str(size[1]),
-                    "-q",
-                ]
-                job = RenderJob(
-                    f"{scene.name}/{backend}-{mode}",
-                    f"{scene.name} {backend} {mode}",
-                    "rtdemo",
-                    args,
-                    "check",
-                    scene=scene_path,
-                    executable=rtdemo,
+                job = _render_job(
+                    scene_path, scene.name, backend, mode, ["--mode", mode], size, rtdemo
                 )
                 cases.append((scene.name, tol, backend, mode, job))
     # Renders come from the shared cache: its key holds the rtdemo binary's hash, so a
     # changed renderer is always rendered afresh.
     # check prints one line per case itself, after comparing: the runner's lines are dropped.
-    run_jobs([c[4] for c in cases], cache, progress=Progress(io.StringIO(), tty=False))
+    run_jobs([c[4] for c in cases], cache, progress=_quiet())
     results: list[CaseResult] = []
     for scene_name, tol, backend, mode, job in cases:
         out = job.exr(cache)
@@ -154,6 +151,84 @@ def run_check(
     return results
 
 
+def _render_job(
+    scene_path: str,
+    scene_name: str,
+    backend: str,
+    name: str,
+    mode_args: list[str],
+    size: tuple[int, int],
+    rtdemo: str | None,
+) -> RenderJob:
+    """The render of one case, as a command for the shared cache."""
+    args = ["render", "{scene}", "-o", "{out}", *mode_args, "--backend", backend]
+    args += ["--width", str(size[0]), "--height", str(size[1]), "-q"]
+    return RenderJob(
+        f"{scene_name}/{backend}-{name}",
+        f"{scene_name} {backend} {name}",
+        "rtdemo",
+        args,
+        "check",
+        scene=scene_path,
+        executable=rtdemo,
+    )
+
+
+def _quiet() -> Progress:
+    return Progress(io.StringIO(), tty=False)
+
+
+def _check_against(
+    *,
+    scenes: list[str],
+    modes: list[str] | None,
+    backends: list[str],
+    size: tuple[int, int],
+    rtdemo: str | None,
+    against: str,
+    cache_dir: Path | str | None,
+    progress: Progress,
+) -> list[CaseResult]:
+    from compare.apps.against import judge, load, prepare
+    from compare.judge.target_model import parse_model
+
+    model = parse_model(against)
+    cache = RenderCache(cache_dir)
+    # A demo model checks its own algorithm unless modes are asked for: the render under test
+    # runs with the model's options, so a correct build matches it exactly.
+    cases: list[tuple[str, list[str]]] = (
+        [(model.name, model.rtdemo_args())]
+        if model.is_demo and not modes
+        else [(m, ["--mode", m]) for m in (modes or list(DEFAULT_MODES))]
+    )
+    results: list[CaseResult] = []
+    for scene_path in scenes:
+        scene = load_scene(scene_path)
+        loaded = load(prepare(model, Path(scene_path), size, cache, progress=progress))
+        jobs = [
+            (backend, name, _render_job(scene_path, scene.name, backend, name, args, size, rtdemo))
+            for backend in backends
+            for name, args in cases
+        ]
+        run_jobs([j for _, _, j in jobs], cache, progress=_quiet())
+        for backend, name, job in jobs:
+            case = CaseResult(
+                scene.name, backend, name, "pass", seconds=job.seconds, against=model.name
+            )
+            ev = judge(read_image(job.exr(cache)), loaded)
+            assert ev.score is not None
+            case.status = ev.score.status
+            case.reasons = ev.score.reasons()
+            case.failing_pixels = ev.exact.differing if ev.exact else ev.verdict.failing_pixels
+            progress(
+                f"{case.name:<28} {case.status.upper():<5} against {model.name}"
+                + (" (cached render)" if job.cached else "")
+                + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
+            )
+            results.append(case)
+    return results
+
+
 def exit_code(results: list[CaseResult]) -> int:
     effective = [r for r in results if not r.updated]
     if any(r.status == "fail" for r in effective):
@@ -166,13 +241,14 @@ def exit_code(results: list[CaseResult]) -> int:
 def table(results: list[CaseResult]) -> str:
     lines = [
         f"{'case':<28} {'status':<7} {'failing px':>10} {'max err':>8} {'SSIM':>8} {'time s':>7}"
+        "  against"
     ]
     order = sorted(results, key=lambda r: ("fail", "warn", "pass").index(r.status))
     for r in order:
         ssim = f"{r.ssim:.5f}" if r.ssim is not None else "-"
         lines.append(
             f"{r.name:<28} {r.status:<7} {r.failing_pixels:>10} "
-            f"{r.max_display_error:>8.4f} {ssim:>8} {r.seconds:>7.2f}"
+            f"{r.max_display_error:>8.4f} {ssim:>8} {r.seconds:>7.2f}  {r.against}"
             + ("  updated" if r.updated else "")
         )
     n_fail = sum(r.status == "fail" for r in results)
@@ -205,6 +281,9 @@ def write_junit(results: list[CaseResult], path: Path) -> None:
             classname=f"rtval.{r.scene}",
             name=f"{r.backend}-{r.mode}",
             time=f"{r.seconds:.3f}",
+        )
+        ET.SubElement(
+            ET.SubElement(case, "properties"), "property", name="against", value=r.against
         )
         if r.status == "fail":
             ET.SubElement(case, "failure", message="; ".join(r.reasons)).text = "; ".join(r.reasons)

@@ -13,9 +13,12 @@ import numpy as np
 from compare.files import json_safe, write_atomic
 from compare.judge.effects import effect_masks
 from compare.judge.evaluate import Evaluation, evaluate_pair
+from compare.judge.exact_match import ENCODING_WORDS
 from compare.judge.images import Image, ImageError, read_image, write_png
 from compare.judge.metrics import Metrics, check_same_size, display
 from compare.judge.tolerances import Tolerances, Verdict, diff_image
+from compare.render.cache import RenderCache
+from compare.render.progress import Progress
 from scene_model.scene import Scene
 
 
@@ -27,6 +30,7 @@ class Comparison:
     test: Image
     evaluation: Evaluation
     aov_source: str | None = None
+    against: str | None = None  # the target model; None: the reference image as given
 
     @property
     def verdict(self) -> Verdict:
@@ -40,6 +44,7 @@ class Comparison:
         h, w = self.ref.shape
         ev = self.evaluation
         return {
+            "against": self.against or "reference image",
             "reference": self.ref.path,
             "test": self.test.path,
             "size": [w, h],
@@ -54,10 +59,28 @@ class Comparison:
             "metrics": ev.metrics.as_dict(),
             "per_effect_aovs_from": self.aov_source,
             "per_effect": {
-                k: {"status": e.verdict.status, "reasons": e.verdict.reasons, **e.metrics.as_dict()}
+                k: {
+                    "status": self._effect_status(k),
+                    "reasons": self._effect_reasons(k),
+                    **e.metrics.as_dict(),
+                }
                 for k, e in ev.per_effect.items()
             },
+            "exact": ev.exact.as_dict() if ev.exact else None,
+            "score": ev.score.as_dict() if ev.score else None,
         }
+
+    def _effect_status(self, name: str) -> str:
+        ex = self.evaluation.exact
+        if ex is not None and name in ex.per_effect:
+            return "pass" if ex.per_effect[name].passed else "fail"
+        return self.evaluation.per_effect[name].verdict.status
+
+    def _effect_reasons(self, name: str) -> list[str]:
+        ex = self.evaluation.exact
+        if ex is not None and name in ex.per_effect:
+            return [] if ex.per_effect[name].passed else [ex.sentence(name)]
+        return self.evaluation.per_effect[name].verdict.reasons
 
 
 def load_mask(path: str | Path, shape: tuple[int, int]) -> np.ndarray:
@@ -101,6 +124,28 @@ def run_comparison(
     return Comparison(ref, test, evaluation, source.path if source is not None else None)
 
 
+def run_against(
+    test: Image,
+    model_name: str,
+    scene_file: Path,
+    cache: RenderCache,
+    *,
+    tolerances: Tolerances = Tolerances(),
+    mask: np.ndarray | None = None,
+    progress: Progress | None = None,
+) -> Comparison:
+    """`test` judged against a target model rendered at the test's size (never resampled)."""
+    from compare.apps.against import judge, load, prepare
+    from compare.judge.target_model import parse_model
+
+    model = parse_model(model_name)
+    h, w = test.shape
+    renders = prepare(model, scene_file, (w, h), cache, progress=progress)
+    loaded = load(renders)
+    evaluation = judge(test, loaded, region=mask, tolerances=tolerances)
+    return Comparison(loaded.reference, test, evaluation, renders.reference, model.name)
+
+
 def _fmt(v: Any) -> str:
     if v is None:
         return "-"
@@ -137,24 +182,38 @@ def table(c: Comparison) -> str:
     if c.evaluation.per_effect:
         lines.append("")
         lines.append(f"per effect (masks from {c.aov_source}):")
+        ex = c.evaluation.exact
         lines.append(
             f"{'effect':<12} {'pixels':>8} {'SSIM':>8} {'FLIP':>8} {'MAE lin':>9} "
-            f"{'relMSE':>9} {'over':>7}  status"
+            f"{'relMSE':>9} {'over':>7}"
+            + (f" {'differ':>7} {'edge-amb':>8}" if ex else "")
+            + "  status"
         )
         order = sorted(
             c.evaluation.per_effect.items(),
-            key=lambda kv: ("pass", "warn", "fail").index(kv[1].verdict.status),
+            key=lambda kv: ("pass", "warn", "fail").index(c._effect_status(kv[0])),
             reverse=True,
         )
         for name, e in order:
-            pm, pv = e.metrics, e.verdict
+            pm = e.metrics
+            em = ex.per_effect.get(name) if ex else None
             lines.append(
                 f"{name:<12} {pm.pixels:>8} {pm.ssim:>8.4f} {pm.flip_ldr:>8.4f} "
-                f"{pm.mae_linear:>9.3g} {pm.rel_mse_linear:>9.3g} {pm.over_threshold:>7}  {pv.status}"
+                f"{pm.mae_linear:>9.3g} {pm.rel_mse_linear:>9.3g} {pm.over_threshold:>7}"
+                + (f" {em.differing:>7} {em.ambiguous:>8}" if em else "")
+                + f"  {c._effect_status(name)}"
             )
     lines.append("")
+    ex = c.evaluation.exact
+    if ex is not None:
+        lines.append(
+            f"exact match against {ex.model}: {ex.differing:,} px differ beyond "
+            f"{ENCODING_WORDS[ex.encoding]}; {ex.edge_ambiguous:,} edge-ambiguous px accepted "
+            f"from {ex.renders - 1} renders at sub-pixel offsets"
+        )
+    against = c.against or f"the reference image {c.ref.path}"
     lines.append(
-        f"verdict: {c.verdict.status.upper()}"
+        f"verdict against {against}: {c.verdict.status.upper()}"
         + (": " + "; ".join(c.verdict.reasons) if c.verdict.reasons else "")
     )
     return "\n".join(lines)

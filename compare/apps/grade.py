@@ -1,9 +1,11 @@
-"""`rtval grade`: a class's renders against the references, one gradebook.
+"""`rtval grade`: a class's renders against a target model, one gradebook.
 
 A submission is an image (its file name is the student id; one --scene only) or a folder
-of images named after the scenes. References come from the shared render cache (the same
-entry `rtval report` makes), rendered only when missing.
-Each student is an idempotent task keyed by the hashes of its files, the references and the
+of images named after the scenes. The model (--against, the rubric's `against`, else
+`classic`: README "Grading a class") is rendered once per scene through the shared render
+cache (the same entries `rtval report` makes); a demo model needs no Mitsuba render at all.
+Every row names the model; every fail says why.
+Each student is an idempotent task keyed by the hashes of its files, the model's renders and the
 rubric: a re-run (or a resumed, interrupted one) skips what is done. Bad submissions become
 rows with a reason, never an aborted batch. Tasks run in a local process pool or on a Dask
 cluster.
@@ -11,10 +13,11 @@ cluster.
 
 from __future__ import annotations
 
-import csv
+import dataclasses
 import hashlib
 import io
 import json
+import shutil
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
@@ -24,9 +27,11 @@ from typing import Any
 
 import numpy as np
 
-from compare.files import sha256_file, write_atomic
-
-IMAGE_SUFFIXES = (".exr", ".png", ".ppm", ".pfm")
+from compare.apps.against import ModelRenders
+from compare.apps.submissions import IMAGE_SUFFIXES  # noqa: F401  (re-exported)
+from compare.csv_safe import csv_text
+from compare.files import atomic_output, sha256_file, write_atomic
+from compare.student_ids import student_slug
 
 
 @dataclass(frozen=True)
@@ -34,8 +39,8 @@ class GradeTask:
     student: str
     files: dict[str, str | None]  # scene name -> image path (None: missing)
     problem: str | None  # a reason the submission cannot be graded at all
-    references: dict[str, str]  # scene name -> reference EXR
-    scene_files: dict[str, str]
+    models: dict[str, ModelRenders]  # scene name -> the model's renders
+    models_key: str  # digest of every model render (computed once, not per student)
     rubric_text: str
     rubric_source: str
     out_dir: str
@@ -44,61 +49,60 @@ class GradeTask:
 def task_key(task: GradeTask) -> str:
     h = hashlib.sha256(task.rubric_text.encode())
     h.update((task.problem or "").encode())
+    h.update(task.models_key.encode())
     for scene in sorted(task.files):
         f = task.files[scene]
         h.update(scene.encode())
         h.update((sha256_file(Path(f)) if f and Path(f).is_file() else "missing").encode())
-        h.update(sha256_file(Path(task.references[scene])).encode())
     return h.hexdigest()[:24]
 
 
 def _grade_scene(
     scene_name: str, path: str | None, task: GradeTask, rubric: Any, page_dir: Path
 ) -> dict[str, Any]:
-    from compare.judge.effects import effect_masks
-    from compare.judge.evaluate import evaluate_pair
-    from compare.judge.images import ImageError, read_image
+    from compare.apps.against import judge, load, nan_pixels
+    from compare.judge.images import ImageError, ImageSizeError, read_image
     from compare.judge.sentences import difference_sentences
-    from scene_model.scene import load_scene
 
+    renders = task.models[scene_name]
+    base = {"scene": scene_name, "model": renders.model, "diagnosis": ""}
     if path is None:
-        return {
-            "scene": scene_name,
+        return base | {
             "status": "missing",
             "score": 0.0,
             "reason": f"no image for scene '{scene_name}'",
         }
-    ref = read_image(task.references[scene_name])
-    try:
-        img = read_image(path)
-    except ImageError as e:
-        return {"scene": scene_name, "status": "error", "score": 0.0, "reason": f"unreadable: {e}"}
-    if img.shape != ref.shape:
-        return {
-            "scene": scene_name,
+    model = load(renders)
+    ref = model.reference
+    try:  # the size is checked in the header, before decoding: memory stays bounded
+        img = read_image(path, expected_size=ref.shape)
+    except ImageSizeError as e:
+        (h, w), (eh, ew) = e.size, e.expected
+        return base | {
             "status": "error",
             "score": 0.0,
-            "reason": f"wrong size {img.shape[1]}x{img.shape[0]}, expected {ref.shape[1]}x{ref.shape[0]}",
+            "reason": f"wrong size {w}x{h}, expected {ew}x{eh}",
         }
-    nan = int((~np.isfinite(img.rgb)).any(-1).sum())
-    scene = load_scene(task.scene_files[scene_name])
-    masks = effect_masks(scene, ref.aovs["id"], ref.aovs["depth"])
-    ev = evaluate_pair(
-        ref.rgb,
-        img.rgb,
-        masks=masks,
-        rules=rubric.effects,
-        flip_at_zero=rubric.flip_at_zero,
-        pass_score=rubric.pass_score,
-    )
-    assert ev.score is not None  # masks were given
+    except ImageError as e:
+        return base | {"status": "error", "score": 0.0, "reason": f"unreadable: {e}"}
+    nan = nan_pixels(img)
+    ev = judge(img, model, rubric)
+    assert ev.score is not None  # the model's masks were given
     verdict = ev.score.as_dict()
-    reason = ""
-    if nan:
+    reasons = ev.score.reasons()
+    if ev.exact is not None:
+        verdict["exact"] = ev.exact.as_dict()
+    if nan and ev.exact is None:  # exact judging already counts NaN pixels as differing
         verdict["status"] = "fail"
-        reason = f"{nan} NaN/Inf pixels"
-    sentences = difference_sentences(
-        ref.rgb, img.rgb, masks, ev.effect_metrics(), f"{task.student}'s render"
+        reasons.insert(0, f"{nan} NaN/Inf pixels")
+    # Against a demo model the reasons say what differs; the sentences' SSIM and full FLIP maps
+    # would double a failing submission's cost (bench/bench_grade.py).
+    sentences = (
+        difference_sentences(
+            ref.rgb, img.rgb, model.masks, ev.effect_metrics(), f"{task.student}'s render"
+        )
+        if ev.exact is None
+        else reasons
     )
     # Pictures for the student's page: the submission and |difference| x 8 (display).
     from PIL import Image as PILImage
@@ -111,13 +115,14 @@ def _grade_scene(
         (f"{scene_name}-diff.png", np.clip(np.abs(a - b) * 8, 0, 1)),
     ):
         buf = io.BytesIO()
-        PILImage.fromarray(np.round(data * 255).astype(np.uint8)).save(buf, format="PNG")
+        PILImage.fromarray(np.round(data * 255).astype(np.uint8)).save(
+            buf, format="PNG", compress_level=1
+        )
         write_atomic(page_dir / name, buf.getvalue())
-    return {
-        "scene": scene_name,
+    return base | {
         "status": verdict["status"],
         "score": verdict["score"],
-        "reason": reason,
+        "reason": "; ".join(reasons),
         "verdict": verdict,
         "sentences": sentences,
         "nan_pixels": nan,
@@ -129,22 +134,31 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
     same key on disk is returned as is."""
     from jinja2 import Environment, PackageLoader, select_autoescape
 
+    from compare.apps.page_security import with_csp
     from compare.judge.rubric import parse_rubric
 
     out = Path(task.out_dir)
-    result_path = out / "results" / f"{task.student}.json"
+    slug = student_slug(task.student)  # the id on disk; the real id stays in the result
+    result_path = out / "results" / f"{slug}.json"
     key = task_key(task)
-    if result_path.is_file():
-        old = json.loads(result_path.read_text())
-        if old.get("key") == key:
-            return {**old, "resumed": True}
+    old = _load_result(result_path)  # None when missing, truncated or corrupt: regrade
+    if old is not None and old.get("key") == key:
+        return {**old, "resumed": True}
     rubric = parse_rubric(task.rubric_text, task.rubric_source)
-    page_dir = out / "students" / task.student
+    page_dir = out / "students" / slug
     page_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
+    scenes: list[dict[str, Any]]
     if task.problem:
         scenes = [
-            {"scene": s, "status": "error", "score": 0.0, "reason": task.problem}
+            {
+                "scene": s,
+                "model": task.models[s].model,
+                "diagnosis": "",
+                "status": "error",
+                "score": 0.0,
+                "reason": task.problem,
+            }
             for s in task.files
         ]
     else:
@@ -156,59 +170,82 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
         else "fail"
     )
     reasons = "; ".join(f"{s['scene']}: {s['reason']}" for s in scenes if s.get("reason"))
+    if status == "fail" and not reasons:  # every scene passed, the mean is short of pass_score
+        reasons = f"score {score:.1f} < {rubric.pass_score:g}"
+    models = sorted({str(s["model"]) for s in scenes})
     result = {
         "student": task.student,
         "key": key,
         "status": status,
         "score": score,
+        "model": ", ".join(models),
         "reasons": reasons,
+        # The hook for compare.judge.diagnose: each scene's "diagnosis" stays empty without it.
+        "diagnosis": "; ".join(
+            f"{s['scene']}: {s['diagnosis']}" for s in scenes if s.get("diagnosis")
+        ),
         "scenes": scenes,
         "rubric": rubric.source,
         "seconds": time.perf_counter() - start,
-        "page": f"students/{task.student}/index.html",
+        "page": f"students/{slug}/index.html",
     }
     env = Environment(
         loader=PackageLoader("compare.apps", "templates"),
         autoescape=select_autoescape(["html", "j2"]),
     )
-    write_atomic(page_dir / "index.html", env.get_template("student.html.j2").render(r=result))
+    page = with_csp(env.get_template("student.html.j2").render(r=result))
+    write_atomic(page_dir / "index.html", page)
     (out / "results").mkdir(exist_ok=True)
     write_atomic(result_path, json.dumps(result, indent=2, default=float))
     return result
 
 
+def _load_result(path: Path) -> dict[str, Any] | None:
+    """A stored result, or None when it is missing or unreadable (a run killed mid-write
+    before writes were atomic, a full disk, a hand edit): such a student is graded again."""
+    try:
+        old = json.loads(path.read_bytes())
+    except (OSError, ValueError):
+        return None
+    return old if isinstance(old, dict) else None
+
+
 def collect(
-    submissions: Path, scenes: list[str]
+    submissions: Path,
+    scenes: list[str],
+    *,
+    exclude: list[Path] | None = None,
+    notice: Callable[[str], None] | None = None,
 ) -> list[tuple[str, dict[str, str | None], str | None]]:
-    """(student, scene -> file, problem) for every entry of the submissions folder."""
-    if not submissions.is_dir():
-        raise OSError(f"{submissions}: not a folder of submissions")
-    out = []
-    for entry in sorted(submissions.iterdir()):
-        if entry.name.startswith("."):
-            continue
-        student = entry.stem if entry.is_file() else entry.name
-        files: dict[str, str | None] = dict.fromkeys(scenes)
-        problem = None
-        if entry.is_file():
-            if entry.suffix.lower() not in IMAGE_SUFFIXES:
-                problem = (
-                    f"unsupported file type '{entry.suffix}' (expected {', '.join(IMAGE_SUFFIXES)})"
-                )
-            elif len(scenes) > 1:
-                problem = "one image for several scenes: hand in a folder with one image per scene"
-            else:
-                files[scenes[0]] = str(entry)
-        else:
-            for scene in scenes:
-                hits = [
-                    p
-                    for p in sorted(entry.iterdir())
-                    if p.stem == scene and p.suffix.lower() in IMAGE_SUFFIXES
-                ]
-                files[scene] = str(hits[0]) if hits else None
-        out.append((student, files, problem))
-    return out
+    """(student, scene -> file, problem) for every id in the submissions folder (see
+    compare/apps/submissions.py: what is a submission, and the reasons for what is not)."""
+    from compare.apps.submissions import collect_entries
+
+    return [
+        (e.student, e.files, "; ".join(e.problems) or None)
+        for e in collect_entries(submissions, scenes, exclude=exclude, notice=notice)
+    ]
+
+
+def _beside(renders: ModelRenders, scene_name: str, folder: Path) -> ModelRenders:
+    """The model's renders copied out of the shared cache beside the grades, as
+    references/SCENE-MODEL.exr (and -offsetN.exr): the tasks (maybe on other machines) read
+    them from there. A copy already there with the same bytes stays."""
+    folder.mkdir(parents=True, exist_ok=True)
+    stem = student_slug(f"{scene_name}-{renders.model}")  # names from the scene file: made safe
+
+    def copy(src: str, suffix: str) -> str:
+        target = folder / f"{stem}{suffix}.exr"
+        if not (target.is_file() and sha256_file(target) == sha256_file(src)):
+            with atomic_output(target) as tmp:
+                shutil.copyfile(src, tmp)
+        return str(target)
+
+    return dataclasses.replace(
+        renders,
+        reference=copy(renders.reference, ""),
+        offsets=tuple(copy(p, f"-offset{i}") for i, p in enumerate(renders.offsets)),
+    )
 
 
 def run_grading(
@@ -221,62 +258,77 @@ def run_grading(
     scheduler: str | None = None,
     jobs: int = 2,
     size: tuple[int, int] | None = None,
+    against: str | None = None,
     cache_dir: Path | str | None = None,
     progress: Callable[[str], None] = print,
 ) -> list[dict[str, Any]]:
+    from compare.apps.against import GRADE_DEFAULT, prepare, resolve_model
     from compare.judge.rubric import DEFAULT_RUBRIC_TEXT, load_rubric
     from compare.render.cache import RenderCache
-    from compare.render.jobs import run_jobs
-    from compare.render.plan import REFERENCE_KEY, plan
     from compare.render.progress import Progress
     from scene_model.scene import load_scene
 
     rubric = load_rubric(rubric_path)  # validates before any work
     rubric_text = Path(rubric_path).read_text() if rubric_path else DEFAULT_RUBRIC_TEXT
+    model = resolve_model(against, rubric, GRADE_DEFAULT)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "references").mkdir(exist_ok=True)
     cache = RenderCache(cache_dir)
-    names = {}
-    references = {}
-    ref_jobs = []
+    models: dict[str, ModelRenders] = {}
     for scene_file in scene_files:
         scene = load_scene(scene_file)
-        names[scene.name] = str(scene_file)
-        # The report's own reference job: the same command, so the same cache entry.
-        job = next(j for j in plan(str(scene_file), size) if j.key == REFERENCE_KEY)
-        job.key, job.label = scene.name, f"reference of {scene.name}: {job.label}"
-        ref_jobs.append(job)
-    run_jobs(ref_jobs, cache, progress=progress if isinstance(progress, Progress) else Progress())
-    for job in ref_jobs:
-        # A copy beside the grades: the tasks (maybe on other machines) read it from there.
-        target = out / "references" / f"{job.key}.exr"
-        if not (target.is_file() and sha256_file(target) == job.info["sha256"]):
-            cache.copy_out(job.cache_key, target)
-        references[job.key] = str(target)
+        progress(f"model {model.name} on {scene.name} ...")
+        renders = prepare(
+            model,
+            scene_file,
+            size,
+            cache,
+            progress=progress if isinstance(progress, Progress) else None,
+        )
+        models[scene.name] = _beside(renders, scene.name, out / "references")
+    h = hashlib.sha256()
+    for name in sorted(models):
+        h.update(name.encode() + models[name].digest().encode())
+    models_key = h.hexdigest()[:24]
     tasks = [
-        GradeTask(student, files, problem, references, names, rubric_text, rubric.source, str(out))
-        for student, files, problem in collect(submissions, list(names))
+        GradeTask(student, files, problem, models, models_key, rubric_text, rubric.source, str(out))
+        for student, files, problem in collect(
+            submissions, list(models), exclude=[out], notice=progress
+        )
     ]
-    progress(f"grading {len(tasks)} submissions ({executor} executor)")
+    progress(f"grading {len(tasks)} submissions against {model.name} ({executor} executor)")
     start = time.perf_counter()
+    results: list[dict[str, Any]] = []
+
+    def arrived(r: dict[str, Any]) -> None:
+        results.append(r)
+        state = "resumed" if r.get("resumed") else f"{r['seconds']:.2f} s"
+        progress(
+            f"[{len(results)}/{len(tasks)}] {r['student']}: {r['status']} {r['score']:.1f} ({state})"
+        )
+
     if executor == "dask":
-        from dask.distributed import Client
+        from dask.distributed import Client, as_completed
 
         if not scheduler:
             raise ValueError(
                 "--executor dask needs --scheduler ADDRESS (e.g. tcp://127.0.0.1:8786)"
             )
         with Client(scheduler, timeout=30) as client:
-            futures = client.map(grade_one, tasks, pure=False)
-            results = list(client.gather(futures))
+            for future in as_completed(client.map(grade_one, tasks, pure=False)):
+                arrived(future.result())
     elif executor == "local":
         if jobs <= 1:
-            results = [grade_one(t) for t in tasks]
+            for t in tasks:
+                arrived(grade_one(t))
         else:
+            from concurrent.futures import as_completed as done
+
             with ProcessPoolExecutor(max_workers=jobs) as pool:
-                results = list(pool.map(grade_one, tasks))
+                for f in done([pool.submit(grade_one, t) for t in tasks]):
+                    arrived(f.result())
     else:
         raise ValueError(f"unknown executor {executor!r} (expected local or dask)")
+    results.sort(key=lambda r: str(r["student"]))
     elapsed = time.perf_counter() - start
     write_gradebook(results, out, rubric.source, elapsed)
     progress(
@@ -286,36 +338,42 @@ def run_grading(
 
 
 def write_gradebook(results: list[dict[str, Any]], out: Path, rubric: str, seconds: float) -> None:
-    buf = io.StringIO()
-    w = csv.writer(buf)
+    rows: list[list[object]] = []  # written by csv_text, which neutralises formulas
     scenes = sorted({s["scene"] for r in results for s in r["scenes"]})
-    w.writerow(
+    rows.append(
         [
             "student",
             "status",
             "score",
+            "model",
             *[f"{s} score" for s in scenes],
             *[f"{s} status" for s in scenes],
             "reasons",
+            "diagnosis",
             "page",
         ]
     )
     for r in results:
         by = {s["scene"]: s for s in r["scenes"]}
-        w.writerow(
+        rows.append(
             [
                 r["student"],
                 r["status"],
                 f"{r['score']:.2f}",
+                r.get("model", ""),
                 *[f"{by[s]['score']:.2f}" if s in by else "" for s in scenes],
                 *[by[s]["status"] if s in by else "" for s in scenes],
                 r["reasons"],
+                r.get("diagnosis", ""),
                 r["page"],
             ]
         )
-    write_atomic(out / "gradebook.csv", buf.getvalue())
+    write_atomic(out / "gradebook.csv", csv_text(rows))
     summary = [
-        {k: r[k] for k in ("student", "status", "score", "reasons", "page")}
+        {
+            k: r.get(k, "")
+            for k in ("student", "status", "score", "model", "reasons", "diagnosis", "page")
+        }
         | {
             "scenes": {
                 s["scene"]: {"status": s["status"], "score": s["score"]} for s in r["scenes"]
@@ -330,13 +388,18 @@ def write_gradebook(results: list[dict[str, Any]], out: Path, rubric: str, secon
 
 
 def explain(out: Path, student: str) -> str:
-    path = out / "results" / f"{student}.json"
+    path = out / "results" / f"{student_slug(student)}.json"
     if not path.is_file():
-        raise OSError(f"{path}: no result for '{student}' (run rtval grade first)")
-    r = json.loads(path.read_text())
+        raise OSError(f"{path}: no result for {student!r} (run rtval grade first)")
+    r = _load_result(path)
+    if r is None or not {"status", "score", "rubric", "scenes"} <= r.keys():
+        raise OSError(
+            f"{path}: the result for {student!r} is truncated or corrupt; "
+            "run rtval grade again: it regrades this student"
+        )
     lines = [
         f"{student}: {r['status'].upper()}, score {r['score']:.1f} = mean of the scene scores "
-        f"(rubric: {r['rubric']})"
+        f"(judged against {r.get('model') or 'mitsuba'}; rubric: {r['rubric']})"
     ]
     for s in r["scenes"]:
         lines.append(
@@ -347,15 +410,33 @@ def explain(out: Path, student: str) -> str:
         if not v:
             continue
         total = sum(e["pixels"] * e["rule"]["weight"] for e in v["effects"].values()) or 1
+        exact = v.get("basis") == "exact"
         for name, e in v["effects"].items():
             w = e["pixels"] * e["rule"]["weight"] / total
+            if exact:
+                how = f"{e['differing']} of {e['pixels']} px differ" + (
+                    f", FLIP {e['flip']:.4f}" if e["flip"] is not None else ""
+                )
+            else:
+                ssim = f"{e['ssim']:.4f}" if e["ssim"] is not None else "undefined"
+                how = (
+                    f"SSIM {ssim} (min {e['rule']['min_ssim']}), "
+                    f"FLIP {e['flip']:.4f} (max {e['rule']['max_flip']})"
+                )
             lines.append(
-                f"    {name:<11} {e['status']:<4} SSIM {e['ssim']:.4f} (min {e['rule']['min_ssim']}), "
-                f"FLIP {e['flip']:.4f} (max {e['rule']['max_flip']}): score {e['score']:.1f} x weight "
+                f"    {name:<11} {e['status']:<4} {how}: score {e['score']:.1f} x weight "
                 f"{w:.3f} = {e['score'] * w:.1f}"
             )
-        lines.append(
-            f"    score = 100 (1 - FLIP / {v['flip_at_zero_score']}) per effect, weighted by pixels x weight; "
-            f"pass needs every effect to pass and score >= {v['pass_score']}"
-        )
+        if exact:
+            lines.append(
+                "    score = 100 x the share of the effect's pixels that match the model within "
+                f"{v['exact']['rule']}, weighted by pixels x weight; an effect passes with at "
+                f"most {100 * v['exact']['max_differing_share']:g} % of its pixels differing; "
+                f"pass needs every effect to pass and score >= {v['pass_score']}"
+            )
+        else:
+            lines.append(
+                f"    score = 100 (1 - FLIP / {v['flip_at_zero_score']}) per effect, weighted by "
+                f"pixels x weight; pass needs every effect to pass and score >= {v['pass_score']}"
+            )
     return "\n".join(lines)

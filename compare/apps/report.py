@@ -31,6 +31,7 @@ import numpy as np
 from jinja2 import Environment, PackageLoader, select_autoescape
 
 from compare.apps import report_figures as figs
+from compare.apps.page_security import printable, with_csp
 from compare.apps.report_derived import (
     Evaluator,
     LazyImages,
@@ -43,11 +44,12 @@ from compare.apps.report_derived import (
     judge_identity,
     memo_json,
 )
+from compare.escape import json_for_script
 from compare.files import json_safe as _json_safe
 from compare.files import sha256_file, write_atomic
 from compare.judge.convergence import mitsuba_to_converged, time_to_converged
 from compare.judge.effects import effect_masks
-from compare.judge.images import Image, ImageError, read_image
+from compare.judge.images import Image, ImageError, ImageSizeError, read_image
 from compare.judge.metrics import metrics_from_dict
 from compare.judge.pareto import pareto_front
 from compare.judge.penumbra import penumbra_numbers
@@ -65,6 +67,7 @@ from compare.render.plan import (
 )
 from compare.render.progress import Progress
 from compare.render.runner import ToolError, rtdemo_path
+from compare.safe_paths import check_output_target
 from scene_model.scene import load_scene
 
 # Renders compared in full (global + per effect), with maps.
@@ -171,6 +174,7 @@ def build_report(
     test_image: str | None = None,
     test_label: str | None = None,
     test_encoding: str | None = None,
+    against: str | None = None,
     jobs: int = 1,
     pdf: bool = True,
     cache_dir: str | Path | None = None,
@@ -182,13 +186,20 @@ def build_report(
     steps = Steps(progress)
     scene_file = Path(scene_path)
     cache = RenderCache(cache_dir)
+    scene = load_scene(scene_file)
     foreign: Image | None = None
     foreign_bytes = b""
     if test_image:  # read first: it may lie in the images/ folder this run rebuilds
-        foreign = read_image(test_image, encoding=test_encoding)
+        w, h = size or (scene.camera.width, scene.camera.height)
+        try:  # the size is checked in the header: a huge declared size costs nothing
+            foreign = read_image(test_image, encoding=test_encoding, expected_size=(h, w))
+        except ImageSizeError as e:
+            raise ImageError(
+                f"{test_image}: {e.size[1]}x{e.size[0]}, the scene renders at "
+                f"{w}x{h} (never resampled)"
+            ) from None
         foreign_bytes = Path(test_image).read_bytes()
     with steps("plan"):
-        scene = load_scene(scene_file)
         out = Path(reports_dir) / scene.name
         images_dir = out / "images"
         shutil.rmtree(out / "cache", ignore_errors=True)  # the layout before the shared cache
@@ -226,7 +237,7 @@ def build_report(
     featured = list(FEATURED)
     test_copy = ""
     if test_image and foreign is not None:
-        if foreign.shape != (ref_h, ref_w):
+        if foreign.shape != (ref_h, ref_w):  # the plan's size is the one checked on reading
             raise ImageError(
                 f"{test_image}: {foreign.shape[1]}x{foreign.shape[0]}, the scene renders at "
                 f"{ref_w}x{ref_h} (never resampled)"
@@ -370,7 +381,7 @@ def build_report(
 
     with steps("analysis"):
         test_effects = {k: metrics_from_dict(v) for k, v in results[test_key]["per_effect"].items()}
-        verdict = score_effects(test_effects).as_dict()
+        verdict = score_effects(test_effects).as_dict() | {"against": "mitsuba"}
         mitsuba_jobs = [
             j for j in render_jobs if j.family.startswith("mitsuba") or j.key == REFERENCE_KEY
         ]
@@ -447,6 +458,13 @@ def build_report(
             else float("nan")
         )
 
+    model_verdict = None
+    if test_image:
+        with steps("target model"):
+            model_verdict = _model_verdict(
+                imgs[test_key], against, scene_file, size, cache, ladder, progress
+            )
+
     renders = [
         {
             "key": j.key,
@@ -482,6 +500,8 @@ def build_report(
         command_line += ["--test-image", test_copy] + (
             ["--label", test_label] if test_label else []
         )
+        if against:
+            command_line += ["--against", against]
     data: dict[str, Any] = {
         "scene": scene.name,
         "scene_file": _shown_path(scene_file),
@@ -500,6 +520,8 @@ def build_report(
         },
         "test": {"key": test_key, "label": label},
         "verdict": verdict,
+        "model_verdict": model_verdict,
+        "diagnosis": _diagnosis() if test_image else None,
         "sentences": sentences,
         "contributions": contributions,
         "featured": [{"key": k, "label": name, **results[k]} for k, name in featured],
@@ -528,10 +550,12 @@ def build_report(
             autoescape=select_autoescape(["html", "j2"]),
         )
         page = _json_safe(data)
+        # Data reaches the page as inert, script-escaped JSON; the CSP admits only the
+        # template's own script (compare/apps/page_security.py).
         html = env.get_template("report.html.j2").render(
-            report=page, renders_json=json.dumps(page["renders"])
+            report=page, renders_json=json_for_script(page["renders"])
         )
-        write_atomic(out / "index.html", html)
+        write_atomic(out / "index.html", with_csp(html))
     if pdf:
         with steps("PDF (Chromium)"):
             write_pdf(out / "index.html", out / "report.pdf")
@@ -540,6 +564,64 @@ def build_report(
     write_atomic(out / "report.json", json.dumps(_json_safe(data), indent=2) + "\n")
     progress.line(steps.table())
     return out / "index.html"
+
+
+def _model_verdict(
+    test: Image,
+    against: str | None,
+    scene_file: Path,
+    size: tuple[int, int] | None,
+    cache: RenderCache,
+    ladder: list[dict[str, Any]],
+    progress: Progress,
+) -> dict[str, Any]:
+    """The test image against its assigned model (is the implementation right?), and what
+    each of the model's quirks costs against Mitsuba (how far is that algorithm from physics),
+    read from the ablation ladder."""
+    from compare.apps.against import GRADE_DEFAULT, judge, load, prepare
+    from compare.judge.target_model import MODE_QUIRKS, parse_model
+
+    model = parse_model(against or GRADE_DEFAULT)
+    progress.line(f"model {model.name} ...")
+    loaded = load(prepare(model, scene_file, size, cache, progress=progress))
+    ev = judge(test, loaded)
+    assert ev.score is not None
+    # Ladder step i fixes Q(i) on top of Q1..Q(i-1): its FLIP drop is what that quirk costs
+    # there (cumulative, so conditional on the earlier fixes).
+    present = model.quirks if model.is_demo else frozenset()
+    costs = [
+        {
+            "quirk": q,
+            "present": int(q[1:]) in present,
+            "flip_with": ladder[i - 1]["flip"],
+            "flip_fixed": ladder[i]["flip"],
+            "cost": ladder[i - 1]["flip"] - ladder[i]["flip"],
+        }
+        for i, q in enumerate(QUIRKS, start=1)
+        if i < len(ladder) and int(q[1:]) in MODE_QUIRKS["paper"]
+    ]
+    return {
+        "model": model.name,
+        "basis": ev.score.basis,
+        "score": ev.score.as_dict(),
+        "reasons": ev.score.reasons(),
+        "exact": ev.exact.as_dict() if ev.exact else None,
+        "quirk_costs": costs,
+    }
+
+
+def _diagnosis() -> dict[str, Any] | None:
+    """The hook for "What this image implements" (compare.judge.diagnose, once merged, returns
+    its findings here); None renders the section's empty state."""
+    return None
+
+
+def _sandbox_flags() -> list[str]:
+    """Chromium refuses to start its sandbox as root; only then is it switched off. The
+    copy it prints holds no script and a policy that forbids them (page_security.printable):
+    nothing runs in the unsandboxed browser. (--blink-settings=scriptEnabled=false would
+    say the same, but headless Chromium then writes no PDF at all.)"""
+    return ["--no-sandbox"] if hasattr(os, "geteuid") and os.geteuid() == 0 else []
 
 
 def write_pdf(html: Path, pdf: Path) -> None:
@@ -553,12 +635,26 @@ def write_pdf(html: Path, pdf: Path) -> None:
         raise ToolError(
             "report.pdf needs Chromium (make setup installs Debian's chromium); or pass --no-pdf"
         )
-    tmp = pdf.with_name(pdf.stem + ".tmp.pdf")
+    check_output_target(pdf)
+    tmp = pdf.with_name(f".{pdf.stem}.{os.getpid()}.tmp.pdf")
+    # Printed from a script-free copy beside the page (so its relative images resolve).
+    copy = html.with_name(f".{html.stem}.{os.getpid()}.print.html")
+    try:
+        write_atomic(copy, printable(html.read_text(encoding="utf-8")))
+        _print_pdf(chromium, copy, tmp)
+        check_output_target(pdf)
+        tmp.replace(pdf)
+    finally:  # never a partial PDF or a stray copy left behind
+        tmp.unlink(missing_ok=True)
+        copy.unlink(missing_ok=True)
+
+
+def _print_pdf(chromium: str, html: Path, tmp: Path) -> None:
     proc = subprocess.run(
         [
             chromium,
             "--headless",
-            "--no-sandbox",
+            *_sandbox_flags(),
             "--disable-gpu",
             "--no-first-run",
             "--disable-background-networking",
@@ -575,4 +671,3 @@ def write_pdf(html: Path, pdf: Path) -> None:
     )
     if proc.returncode != 0 or not tmp.is_file():
         raise ToolError(f"Chromium could not print {html} to PDF: {proc.stderr.strip()[-500:]}")
-    tmp.replace(pdf)

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from compare.apps import report_figures as figs
+from compare.files import atomic_output, write_atomic
 from compare.files import json_safe as _json_safe
-from compare.files import unique_sibling, write_atomic
 from compare.judge.evaluate import evaluate_pair
 from compare.judge.images import Image, read_image, write_exr, write_png
 from compare.judge.tolerances import Tolerances
@@ -126,12 +126,8 @@ class Evaluator:
 
 
 def copy_file(src: Path, dst: Path) -> None:
-    tmp = unique_sibling(dst)
-    try:
+    with atomic_output(dst) as tmp:  # only a regular file is replaced; no partial copy stays
         shutil.copyfile(src, tmp)
-        tmp.replace(dst)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def render_seconds(img: Image) -> float:

@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from compare.escape import mathtext_literal
+from compare.files import atomic_output
 from compare.judge.pareto import pareto_front
 from compare.judge.sentences import luminance
 
@@ -21,10 +23,11 @@ def _plt() -> Any:
 
 
 def _save(fig: Any, path: Path) -> None:
-    tmp = path.with_name(path.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=100, bbox_inches="tight")
-    _plt().close(fig)
-    tmp.replace(path)
+    try:
+        with atomic_output(path) as tmp:
+            fig.savefig(tmp, dpi=100, bbox_inches="tight", format="png")
+    finally:
+        _plt().close(fig)
 
 
 def map_figure(
@@ -34,9 +37,9 @@ def map_figure(
     h, w = data.shape
     fig, ax = plt.subplots(figsize=(6.4, 6.4 * h / w + 0.6))
     im = ax.imshow(data, cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
-    ax.set_title(title, fontsize=10)
+    ax.set_title(mathtext_literal(title), fontsize=10)  # titles carry user labels
     ax.axis("off")
-    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02, label=label)
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02, label=mathtext_literal(label))
     _save(fig, path)
 
 

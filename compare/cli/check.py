@@ -11,17 +11,22 @@ from compare.cli.common import add_cache_argument, size_type
 
 def run_check(args: argparse.Namespace) -> int:
     from compare.apps import check
+    from compare.render.progress import Progress
 
+    if args.against and args.update:
+        raise ValueError("--update rewrites baselines; it cannot be combined with --against")
+    modes = args.modes.split(",") if args.modes else None
     results = check.run_check(
         scenes=args.scenes,
-        modes=args.modes.split(","),
+        modes=modes,
         backends=args.backends.split(","),
         baseline_dir=Path(args.baseline),
         size=args.size,
         update=args.update,
         rtdemo=args.rtdemo,
+        against=args.against,
         cache_dir=args.cache,
-        progress=lambda m: print(m, file=sys.stderr),
+        progress=Progress(sys.stderr),
     )
     print(check.table(results))
     if args.json:
@@ -35,19 +40,28 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    from compare.apps.check import DEFAULT_MODES, DEFAULT_SCENES, DEFAULT_SIZE
+    from compare.apps.check import DEFAULT_SCENES, DEFAULT_SIZE
 
     p = sub.add_parser(
         "check",
         help="regression check of the demo against stored baselines",
         description="Renders the demo on the scene set for every backend and mode asked for "
         "and compares each render with its baseline under per-scene tolerances "
-        "(BASELINE/tolerances.json). A missing baseline fails. Exit 0 pass, 1 warn, "
-        "2 fail.",
+        "(BASELINE/tolerances.json), or with --against MODEL against a target model. "
+        "A missing baseline fails. Exit 0 pass, 1 warn, 2 fail.",
     )
     p.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), help="scene files")
     p.add_argument(
-        "--modes", default=",".join(DEFAULT_MODES), help="comma-separated modes (default all)"
+        "--modes",
+        default=None,
+        help="comma-separated modes (default all; with a demo --against, the model itself)",
+    )
+    p.add_argument(
+        "--against",
+        metavar="MODEL",
+        default=None,
+        help="judge each render against a target model instead of its baseline (demo models: "
+        "exact match; mitsuba: the default rubric)",
     )
     p.add_argument("--backends", default="cpu", help="comma-separated backends (default cpu)")
     p.add_argument(

@@ -4,17 +4,44 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+
+from compare.cli.common import add_cache_argument
 
 
 def run_compare(args: argparse.Namespace) -> int:
-    from compare.apps.compare_pair import load_mask, run_comparison, table, write_outputs
-    from compare.judge.images import read_image
+    from compare.apps.compare_pair import (
+        load_mask,
+        run_against,
+        run_comparison,
+        table,
+        write_outputs,
+    )
+    from compare.judge.images import image_size, read_image
     from compare.judge.metrics import SizeMismatch
     from compare.judge.tolerances import EXIT_SIZE, Tolerances
+    from compare.render.cache import RenderCache
+    from compare.render.progress import Progress
+    from compare.safe_paths import check_outputs_distinct
     from scene_model.scene import load_scene
 
-    ref = read_image(args.ref, encoding=args.ref_encoding)
-    test = read_image(args.test, encoding=args.test_encoding)
+    if args.against:
+        if len(args.images) != 1 or not args.scene:
+            raise ValueError("--against MODEL takes one image (TEST) and --scene SCENE.json")
+    elif len(args.images) != 2:
+        raise ValueError("compare needs REF TEST (or TEST --against MODEL --scene SCENE.json)")
+    ref_path = None if args.against else args.images[0]
+    test_path = args.images[-1]
+    check_outputs_distinct(
+        [("--json", args.json), ("--diff-image", args.diff_image)],
+        [
+            ("REF", ref_path),
+            ("TEST", test_path),
+            ("--mask", args.mask),
+            ("--scene", args.scene),
+            ("--aovs", args.aovs),
+        ],
+    )
     tol = Tolerances(
         fail=args.fail,
         failpercent=args.failpercent,
@@ -24,11 +51,36 @@ def run_compare(args: argparse.Namespace) -> int:
         min_ssim=args.min_ssim,
         max_flip=args.max_flip,
     )
-    mask = load_mask(args.mask, ref.shape) if args.mask else None
-    scene = load_scene(args.scene) if args.scene else None
-    aovs = read_image(args.aovs) if args.aovs else None
     try:
-        result = run_comparison(ref, test, tolerances=tol, mask=mask, scene=scene, aovs=aovs)
+        if ref_path is None:
+            test = read_image(test_path, encoding=args.test_encoding)
+            mask = load_mask(args.mask, test.shape) if args.mask else None
+            result = run_against(
+                test,
+                args.against,
+                Path(args.scene),
+                RenderCache(args.cache),
+                tolerances=tol,
+                mask=mask,
+                progress=Progress(sys.stderr),
+            )
+        else:
+            # Sizes from the headers first: a mismatch costs no decoding (two 8192^2 EXRs or a
+            # tiny PNG declaring 9400^2 pixels would otherwise take gigabytes before the refusal).
+            ref_size, test_size = image_size(ref_path), image_size(test_path)
+            if ref_size != test_size:
+                print(
+                    f"rtval: size mismatch: reference {ref_path} is {ref_size[1]}x{ref_size[0]}, "
+                    f"test {test_path} is {test_size[1]}x{test_size[0]} (never resampled)",
+                    file=sys.stderr,
+                )
+                return EXIT_SIZE
+            ref = read_image(ref_path, encoding=args.ref_encoding)
+            test = read_image(test_path, encoding=args.test_encoding, expected_size=ref.shape)
+            mask = load_mask(args.mask, ref.shape) if args.mask else None
+            scene = load_scene(args.scene) if args.scene else None
+            aovs = read_image(args.aovs) if args.aovs else None
+            result = run_comparison(ref, test, tolerances=tol, mask=mask, scene=scene, aovs=aovs)
     except SizeMismatch as e:
         print(f"rtval: {e}", file=sys.stderr)
         return EXIT_SIZE
@@ -44,11 +96,18 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="metrics and a verdict for two images (EXR, PNG, PPM, PFM)",
         description="Compares TEST against REF: SSIM, FLIP, PSNR, RMSE, MAE, relative MSE, "
         "max error, pixels over threshold, NaN/Inf, each in a stated space; "
-        "per effect with --scene. Exit 0 pass, 1 warn, 2 fail, 3 size mismatch, "
-        "4 unreadable input.",
+        "per effect with --scene. With --against MODEL --scene S, TEST alone is judged "
+        "against the model rendered at TEST's size (demo models: exact match). "
+        "Exit 0 pass, 1 warn, 2 fail, 3 size mismatch, 4 unreadable input.",
     )
-    p.add_argument("ref", help="reference image")
-    p.add_argument("test", help="image under test")
+    p.add_argument("images", nargs="+", metavar="IMAGE", help="REF TEST, or TEST with --against")
+    p.add_argument(
+        "--against",
+        metavar="MODEL",
+        default=None,
+        help="judge TEST against this target model instead of a REF image: mitsuba, "
+        "mitsuba-path, paper, classic, physical, MODE+Qn/-Qn (needs --scene)",
+    )
     p.add_argument(
         "--ref-encoding",
         choices=("srgb", "linear"),
@@ -89,4 +148,5 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     g.add_argument("--min-ssim", type=float, default=None, help="fail below this SSIM")
     g.add_argument("--max-flip", type=float, default=None, help="fail above this mean LDR FLIP")
     p.add_argument("-q", "--quiet", action="store_true", help="no table on stdout")
+    add_cache_argument(p)
     p.set_defaults(func=run_compare)

@@ -31,6 +31,7 @@ def run_grade(args: argparse.Namespace) -> int:
         scheduler=args.scheduler,
         jobs=args.jobs,
         size=args.size,
+        against=args.against,
         cache_dir=args.cache,
         progress=Progress(sys.stderr),
     )
@@ -45,13 +46,20 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "grade",
         help="grade a folder of submissions: per-student pages and a gradebook",
         description="Grades every submission (an image named after the student, or a folder of "
-        "images named after the scenes) against the scenes' references with a rubric; "
+        "images named after the scenes) against a target model (--against) with a rubric; "
         "writes OUT/gradebook.csv, gradebook.json and OUT/students/ID/index.html. "
         "Re-runs skip what is done.",
     )
     p.add_argument("submissions", nargs="?", help="folder of submissions")
     p.add_argument(
         "--scene", action="append", help="scene name (scenes/NAME.json) or file; repeatable"
+    )
+    p.add_argument(
+        "--against",
+        metavar="MODEL",
+        default=None,
+        help="target model: classic (default, or the rubric's `against`), paper, physical, "
+        "MODE+Qn/-Qn, mitsuba, mitsuba-path. Demo models are judged by exact match",
     )
     p.add_argument("--out", default="grades", help="output folder (default grades)")
     p.add_argument(
@@ -74,7 +82,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         type=size_type,
         default=None,
         metavar="WxH",
-        help="reference size (default: the scene's)",
+        help="model render size (default: the scene's)",
     )
     p.add_argument(
         "--explain", metavar="ID", help="print how student ID's score came about, then exit"

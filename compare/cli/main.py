@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import sys
 
-from compare.cli import cache, check, compare, grade, report, stress, ztest
+from compare.cli import cache, check, compare, diagnose, grade, report, stress, ztest
 from compare.cli.common import EXIT_USAGE, Parser
 from compare.judge.images import ImageError
 from compare.judge.rubric import RubricError
@@ -38,6 +38,7 @@ def build_parser() -> Parser:
     check.register(sub)
     stress.register(sub)
     grade.register(sub)
+    diagnose.register(sub)
     cache.register(sub)
     return parser
 

@@ -11,7 +11,13 @@ from compare.cli.common import add_cache_argument, positive_int, size_type
 
 def run_report(args: argparse.Namespace) -> int:
     from compare.apps.report import build_report
+    from compare.judge.target_model import parse_model
     from compare.render.progress import Progress
+
+    if args.against:
+        if not args.test_image:
+            raise ValueError("--against needs --test-image (the image judged against MODEL)")
+        parse_model(args.against)  # a bad model is a usage error before any render
 
     index = build_report(
         args.scene,
@@ -20,6 +26,7 @@ def run_report(args: argparse.Namespace) -> int:
         test_image=args.test_image,
         test_label=args.label,
         test_encoding=args.test_encoding,
+        against=args.against,
         jobs=args.jobs,
         pdf=not args.no_pdf,
         cache_dir=args.cache,
@@ -61,6 +68,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--test-image",
         metavar="IMAGE",
         help="grade this render (EXR, PNG, PPM, PFM) in the demo's place",
+    )
+    p.add_argument(
+        "--against",
+        metavar="MODEL",
+        default=None,
+        help="with --test-image: the model it was asked to implement (default classic); the "
+        "report gives its verdict against that model and against Mitsuba side by side",
     )
     p.add_argument("--label", default=None, help="name of the --test-image renderer in the report")
     p.add_argument(

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from compare.cli.common import positive_int
 
@@ -14,10 +13,26 @@ def run_ztest(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from compare.judge.images import ImageError, read_image, write_exr
+    from compare.files import write_atomic
+    from compare.judge.images import ImageError, image_size, read_image, write_exr
     from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_SIZE
     from compare.judge.ztest import z_test
+    from compare.safe_paths import check_outputs_distinct
 
+    check_outputs_distinct(
+        [("--json", args.json), ("--pvalue-image", args.pvalue_image)],
+        [("REF", args.ref), ("TEST", args.test)],
+    )
+    if not (0 < args.alpha < 1):  # also refuses NaN
+        raise ValueError(f"--alpha: expected a number between 0 and 1, got {args.alpha}")
+    ref_size, test_size = image_size(args.ref), image_size(args.test)  # before decoding
+    if ref_size != test_size:
+        print(
+            f"rtval: size mismatch: reference {ref_size[1]}x{ref_size[0]}, test "
+            f"{test_size[1]}x{test_size[0]}",
+            file=sys.stderr,
+        )
+        return EXIT_SIZE
     ref = read_image(args.ref)
     test = read_image(args.test)
     if not all(f"var.{c}" in ref.aovs for c in "RGB"):
@@ -44,7 +59,8 @@ def run_ztest(args: argparse.Namespace) -> int:
         f"(alpha {args.alpha}, test spp {spp}): {'PASS' if result.passed else 'FAIL'}"
     )
     if args.json:
-        Path(args.json).write_text(
+        write_atomic(
+            args.json,
             json.dumps(
                 {
                     "passed": result.passed,
@@ -56,7 +72,7 @@ def run_ztest(args: argparse.Namespace) -> int:
                 },
                 indent=2,
             )
-            + "\n"
+            + "\n",
         )
     if not result.passed and args.pvalue_image:
         write_exr(

@@ -6,11 +6,18 @@ linear values straight to 8 bits). EXR AOV channels (id, depth, N.*) are kept wh
 
 from __future__ import annotations
 
+import math
+import os
+import stat
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
+
+from compare.files import atomic_output
+from compare.safe_paths import UnsafePathError, check_regular_input
 
 F32 = NDArray[np.float32]
 
@@ -42,6 +49,110 @@ def linear_to_srgb(v: F32) -> F32:
     return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055).astype(np.float32)
 
 
+# The judge keeps a few float maps per pixel: refuse sizes beyond the scene format's
+# largest image (16384 x 16384) before decoding anything.
+MAX_PIXELS = 16384 * 16384
+_PFM_HEADER_MAX = 256  # "PF\n<w> <h>\n<scale>\n" is far shorter
+
+
+class ImageSizeError(ImageError):
+    """An image whose declared size is not the one required (found in the header)."""
+
+    def __init__(self, message: str, size: tuple[int, int], expected: tuple[int, int]) -> None:
+        super().__init__(message)
+        self.size = size  # (height, width) declared by the file
+        self.expected = expected
+
+
+def _open_regular(path: Path) -> BinaryIO:
+    """Opens a regular file for reading, never blocking on a FIFO and never reading a
+    device (a symlink to /dev/zero included)."""
+    try:
+        check_regular_input(path)
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except OSError as e:
+        raise ImageError(str(e) if isinstance(e, UnsafePathError) else f"{path}: {e}") from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):  # swapped after the check
+        os.close(fd)
+        raise ImageError(f"{path}: not a regular file")
+    return os.fdopen(fd, "rb")
+
+
+def _exr_size(path: Path) -> tuple[int, int]:
+    import OpenEXR
+
+    try:
+        with OpenEXR.File(str(path), header_only=True) as f:
+            lo, hi = f.header()["dataWindow"]
+    except Exception as e:  # the binding raises bare RuntimeError / OSError
+        raise ImageError(f"{path}: cannot read EXR: {e}") from None
+    return int(hi[1]) - int(lo[1]) + 1, int(hi[0]) - int(lo[0]) + 1
+
+
+def _pil_size(path: Path) -> tuple[int, int]:
+    from PIL import Image as PILImage
+
+    with _open_regular(path) as f:
+        try:
+            with PILImage.open(f) as im:  # reads the header only
+                w, h = im.size
+        except Exception as e:
+            raise ImageError(f"{path}: cannot read image: {type(e).__name__}: {e}") from None
+    return int(h), int(w)
+
+
+def _pfm_header(path: Path, head: bytes) -> tuple[int, int, int, float, int]:
+    """(width, height, channels, scale, offset of the pixels) from the first bytes."""
+    tokens: list[bytes] = []
+    pos = 0
+    while len(tokens) < 4:
+        while pos < len(head) and head[pos : pos + 1].isspace():
+            pos += 1
+        start = pos
+        while pos < len(head) and not head[pos : pos + 1].isspace():
+            pos += 1
+        if start == pos or pos >= len(head):
+            raise ImageError(f"{path}: truncated or malformed PFM header")
+        tokens.append(head[start:pos])
+    pos += 1  # the single whitespace byte that ends the header
+    try:
+        kind, w, h, scale = tokens[0], int(tokens[1]), int(tokens[2]), float(tokens[3])
+    except ValueError:
+        raise ImageError(f"{path}: malformed PFM header {b' '.join(tokens)!r}") from None
+    if kind not in (b"PF", b"Pf") or w <= 0 or h <= 0:
+        raise ImageError(f"{path}: not a PFM file (expected PF or Pf and a positive size)")
+    if not math.isfinite(scale) or scale == 0:
+        raise ImageError(f"{path}: PFM scale: expected a finite number != 0, got {tokens[3]!r}")
+    return w, h, 3 if kind == b"PF" else 1, scale, pos
+
+
+def image_size(path: str | Path) -> tuple[int, int]:
+    """(height, width) from the file's header, without decoding its pixels."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix == ".exr":
+        with _open_regular(p):  # the type check; the binding opens by name
+            pass
+        return _exr_size(p)
+    if suffix == ".pfm":
+        with _open_regular(p) as f:
+            w, h, *_ = _pfm_header(p, f.read(_PFM_HEADER_MAX))
+        return h, w
+    if suffix in (".png", ".ppm", ".pnm"):
+        return _pil_size(p)
+    raise ImageError(f"{p}: unsupported image type '{suffix}' (expected .exr, .png, .ppm, .pfm)")
+
+
+def _check_size(path: Path, size: tuple[int, int], expected: tuple[int, int] | None) -> None:
+    h, w = size
+    if expected is not None and size != expected:
+        raise ImageSizeError(
+            f"{path}: wrong size {w}x{h}, expected {expected[1]}x{expected[0]}", size, expected
+        )
+    if h <= 0 or w <= 0 or h * w > MAX_PIXELS:
+        raise ImageError(f"{path}: declares {w}x{h} pixels; at most {MAX_PIXELS} are read")
+
+
 def _read_exr(path: Path) -> Image:
     import OpenEXR
 
@@ -68,16 +179,17 @@ def _read_8bit(path: Path, encoding: str) -> Image:
     from PIL import Image as PILImage
 
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), _open_regular(path) as f:
             warnings.simplefilter(
                 "error", PILImage.DecompressionBombWarning
             )  # refuse, never allocate
-            im = PILImage.open(path)
-        with im:
-            im.load()
-            if im.mode not in ("RGB", "RGBA", "L"):
-                raise ImageError(f"{path}: unsupported pixel mode {im.mode} (expected 8-bit RGB)")
-            data = np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
+            with PILImage.open(f) as im:
+                im.load()
+                if im.mode not in ("RGB", "RGBA", "L"):
+                    raise ImageError(
+                        f"{path}: unsupported pixel mode {im.mode} (expected 8-bit RGB)"
+                    )
+                data = np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
     except ImageError:
         raise
     except (
@@ -90,70 +202,61 @@ def _read_8bit(path: Path, encoding: str) -> Image:
 
 def _read_pfm(path: Path) -> Image:
     """Portable float map: 'PF' (RGB) or 'Pf' (grey), size, scale (< 0: little-endian),
-    then float32 rows bottom to top."""
-    raw = path.read_bytes()
-    tokens: list[bytes] = []
-    pos = 0
-    while len(tokens) < 4:
-        while pos < len(raw) and raw[pos : pos + 1].isspace():
-            pos += 1
-        start = pos
-        while pos < len(raw) and not raw[pos : pos + 1].isspace():
-            pos += 1
-        if start == pos:
-            raise ImageError(f"{path}: truncated PFM header")
-        tokens.append(raw[start:pos])
-    pos += 1  # the single whitespace byte that ends the header
-    try:
-        kind, w, h, scale = tokens[0], int(tokens[1]), int(tokens[2]), float(tokens[3])
-    except ValueError:
-        raise ImageError(f"{path}: malformed PFM header {b' '.join(tokens)!r}") from None
-    if kind not in (b"PF", b"Pf") or w <= 0 or h <= 0 or scale == 0:
-        raise ImageError(f"{path}: not a PFM file (expected PF or Pf, a positive size, scale != 0)")
-    c = 3 if kind == b"PF" else 1
-    need = w * h * c * 4
-    if len(raw) - pos < need:
-        raise ImageError(
-            f"{path}: truncated PFM: {len(raw) - pos} bytes of pixels, expected {need}"
-        )
-    px = np.frombuffer(raw[pos : pos + need], dtype="<f4" if scale < 0 else ">f4")
+    then float32 rows bottom to top. Reads the header first and only the pixels it declares."""
+    with _open_regular(path) as f:
+        head = f.read(_PFM_HEADER_MAX)
+        w, h, c, scale, pos = _pfm_header(path, head)
+        _check_size(path, (h, w), None)
+        need = w * h * c * 4
+        f.seek(pos)
+        raw = f.read(need)
+    if len(raw) < need:
+        raise ImageError(f"{path}: truncated PFM: {len(raw)} bytes of pixels, expected {need}")
+    px = np.frombuffer(raw, dtype="<f4" if scale < 0 else ">f4")
     px = px.reshape(h, w, c)[::-1]
     rgb = np.repeat(px, 3, axis=2) if c == 1 else px
     return Image(rgb=rgb.astype(np.float32), path=str(path), encoding="float")
 
 
-def read_image(path: str | Path, *, encoding: str | None = None) -> Image:
+def read_image(
+    path: str | Path,
+    *,
+    encoding: str | None = None,
+    expected_size: tuple[int, int] | None = None,
+) -> Image:
     """Reads an image as linear float32 RGB.
 
     ``encoding`` ("srgb" or "linear") applies to 8-bit files only; by default PNG is sRGB
-    and PPM linear. Raises ImageError naming the file on anything unreadable.
+    and PPM linear. The path must be a regular file; its header is read first and an image
+    whose declared (height, width) differs from ``expected_size`` (ImageSizeError) or
+    exceeds MAX_PIXELS is refused before any pixel is decoded, so a small file declaring a
+    huge image costs no memory. Raises ImageError naming the file on anything unreadable.
     """
     p = Path(path)
     if encoding not in (None, "srgb", "linear"):
         raise ValueError(f"encoding must be 'srgb' or 'linear', got {encoding!r}")
-    if not p.is_file():
-        raise ImageError(f"{p}: no such file")
     suffix = p.suffix.lower()
+    if suffix not in (".exr", ".pfm", ".png", ".ppm", ".pnm"):
+        raise ImageError(
+            f"{p}: unsupported image type '{suffix}' (expected .exr, .png, .ppm, .pfm)"
+        )
+    _check_size(p, image_size(p), expected_size)
     if suffix == ".exr":
         return _read_exr(p)
     if suffix == ".pfm":
         return _read_pfm(p)
     if suffix == ".png":
         return _read_8bit(p, encoding or "srgb")
-    if suffix in (".ppm", ".pnm"):
-        return _read_8bit(p, encoding or "linear")
-    raise ImageError(f"{p}: unsupported image type '{suffix}' (expected .exr, .png, .ppm, .pfm)")
+    return _read_8bit(p, encoding or "linear")
 
 
 def write_png(path: str | Path, rgb_linear: F32) -> None:
     """Clamped, sRGB-encoded 8-bit PNG, written atomically."""
     from PIL import Image as PILImage
 
-    p = Path(path)
     data = np.round(linear_to_srgb(rgb_linear) * 255.0).astype(np.uint8)
-    tmp = p.with_name(p.name + ".tmp")
-    PILImage.fromarray(data, "RGB").save(tmp, format="PNG")
-    tmp.replace(p)
+    with atomic_output(path) as tmp:
+        PILImage.fromarray(data, "RGB").save(tmp, format="PNG")
 
 
 def write_exr(
@@ -174,11 +277,5 @@ def write_exr(
         channels[name] = np.ascontiguousarray(data, dtype=np.float32)
     hdr: dict[str, object] = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     hdr.update(header or {})
-    tmp = p.with_name(p.name + ".tmp")
-    try:
-        with OpenEXR.File(hdr, channels) as f:
-            f.write(str(tmp))
-        tmp.replace(p)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    with atomic_output(p) as tmp, OpenEXR.File(hdr, channels) as f:
+        f.write(str(tmp))

@@ -109,6 +109,21 @@ def _any_channel(per_channel: BOOL) -> BOOL:
     return np.asarray(per_channel.any(axis=-1), bool)
 
 
+# FLIP's widest filter (feature detection, sigma 0.082 deg) spans ~17 px at 67 ppd: a crop
+# with this margin has the full image's FLIP values everywhere inside it.
+FLIP_MARGIN = 24
+
+
+def flip_ldr_map(ref: F32, test: F32) -> F32:
+    """LDR FLIP of the display values, H x W."""
+    import flip_evaluator
+
+    out = flip_evaluator.evaluate(
+        display(ref), display(test), "LDR", applyMagma=False, parameters={"ppd": FLIP_PPD}
+    )[0][..., 0]
+    return np.asarray(out, np.float32)
+
+
 def compute_maps(ref: F32, test: F32, *, hdr: bool) -> Maps:
     """SSIM and FLIP maps plus the display error map, for the whole image."""
     import flip_evaluator
@@ -130,9 +145,7 @@ def compute_maps(ref: F32, test: F32, *, hdr: bool) -> Maps:
             full=True,
         )
         ssim_map = np.asarray(full_map, np.float32).mean(axis=-1)
-    flip_ldr = flip_evaluator.evaluate(a, b, "LDR", applyMagma=False, parameters={"ppd": FLIP_PPD})[
-        0
-    ][..., 0]
+    flip_ldr = flip_ldr_map(ref, test)
     flip_hdr = None
 
     def clean(x: F32) -> F32:

@@ -1,6 +1,7 @@
 """The grading rubric: a TOML file a teacher edits.
 
     [rubric]
+    against = "classic"      # the target model (target_model.py): mitsuba, classic+Q2, ...
     pass_score = 60          # overall score needed to pass (0-100)
     flip_at_zero = 0.5       # an effect's score is 100 (1 - FLIP / flip_at_zero)
 
@@ -15,6 +16,7 @@ Every error names the file and the line.
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +25,7 @@ import tomllib
 
 from compare.judge.effects import EFFECTS
 from compare.judge.scoring import FLIP_AT_ZERO_SCORE, EffectRule
+from compare.judge.target_model import ModelError, parse_model
 
 DEFAULT_RUBRIC_TEXT = """\
 # rtval default rubric: every effect needs mean FLIP <= 0.10 and SSIM >= 0.5 to pass;
@@ -44,6 +47,7 @@ class Rubric:
     effects: dict[str, EffectRule] = field(default_factory=dict)
     source: str = "default rubric"
     digest: str = ""
+    against: str | None = None  # the target model's canonical name; None: the command's default
 
     def rule(self, effect: str) -> EffectRule:
         return self.effects.get(effect, EffectRule())
@@ -82,15 +86,28 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
             )
     top = raw.get("rubric", {})
     values: dict[str, float] = {}
+    against = None
     for key, value in top.items():
+        if key == "against":
+            if not isinstance(value, str):
+                raise fail(f"against must be a string, got {value!r}", key, "rubric")
+            try:
+                against = parse_model(value).name
+            except ModelError as e:
+                raise fail(str(e), key, "rubric") from None
+            continue
         if key not in ("pass_score", "flip_at_zero"):
             raise fail(
-                f"unknown key '{key}' in [rubric] (expected pass_score, flip_at_zero)",
+                f"unknown key '{key}' in [rubric] (expected against, pass_score, flip_at_zero)",
                 key,
                 "rubric",
             )
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise fail(f"{key} must be a number, got {value!r}", key, "rubric")
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
+            raise fail(f"{key} must be a number (finite), got {value!r}", key, "rubric")
         values[key] = float(value)
     if not 0 <= values.get("pass_score", 60) <= 100:
         raise fail("pass_score must be from 0 to 100", "pass_score", "rubric")
@@ -114,8 +131,15 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
                     section,
                 )
             lo = -1.0 if key == "min_ssim" else 0.0  # SSIM ranges over [-1, 1]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < lo:
-                raise fail(f"{key} must be a number >= {lo:g}, got {value!r}", key, section)
+            hi = 1.0 if key == "min_ssim" else math.inf
+            # `not lo <= v < hi` also refuses NaN (TOML has nan and inf), which compares false
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not (lo <= value <= hi and math.isfinite(value))
+            ):
+                span = f"from {lo:g} to {hi:g}" if hi < math.inf else f">= {lo:g}"
+                raise fail(f"{key} must be a number {span} (finite), got {value!r}", key, section)
             rule[key] = float(value)
         effects[name] = EffectRule(**rule)
     return Rubric(
@@ -124,15 +148,20 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
         effects=effects,
         source=source,
         digest=hashlib.sha256(text.encode()).hexdigest()[:16],
+        against=against,
     )
 
 
 def load_rubric(path: str | Path | None) -> Rubric:
     if path is None:
         return parse_rubric(DEFAULT_RUBRIC_TEXT, "default rubric")
+    from compare.safe_paths import read_bounded
+
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise RubricError(f"{p}: cannot read the rubric: {e}") from None
+    try:  # a regular file of at most 1 MiB: never a FIFO or a device
+        text = read_bounded(p, 1 << 20).decode("utf-8")
+    except OSError as e:  # the message names the path
+        raise RubricError(f"cannot read the rubric: {e}") from None
+    except UnicodeDecodeError as e:
+        raise RubricError(f"{p}: the rubric is not UTF-8 text: {e}") from None
     return parse_rubric(text, str(p))

@@ -8,14 +8,23 @@ score is 100 (1 - FLIP / flip_at_zero), clamped to [0, 100] (flip_at_zero defaul
 half the perceptual range scores nothing). The overall score is the mean of the effect scores
 weighted by pixel count times the rule's weight; the verdict passes when every effect does
 (and, with `pass_score`, when the overall score reaches it).
+
+Against a demo model the basis is the exact match instead (score_exact): an effect passes when
+at most 0.1 % of its pixels differ from the model beyond the test's quantisation
+(exact_match.py), and its score is 100 x the share of its pixels that match. FLIP is then only
+evidence in the reason of a failing effect.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from compare.judge.metrics import Metrics
+
+if TYPE_CHECKING:
+    from compare.judge.exact_match import ExactMatch
 
 FLIP_AT_ZERO_SCORE = 0.5
 
@@ -34,8 +43,9 @@ class EffectScore:
     reasons: list[str]
     pixels: int
     ssim: float | None
-    flip: float
+    flip: float | None  # None: not computed (an effect that matches its demo model exactly)
     rule: EffectRule
+    differing: int | None = None  # exact basis: pixels that differ from the model
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -45,6 +55,7 @@ class EffectScore:
             "pixels": self.pixels,
             "ssim": self.ssim,
             "flip": self.flip,
+            "differing": self.differing,
             "rule": {
                 "min_ssim": self.rule.min_ssim,
                 "max_flip": self.rule.max_flip,
@@ -60,15 +71,25 @@ class Score:
     effects: dict[str, EffectScore] = field(default_factory=dict)
     flip_at_zero_score: float = FLIP_AT_ZERO_SCORE
     pass_score: float | None = None
+    basis: str = "flip"  # flip: the rubric's FLIP/SSIM rules; exact: the exact match
 
     def as_dict(self) -> dict[str, Any]:
         return {
             "status": self.status,
             "score": self.score,
+            "basis": self.basis,
             "effects": {k: e.as_dict() for k, e in self.effects.items()},
             "flip_at_zero_score": self.flip_at_zero_score,
             "pass_score": self.pass_score,
         }
+
+    def reasons(self) -> list[str]:
+        """Why it fails, one line per failing effect, the worst first ("refraction: FLIP 0.310
+        > 0.1"), then the overall score when it is short of pass_score."""
+        out = [f"{k}: {'; '.join(self.effects[k].reasons)}" for k in self.failing_effects]
+        if self.pass_score is not None and self.score < self.pass_score:
+            out.append(f"score {self.score:.1f} < {self.pass_score:g}")
+        return out
 
     @property
     def failing_effects(self) -> list[str]:
@@ -106,6 +127,46 @@ def score_effect(m: Metrics, rule: EffectRule, flip_at_zero: float) -> EffectSco
     )
 
 
+def _overall(effects: dict[str, EffectScore]) -> float:
+    total_w = sum(e.pixels * e.rule.weight for e in effects.values())
+    if not total_w:
+        return 0.0
+    return sum(e.pixels * e.rule.weight * e.score for e in effects.values()) / total_w
+
+
+def score_exact(
+    exact: ExactMatch,
+    flip_of: Callable[[str], float],
+    rules: dict[str, EffectRule] | None = None,
+    *,
+    pass_score: float | None = None,
+) -> Score:
+    """The exact match -> the scored verdict; `flip_of(effect)` is asked for failing effects
+    only (it computes the FLIP map on first use)."""
+    rules = rules or {}
+    effects = {}
+    for name, e in exact.per_effect.items():
+        flip = None if e.passed else flip_of(name)
+        reasons = [] if e.passed else [f"{exact.sentence(name)}; FLIP {flip:.2f}"]
+        effects[name] = EffectScore(
+            "pass" if e.passed else "fail",
+            100.0 * (1.0 - e.share),
+            reasons,
+            e.pixels,
+            None,
+            flip,
+            rules.get(name, EffectRule()),
+            e.differing,
+        )
+    overall = _overall(effects)
+    ok = bool(effects) and all(e.status == "pass" for e in effects.values())
+    if pass_score is not None and overall < pass_score:
+        ok = False
+    return Score(
+        "pass" if ok else "fail", overall, effects, FLIP_AT_ZERO_SCORE, pass_score, "exact"
+    )
+
+
 def score_effects(
     per_effect: dict[str, Metrics],
     rules: dict[str, EffectRule] | None = None,
@@ -119,12 +180,7 @@ def score_effects(
         name: score_effect(m, rules.get(name, EffectRule()), flip_at_zero)
         for name, m in per_effect.items()
     }
-    total_w = sum(e.pixels * e.rule.weight for e in effects.values())
-    overall = (
-        sum(e.pixels * e.rule.weight * e.score for e in effects.values()) / total_w
-        if total_w
-        else 0.0
-    )
+    overall = _overall(effects)
     ok = bool(effects) and all(e.status == "pass" for e in effects.values())
     if pass_score is not None and overall < pass_score:
         ok = False

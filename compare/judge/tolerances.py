@@ -29,6 +29,35 @@ class Tolerances:
     min_ssim: float | None = None
     max_flip: float | None = None
 
+    def __post_init__(self) -> None:
+        """Every tolerance is a user's number: finite and in range (NaN compares false with
+        everything, so an unchecked NaN would silently pass every test)."""
+        if self.hardfail is None:  # as_dict() writes an infinite hardfail as null
+            object.__setattr__(self, "hardfail", math.inf)
+        rules: dict[str, tuple[float, float, bool]] = {  # lo, hi, may be +inf
+            "fail": (0.0, math.inf, False),
+            "failpercent": (0.0, 100.0, False),
+            "hardfail": (0.0, math.inf, True),
+            "warn": (0.0, math.inf, False),
+            "warnpercent": (0.0, 100.0, False),
+            "min_ssim": (-1.0, 1.0, False),
+            "max_flip": (0.0, math.inf, False),
+        }
+        for name, (lo, hi, inf_ok) in rules.items():
+            v = getattr(self, name)
+            if v is None and name in ("min_ssim", "max_flip"):
+                continue
+            ok = (
+                not isinstance(v, bool)
+                and isinstance(v, (int, float))
+                and (math.isfinite(v) or (inf_ok and v == math.inf))
+                and lo <= v <= hi
+            )
+            if not ok:
+                option = "--" + name.replace("_", "-")
+                span = f">= {lo:g}" if hi == math.inf else f"from {lo:g} to {hi:g}"
+                raise ValueError(f"tolerance {option}: expected a finite number {span}, got {v!r}")
+
     def as_dict(self) -> dict[str, Any]:
         return {
             k: (None if isinstance(v, float) and math.isinf(v) else v)

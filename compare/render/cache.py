@@ -28,8 +28,9 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from compare.files import sha256_file, unique_sibling, write_atomic
+from compare.files import atomic_output, sha256_file, unique_sibling, write_atomic
 from compare.render.runner import ToolError, rtdemo_path
+from compare.safe_paths import check_output_target
 
 ENV = "RTVAL_CACHE"
 STALE_TMP_SECONDS = 24 * 3600  # a temporary file this old belongs to a process that died
@@ -114,6 +115,7 @@ class RenderCache:
         """Moves a finished render into the cache; the sidecar written last marks it whole."""
         self._ready()
         info = {**facts, "sha256": sha256_file(produced), "stored": time.time()}
+        check_output_target(self.exr(key))  # only ever replace a regular file
         produced.replace(self.exr(key))
         write_atomic(self.renders / f"{key}.json", json.dumps(info, indent=1))
         return info
@@ -152,9 +154,5 @@ class RenderCache:
 
     def copy_out(self, key: str, target: Path) -> None:
         """A copy of a cached render elsewhere (e.g. grade's references/), atomically."""
-        tmp = unique_sibling(target)
-        try:
+        with atomic_output(target) as tmp:
             shutil.copyfile(self.exr(key), tmp)
-            tmp.replace(target)
-        finally:
-            tmp.unlink(missing_ok=True)

@@ -1,4 +1,4 @@
-// The paper's tracer (paper-model.md) as a fragment shader: the GLSL twin of tracer.cpp.
+// The paper's tracer (docs/paper-model.md) as a fragment shader: the GLSL twin of tracer.cpp.
 // gl_program.cpp prepends `#version` and the specialisation: QUIRKS (bit q-1: quirk Qq
 // present), EFFECTS (bit 0 shadows, 1 reflection, 2 refraction), MAX_DEPTH, STACK_SIZE
 // (= max(MAX_DEPTH, 1)), SPHERE_COUNT, LIGHT_COUNT and LIGHT_INDICES, BIAS, BACKGROUND, and
@@ -153,7 +153,7 @@ float dielectric_fresnel(float cos_theta_i, float eta) {
     return clamp(0.5 * (a_s * a_s + a_p * a_p), 0.0, 1.0);
 }
 
-// Step 5 of paper-model.md: direct light at p on sphere `hit`.
+// Step 5 of docs/paper-model.md: direct light at p on sphere `hit`.
 vec3 shade_direct(int hit, vec3 p, vec3 n) {
     vec3 origin = p + n * offset_at(p);
     vec3 aim_from = quirk(1) ? p : origin;
@@ -236,7 +236,7 @@ vec3 trace(vec3 origin, vec3 dir) {
         total += direct ? w * direct_light : vec3(0.0);
         total += (surface && quirk(7)) ? w * S.emission_transparency.rgb : vec3(0.0);
 
-        // Its children (step 4 of paper-model.md).
+        // Its children (step 4 of docs/paper-model.md).
         float d_dot_n = dot(d, n);
         float facing = max(0.0, -d_dot_n);
         float offset = offset_at(p);

@@ -1,4 +1,4 @@
-// Camera ray generation exactly as paper-model.md defines it (vertical fov, y down).
+// Camera ray generation exactly as docs/paper-model.md defines it (vertical fov, y down).
 #pragma once
 
 #include "ray.h"

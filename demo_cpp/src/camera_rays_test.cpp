@@ -27,7 +27,8 @@ TEST(CameraRays, FovIsVerticalAndYGoesDown) {
     EXPECT_GT(top.dir.y, 0.0f);
     EXPECT_NEAR(std::atan2(top.dir.y, -top.dir.z), 30.0f * 3.14159265f / 180.0f, 1e-5f);
     const ray right = cam.render_from_camera(640.0f, 240.0f);
-    EXPECT_NEAR(right.dir.x / -right.dir.z, std::tan(30.0f * 3.14159265f / 180.0f) * 640 / 480, 1e-5f);
+    EXPECT_NEAR(right.dir.x / -right.dir.z, std::tan(30.0f * 3.14159265f / 180.0f) * 640 / 480,
+                1e-5f);
 }
 
 TEST(CameraRays, PixelCentreFormulaOfPaperModel) {

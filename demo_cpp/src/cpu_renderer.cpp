@@ -6,7 +6,6 @@
 #include <vector>
 
 #include "camera_rays.h"
-#include "fault_injection.h"
 
 namespace rt {
 
@@ -22,7 +21,7 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
     const Tracer shared_tracer(scene, settings.trace);
     const int k = strata_per_axis(settings.spp);
     const float inv_samples = 1.0f / static_cast<float>(k * k);
-    const float centre = fault(Fault::half_pixel_offset) ? 0.0f : 0.5f;
+    const float centre = settings.trace.mistakes.has(Mistake::half_pixel_offset) ? 0.0f : 0.5f;
 
     // The row counter on a cache line of its own, and each worker with private copies of what
     // it reads per ray: shared read data next to another thread's stack writes cost 70 % more
@@ -56,7 +55,7 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
                 image.normal[3 * i + 2] = hit.normal.z;
 
                 color c = sum * inv_samples;
-                if (fault(Fault::double_gamma))
+                if (settings.trace.mistakes.has(Mistake::double_gamma))
                     c = {std::pow(c.x, 1 / 2.2f), std::pow(c.y, 1 / 2.2f), std::pow(c.z, 1 / 2.2f)};
                 image.rgb[3 * i + 0] = c.x;
                 image.rgb[3 * i + 1] = c.y;

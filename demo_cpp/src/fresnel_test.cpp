@@ -8,8 +8,8 @@ namespace rt {
 namespace {
 
 TEST(PaperFresnel, MixOfCubeWithTenPercentFloor) {
-    EXPECT_FLOAT_EQ(paper_fresnel(1.0f), 0.1f);   // facing the viewer
-    EXPECT_FLOAT_EQ(paper_fresnel(0.0f), 1.0f);   // grazing
+    EXPECT_FLOAT_EQ(paper_fresnel(1.0f), 0.1f);  // facing the viewer
+    EXPECT_FLOAT_EQ(paper_fresnel(0.0f), 1.0f);  // grazing
     EXPECT_FLOAT_EQ(paper_fresnel(0.5f), 0.1f + 0.9f * 0.125f);
 }
 

@@ -11,7 +11,9 @@ namespace rt {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 // An EGL display that needs no window system: a device (NVIDIA, Mesa), then Mesa's
 // surfaceless platform, then the default display.
@@ -22,14 +24,16 @@ EGLDisplay open_display() {
         EGLint count = 0;
         if (eglQueryDevicesEXT(8, devices, &count)) {
             for (EGLint i = 0; i < count; ++i) {
-                EGLDisplay d = eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr);
+                EGLDisplay d =
+                    eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr);
                 EGLint major = 0, minor = 0;
                 if (d != EGL_NO_DISPLAY && eglInitialize(d, &major, &minor)) return d;
             }
         }
     }
     if (epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_MESA_platform_surfaceless")) {
-        EGLDisplay d = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+        EGLDisplay d =
+            eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
         EGLint major = 0, minor = 0;
         if (d != EGL_NO_DISPLAY && eglInitialize(d, &major, &minor)) return d;
     }
@@ -51,11 +55,16 @@ public:
         EGLint n = 0;
         if (!eglChooseConfig(display_, config_attribs, &config, 1, &n) || n == 0)
             throw GlError("EGL: no OpenGL-capable config");
-        const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 3,
+        const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION,
+                                          4,
+                                          EGL_CONTEXT_MINOR_VERSION,
+                                          3,
                                           EGL_CONTEXT_OPENGL_PROFILE_MASK,
-                                          EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+                                          EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+                                          EGL_NONE};
         context_ = eglCreateContext(display_, config, EGL_NO_CONTEXT, context_attribs);
-        if (context_ == EGL_NO_CONTEXT) throw GlError("EGL: cannot create an OpenGL 4.3 core context");
+        if (context_ == EGL_NO_CONTEXT)
+            throw GlError("EGL: cannot create an OpenGL 4.3 core context");
         if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_))
             throw GlError("EGL: cannot make the context current without a surface");
     }
@@ -77,7 +86,8 @@ public:
         glGenFramebuffers(1, &fbo_);
         glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
         glGenTextures(3, textures_);
-        const GLenum attachments[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+        const GLenum attachments[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1,
+                                       GL_COLOR_ATTACHMENT2};
         for (int i = 0; i < 3; ++i) {
             glBindTexture(GL_TEXTURE_2D, textures_[i]);
             glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, w, h);

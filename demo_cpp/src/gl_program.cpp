@@ -75,9 +75,9 @@ std::string float_constant(float v) {
 // The spheres as a GLSL constructor list.
 std::string sphere_constants(const Scene& scene) {
     std::string out;
-    auto vec4_of = [](const float (&v)[4]) {
-        return "vec4(" + float_constant(v[0]) + "," + float_constant(v[1]) + "," + float_constant(v[2]) +
-               "," + float_constant(v[3]) + ")";
+    auto vec4_of = [](const float(&v)[4]) {
+        return "vec4(" + float_constant(v[0]) + "," + float_constant(v[1]) + "," +
+               float_constant(v[2]) + "," + float_constant(v[3]) + ")";
     };
     for (const GpuSphere& g : gpu_spheres(scene)) {
         if (!out.empty()) out += ",";
@@ -97,7 +97,8 @@ std::string light_indices(const Scene& scene) {
         if (!scene.spheres[i].is_light()) continue;
         list += (count++ ? "," : "") + std::to_string(i);
     }
-    return "#define LIGHT_COUNT " + std::to_string(count) + "\n#define LIGHT_INDICES " + list + "\n";
+    return "#define LIGHT_COUNT " + std::to_string(count) + "\n#define LIGHT_INDICES " + list +
+           "\n";
 }
 
 }  // namespace
@@ -117,8 +118,9 @@ TraceProgram::TraceProgram(const Scene& scene, const TraceOptions& options) : sc
         const std::vector<GpuSphere> data = gpu_spheres(scene);
         glGenBuffers(1, &ssbo_);
         glBindBuffer(GL_SHADER_STORAGE_BUFFER, ssbo_);
-        glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(GpuSphere)),
-                     data.data(), GL_STATIC_DRAW);
+        glBufferData(GL_SHADER_STORAGE_BUFFER,
+                     static_cast<GLsizeiptr>(data.size() * sizeof(GpuSphere)), data.data(),
+                     GL_STATIC_DRAW);
     }
     glGenVertexArrays(1, &vao_);
     program_for(options);
@@ -130,8 +132,8 @@ unsigned TraceProgram::program_for(const TraceOptions& options) {
     int quirks = 0;
     for (int q = 1; q <= kQuirkCount; ++q)
         if (options.quirks.has(static_cast<Quirk>(q))) quirks |= 1 << (q - 1);
-    const int effects = (options.shadows ? 1 : 0) | (options.reflection ? 2 : 0) |
-                        (options.refraction ? 4 : 0);
+    const int effects =
+        (options.shadows ? 1 : 0) | (options.reflection ? 2 : 0) | (options.refraction ? 4 : 0);
     std::string header = "#define QUIRKS " + std::to_string(quirks) + "\n#define EFFECTS " +
                          std::to_string(effects) + "\n#define MAX_DEPTH " +
                          std::to_string(options.max_depth) + "\n#define STACK_SIZE " +
@@ -139,15 +141,17 @@ unsigned TraceProgram::program_for(const TraceOptions& options) {
     if (const auto found = programs_.find(header); found != programs_.end()) return found->second;
 
     const std::string key = header;
-    header += "#define SPHERE_COUNT " + std::to_string(std::max<std::size_t>(scene_.spheres.size(), 1)) + "\n";
-    if (scene_.spheres.size() <= kMaxConstantSpheres) header += "#define SCENE_SPHERES " + sphere_constants(scene_) + "\n";
+    header += "#define SPHERE_COUNT " +
+              std::to_string(std::max<std::size_t>(scene_.spheres.size(), 1)) + "\n";
+    if (scene_.spheres.size() <= kMaxConstantSpheres)
+        header += "#define SCENE_SPHERES " + sphere_constants(scene_) + "\n";
     header += light_indices(scene_);
     header += "#define BIAS " + float_constant(scene_.bias) + "\n#define BACKGROUND vec3(" +
-              float_constant(scene_.background.x) + "," + float_constant(scene_.background.y) + "," +
-              float_constant(scene_.background.z) + ")\n";
+              float_constant(scene_.background.x) + "," + float_constant(scene_.background.y) +
+              "," + float_constant(scene_.background.z) + ")\n";
     const unsigned vs = compile(GL_VERTEX_SHADER, kFullscreenVertSource, "fullscreen.vert.glsl");
-    const unsigned fs = compile(GL_FRAGMENT_SHADER, "#version 430 core\n" + header + kTraceFragSource,
-                                "trace.frag.glsl");
+    const unsigned fs = compile(
+        GL_FRAGMENT_SHADER, "#version 430 core\n" + header + kTraceFragSource, "trace.frag.glsl");
     const unsigned program = glCreateProgram();
     glAttachShader(program, vs);
     glAttachShader(program, fs);

@@ -40,7 +40,8 @@ void error_callback(int code, const char* text) {
 
 point3 eye_of(const ViewState& s) {
     const float cp = std::cos(s.pitch);
-    return s.target + vec3{cp * std::sin(s.yaw), std::sin(s.pitch), cp * std::cos(s.yaw)} * s.distance;
+    return s.target +
+           vec3{cp * std::sin(s.yaw), std::sin(s.pitch), cp * std::cos(s.yaw)} * s.distance;
 }
 
 void save_screenshot(const std::string& path, int w, int h) {
@@ -92,17 +93,30 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
         if (action != GLFW_PRESS) return;
         auto* s = static_cast<ViewState*>(glfwGetWindowUserPointer(w));
         switch (key) {
-            case GLFW_KEY_ESCAPE: case GLFW_KEY_Q: glfwSetWindowShouldClose(w, GLFW_TRUE); break;
+            case GLFW_KEY_ESCAPE:
+            case GLFW_KEY_Q:
+                glfwSetWindowShouldClose(w, GLFW_TRUE);
+                break;
             case GLFW_KEY_M:
-                s->mode = s->mode == Mode::paper ? Mode::classic
-                          : s->mode == Mode::classic ? Mode::physical : Mode::paper;
+                s->mode = s->mode == Mode::paper     ? Mode::classic
+                          : s->mode == Mode::classic ? Mode::physical
+                                                     : Mode::paper;
                 s->trace.quirks = quirks_for(s->mode);
                 break;
-            case GLFW_KEY_S: s->trace.shadows = !s->trace.shadows; break;
-            case GLFW_KEY_R: s->trace.reflection = !s->trace.reflection; break;
-            case GLFW_KEY_T: s->trace.refraction = !s->trace.refraction; break;
-            case GLFW_KEY_P: s->want_screenshot = true; break;
-            default: break;
+            case GLFW_KEY_S:
+                s->trace.shadows = !s->trace.shadows;
+                break;
+            case GLFW_KEY_R:
+                s->trace.reflection = !s->trace.reflection;
+                break;
+            case GLFW_KEY_T:
+                s->trace.refraction = !s->trace.refraction;
+                break;
+            case GLFW_KEY_P:
+                s->want_screenshot = true;
+                break;
+            default:
+                break;
         }
     });
     glfwSetMouseButtonCallback(window.get(), [](GLFWwindow* w, int button, int action, int) {
@@ -116,7 +130,8 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
         auto* s = static_cast<ViewState*>(glfwGetWindowUserPointer(w));
         if (!s->dragging) return;
         s->yaw -= static_cast<float>(x - s->last_x) * 0.005f;
-        s->pitch = std::fmax(-1.5f, std::fmin(1.5f, s->pitch + static_cast<float>(y - s->last_y) * 0.005f));
+        s->pitch = std::fmax(
+            -1.5f, std::fmin(1.5f, s->pitch + static_cast<float>(y - s->last_y) * 0.005f));
         s->last_x = x;
         s->last_y = y;
     });
@@ -141,21 +156,24 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
             glFinish();
         }
         const double ms =
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                .count();
         smoothed_ms = frame == 0 ? ms : 0.9 * smoothed_ms + 0.1 * ms;
         ++frame;
         const bool last = options.frames > 0 && frame >= options.frames;
         if (state.want_screenshot || (last && !options.screenshot.empty())) {
-            const std::string path = last && !options.screenshot.empty()
-                                         ? options.screenshot
-                                         : "rtdemo-screenshot-" + std::to_string(++state.screenshot_count) + ".png";
+            const std::string path =
+                last && !options.screenshot.empty()
+                    ? options.screenshot
+                    : "rtdemo-screenshot-" + std::to_string(++state.screenshot_count) + ".png";
             save_screenshot(path, fb_w, fb_h);
             std::fprintf(stderr, "rtdemo: saved %s\n", path.c_str());
             state.want_screenshot = false;
         }
         char title[160];
-        std::snprintf(title, sizeof title, "rtdemo view - %s - %.1f ms/frame%s%s%s", mode_name(state.mode),
-                      smoothed_ms, state.trace.shadows ? "" : " - no shadows",
+        std::snprintf(title, sizeof title, "rtdemo view - %s - %.1f ms/frame%s%s%s",
+                      mode_name(state.mode), smoothed_ms,
+                      state.trace.shadows ? "" : " - no shadows",
                       state.trace.reflection ? "" : " - no reflection",
                       state.trace.refraction ? "" : " - no refraction");
         glfwSetWindowTitle(window.get(), title);

@@ -15,7 +15,11 @@ struct RenderedImage {
 
     RenderedImage() = default;
     RenderedImage(int w, int h)
-        : width(w), height(h), rgb(3u * w * h), id(1u * w * h, -1.0f), depth(1u * w * h),
+        : width(w),
+          height(h),
+          rgb(3u * w * h),
+          id(1u * w * h, -1.0f),
+          depth(1u * w * h),
           normal(3u * w * h) {}
 };
 

@@ -1,5 +1,12 @@
 #include "image_io.h"
 
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
+#include <ImfThreading.h>
+#include <png.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,13 +18,7 @@
 #include <thread>
 #include <vector>
 
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfOutputFile.h>
-#include <ImfStringAttribute.h>
-#include <ImfThreading.h>
-#include <png.h>
+#include "file_kind.h"
 
 namespace rt {
 namespace fs = std::filesystem;
@@ -37,6 +38,7 @@ public:
     }
     const std::string& temp() const { return temp_; }
     void commit() {
+        check_writable(path_);  // again: the target may have changed while we wrote
         std::error_code ec;
         fs::rename(temp_, path_, ec);
         if (ec) throw OutputError(path_ + ": cannot write: " + ec.message());
@@ -65,8 +67,17 @@ unsigned char to_srgb8(float linear) {
     return static_cast<unsigned char>(std::lround(s * 255.0f));
 }
 
-unsigned char to_linear8(float linear) {
-    return static_cast<unsigned char>(std::lround(clamp01(linear) * 255.0f));
+unsigned char to_linear8(float linear, PpmRounding rounding) {
+    // The float product, as the paper's program computes it: identical bytes on [0, 1].
+    const float scaled = clamp01(linear) * 255.0f;
+    return static_cast<unsigned char>(rounding == PpmRounding::truncate ? scaled
+                                                                        : std::lround(scaled));
+}
+
+PpmRounding parse_ppm_rounding(const std::string& text) {
+    if (text == "truncate") return PpmRounding::truncate;
+    if (text == "round") return PpmRounding::round;
+    throw std::invalid_argument("expected truncate or round, got '" + text + "'");
 }
 
 void check_writable(const std::string& path) {
@@ -76,8 +87,14 @@ void check_writable(const std::string& path) {
     if (!fs::is_directory(dir, ec))
         throw OutputError(path + ": cannot write: directory '" + dir.string() + "' does not exist");
     if (::access(dir.c_str(), W_OK) != 0)
-        throw OutputError(path + ": cannot write: directory '" + dir.string() + "' is not writable");
+        throw OutputError(path + ": cannot write: directory '" + dir.string() +
+                          "' is not writable");
     if (fs::is_directory(path, ec)) throw OutputError(path + ": cannot write: it is a directory");
+    try {
+        check_replaceable(path);  // never turn /dev/full or a FIFO into a regular file
+    } catch (const FileKindError& e) {
+        throw OutputError(std::string("cannot write ") + e.what());
+    }
 }
 
 ExrCompression parse_exr_compression(const std::string& text) {
@@ -98,11 +115,11 @@ void write_exr(const std::string& path, const RenderedImage& image,
                                                                     : Imf::NO_COMPRESSION;
         if (compression == ExrCompression::zip) {
             // Compress scanline blocks on every core; level 1: about the same size, far faster.
-            Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+            Imf::setGlobalThreadCount(
+                static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
             header.zipCompressionLevel() = 1;
         }
-        for (const auto& [key, value] : attributes)
-            header.insert(key, Imf::StringAttribute(value));
+        for (const auto& [key, value] : attributes) header.insert(key, Imf::StringAttribute(value));
         const char* names[] = {"R", "G", "B", "id", "depth", "N.X", "N.Y", "N.Z"};
         for (const char* name : names) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
 
@@ -169,10 +186,11 @@ void write_png_bytes(const std::string& path, int width, int height,
     file.commit();
 }
 
-void write_ppm(const std::string& path, const RenderedImage& image) {
+void write_ppm(const std::string& path, const RenderedImage& image, PpmRounding rounding) {
     check_writable(path);
     AtomicFile file(path);
-    const std::vector<unsigned char> bytes = to_8bit(image, to_linear8);
+    const std::vector<unsigned char> bytes =
+        to_8bit(image, [rounding](float v) { return to_linear8(v, rounding); });
     std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(file.temp().c_str(), "wb"), &std::fclose);
     if (!fp) throw OutputError(path + ": cannot open for writing");
     std::fprintf(fp.get(), "P6\n%d %d\n255\n", image.width, image.height);

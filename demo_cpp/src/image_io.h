@@ -34,11 +34,21 @@ void write_png(const std::string& path, const RenderedImage& image);
 // 8-bit RGB bytes (row-major, y down) that are already display-encoded, as a PNG.
 void write_png_bytes(const std::string& path, int width, int height,
                      const std::vector<unsigned char>& rgb);
-// The paper's own format: binary P6, linear, clamped, 8-bit (x * 255, rounded). NaN -> 0.
-void write_ppm(const std::string& path, const RenderedImage& image);
+// How a linear value in [0, 1] becomes a byte: `truncate` is what the paper's program family
+// writes, (unsigned char)(std::min(1.f, x) * 255); `round` is the nearest level.
+enum class PpmRounding { truncate, round };
+// "truncate" | "round"; throws std::invalid_argument naming the bad value.
+PpmRounding parse_ppm_rounding(const std::string& text);
+
+// The paper's own format: binary P6, linear, clamped, 8-bit (x * 255, truncated by default
+// as the paper's program writes it). NaN -> 0.
+void write_ppm(const std::string& path, const RenderedImage& image,
+               PpmRounding rounding = PpmRounding::truncate);
 
 // Display encodings, exposed for tests and the GL backend's screenshots.
 unsigned char to_srgb8(float linear);
-unsigned char to_linear8(float linear);
+// Clamped to [0, 1] first and NaN -> 0: the paper's cast is undefined below -1 (a negative
+// float into unsigned char) and turns NaN into 255 (std::min(1.f, NaN) is 1).
+unsigned char to_linear8(float linear, PpmRounding rounding);
 
 }  // namespace rt

@@ -2,10 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace rt {
 namespace {
@@ -14,32 +17,85 @@ namespace fs = std::filesystem;
 TEST(ImageIo, SrgbEncodingOfKnownValues) {
     EXPECT_EQ(to_srgb8(0.0f), 0);
     EXPECT_EQ(to_srgb8(1.0f), 255);
-    EXPECT_EQ(to_srgb8(2.0f), 255);      // clamped
-    EXPECT_EQ(to_srgb8(0.5f), 188);      // 1.055 * 0.5^(1/2.4) - 0.055 = 0.7354
-    EXPECT_EQ(to_srgb8(0.002f), 7);      // linear segment: 12.92 * 0.002 * 255 = 6.6
+    EXPECT_EQ(to_srgb8(2.0f), 255);  // clamped
+    EXPECT_EQ(to_srgb8(0.5f), 188);  // 1.055 * 0.5^(1/2.4) - 0.055 = 0.7354
+    EXPECT_EQ(to_srgb8(0.002f), 7);  // linear segment: 12.92 * 0.002 * 255 = 6.6
     EXPECT_EQ(to_srgb8(std::numeric_limits<float>::quiet_NaN()), 0);
 }
 
-TEST(ImageIo, LinearEncodingIsThePapersClampTimes255) {
-    EXPECT_EQ(to_linear8(0.5f), 128);
-    EXPECT_EQ(to_linear8(-1.0f), 0);
-    EXPECT_EQ(to_linear8(7.0f), 255);
+// The paper's program family writes (unsigned char)(std::min(1.f, x) * 255).
+unsigned char paper_byte(float x) { return static_cast<unsigned char>(std::min(1.f, x) * 255); }
+
+TEST(ImageIo, LinearEncodingOfHandPickedValues) {
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    // 0.5 * 255 = 127.5; 0.999 * 255 = 254.745; 0.25 * 255 = 63.75.
+    EXPECT_EQ(to_linear8(0.5f, PpmRounding::truncate), 127);
+    EXPECT_EQ(to_linear8(0.5f, PpmRounding::round), 128);
+    EXPECT_EQ(to_linear8(0.999f, PpmRounding::truncate), 254);
+    EXPECT_EQ(to_linear8(0.999f, PpmRounding::round), 255);
+    EXPECT_EQ(to_linear8(0.25f, PpmRounding::truncate), 63);
+    EXPECT_EQ(to_linear8(0.25f, PpmRounding::round), 64);
+    for (PpmRounding r : {PpmRounding::truncate, PpmRounding::round}) {
+        EXPECT_EQ(to_linear8(1.2f, r), 255);
+        EXPECT_EQ(to_linear8(1.0f, r), 255);
+        EXPECT_EQ(to_linear8(0.0f, r), 0);
+        EXPECT_EQ(to_linear8(-0.5f, r), 0);  // the paper's cast: undefined below -1
+        EXPECT_EQ(to_linear8(-7.0f, r), 0);
+        EXPECT_EQ(to_linear8(nan, r), 0);  // the paper's cast writes 255 (min(1, NaN) = 1)
+    }
 }
 
-TEST(ImageIo, PpmHasHeaderAndLinearBytes) {
-    RenderedImage img(2, 1);
-    img.rgb = {0.5f, 0.0f, 1.0f, 2.0f, 0.25f, 0.0f};
+TEST(ImageIo, TruncationEqualsThePapersCastOnZeroToOne) {
+    // Every level boundary k/255 and its float neighbours, and a fine grid between them.
+    for (int k = 0; k <= 255; ++k) {
+        const float edge = k / 255.0f;
+        for (float x : {std::nextafter(edge, 0.0f), edge, std::nextafter(edge, 1.0f)}) {
+            if (x >= 0.0f && x <= 1.0f) {
+                ASSERT_EQ(to_linear8(x, PpmRounding::truncate), paper_byte(x)) << x;
+            }
+        }
+    }
+    for (int i = 0; i <= 1 << 16; ++i) {
+        const float x = static_cast<float>(i) / (1 << 16);
+        ASSERT_EQ(to_linear8(x, PpmRounding::truncate), paper_byte(x)) << x;
+    }
+}
+
+TEST(ImageIo, PpmRoundingParsesItsTwoNames) {
+    EXPECT_EQ(parse_ppm_rounding("truncate"), PpmRounding::truncate);
+    EXPECT_EQ(parse_ppm_rounding("round"), PpmRounding::round);
+    EXPECT_THROW(parse_ppm_rounding("nearest"), std::invalid_argument);
+}
+
+std::string write_and_read_ppm(const RenderedImage& img, PpmRounding rounding) {
     const fs::path path = fs::temp_directory_path() / "rtdemo_image_io_test.ppm";
-    write_ppm(path.string(), img);
+    write_ppm(path.string(), img, rounding);
     std::ifstream in(path, std::ios::binary);
     std::string data((std::istreambuf_iterator<char>(in)), {});
-    const std::string header = "P6\n2 1\n255\n";
-    ASSERT_EQ(data.size(), header.size() + 6);
-    EXPECT_EQ(data.substr(0, header.size()), header);
-    EXPECT_EQ(static_cast<unsigned char>(data[header.size() + 0]), 128);
-    EXPECT_EQ(static_cast<unsigned char>(data[header.size() + 3]), 255);
-    EXPECT_EQ(static_cast<unsigned char>(data[header.size() + 4]), 64);
     fs::remove(path);
+    return data;
+}
+
+TEST(ImageIo, PpmHasHeaderAndLinearBytesTruncatedByDefault) {
+    RenderedImage img(2, 1);
+    img.rgb = {0.5f, 0.0f, 1.0f, 2.0f, 0.25f, 0.0f};
+    const std::string header = "P6\n2 1\n255\n";
+    const std::string truncated = write_and_read_ppm(img, PpmRounding::truncate);
+    ASSERT_EQ(truncated.size(), header.size() + 6);
+    EXPECT_EQ(truncated.substr(0, header.size()), header);
+    const std::string expected_truncated = {127, 0, '\xff', '\xff', 63, 0};
+    EXPECT_EQ(truncated.substr(header.size()), expected_truncated);
+    const std::string rounded = write_and_read_ppm(img, PpmRounding::round);
+    const std::string expected_rounded = {'\x80', 0, '\xff', '\xff', 64, 0};
+    EXPECT_EQ(rounded.substr(header.size()), expected_rounded);
+
+    // The default argument is truncation.
+    const fs::path path = fs::temp_directory_path() / "rtdemo_image_io_default.ppm";
+    write_ppm(path.string(), img);
+    std::ifstream in(path, std::ios::binary);
+    const std::string by_default((std::istreambuf_iterator<char>(in)), {});
+    fs::remove(path);
+    EXPECT_EQ(by_default, truncated);
 }
 
 TEST(ImageIo, UnwritableDirectoryFailsAndLeavesNoFile) {

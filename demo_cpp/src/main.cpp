@@ -2,18 +2,22 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "cli_args.h"
 #include "cpu_renderer.h"
+#include "file_kind.h"
 #include "gl_headless.h"
 #include "gl_viewer.h"
 #include "image_io.h"
+#include "mistakes.h"
 #include "quirks.h"
 #include "scene_loader.h"
 
@@ -53,7 +57,8 @@ options:
   --screenshot OUT.png        with --frames: save the last frame (display-encoded)
 )";
 
-const char* kRenderHelp = R"(usage: rtdemo render SCENE.json [-o OUT.exr] [--png OUT.png] [--ppm OUT.ppm] [options]
+const char* kRenderHelp =
+    R"(usage: rtdemo render SCENE.json [-o OUT.exr] [--png OUT.png] [--ppm OUT.ppm] [options]
 
 Renders SCENE.json (format rtval-scene/1) with the paper's algorithm.
 
@@ -64,6 +69,9 @@ outputs (at least one):
                          counts (camera, secondary, shadow) in the header
   --png OUT.png          8-bit, clamped to [0,1], sRGB-encoded (for people)
   --ppm OUT.ppm          8-bit binary P6, linear, clamped: the paper's own output
+  --ppm-rounding R       truncate (default: byte = (unsigned char)(min(1, x) * 255), as the
+                         paper's program family writes it) or round (nearest level); both
+                         clamp to [0,1] first and write NaN as 0
   --exr-compression C    none (default: fastest, ~10 MB at 640x480), rle or zip (~4 MB)
 
 algorithm:
@@ -75,7 +83,11 @@ algorithm:
                                   calibrated by the exporter's light-units rule, bounded
                                   shadow rays blocked by glass, chains cut at max depth).
                                   Lights are points: no soft shadows (no --light-samples).
-  --fix Q1,Q2,...        fix these quirks on top of --mode (see paper-model.md)
+  --fix Q1,Q2,...        fix these quirks on top of --mode (see docs/paper-model.md)
+  --quirk Q2,Q5,...      add these quirks on top of --mode (classic --quirk Q2 keeps
+                         eta = 1/ior when leaving glass); applied in order with --fix
+  --mistake NAME,...     add named common mistakes (listed below; CPU tracer only), as
+                         rtval diagnose renders them (docs/paper-model.md)
   --spp N                samples per pixel, a perfect square (1, 4, 9, 16, ...): stratum
                          centres of a sqrt(N) x sqrt(N) grid, box filter. N > 1 needs Q10
                          fixed (physical mode or --fix Q10). Default 1 (pixel centre).
@@ -91,14 +103,37 @@ image:
   --frames N             gl: render N frames and time them (default 1); the header
                          keeps compile time and median frame time apart
   -q, --quiet            no summary line on stderr
+
+mistakes (--mistake; the catalogue of compare/judge/mistakes.json):
 )";
+
+// The catalogue under --help, each explanation wrapped at 92 columns beside its name.
+void print_mistakes() {
+    for (const MistakeInfo& info : mistake_catalogue()) {
+        std::printf("  %-20s", info.name.c_str());
+        std::istringstream words(info.explanation);
+        std::string word;
+        int column = 22;
+        while (words >> word) {
+            if (column + 1 + static_cast<int>(word.size()) > 92) {
+                std::printf("\n%22s", "");
+                column = 22;
+            }
+            std::printf(" %s", word.c_str());
+            column += 1 + static_cast<int>(word.size());
+        }
+        std::printf("\n");
+    }
+}
 
 struct RenderArgs {
     std::string scene_path;
     std::string exr, png, ppm;
     ExrCompression compression = ExrCompression::none;
+    PpmRounding ppm_rounding = PpmRounding::truncate;
     Mode mode = Mode::paper;
-    std::vector<Quirk> fixes;
+    std::vector<std::pair<Quirk, bool>> quirk_changes;  // (quirk, present) in command order
+    MistakeSet mistakes;
     std::optional<int> width, height, max_depth;
     int spp = 1;
     int threads = 0;
@@ -116,47 +151,86 @@ RenderArgs parse_render_args(const std::vector<std::string>& args, bool output_r
     };
     for (std::size_t i = 0; i < args.size(); ++i) {
         const std::string& a = args[i];
-        if (a == "-o" || a == "--output") out.exr = value(i);
-        else if (a == "--png") out.png = value(i);
-        else if (a == "--ppm") out.ppm = value(i);
+        if (a == "-o" || a == "--output")
+            out.exr = value(i);
+        else if (a == "--png")
+            out.png = value(i);
+        else if (a == "--ppm")
+            out.ppm = value(i);
         else if (a == "--exr-compression") {
-            try { out.compression = parse_exr_compression(value(i)); }
-            catch (const std::invalid_argument& e) { throw UsageError(std::string("--exr-compression: ") + e.what()); }
-        }
-        else if (a == "--mode") {
-            try { out.mode = parse_mode(value(i)); }
-            catch (const std::invalid_argument& e) { throw UsageError(std::string("--mode: ") + e.what()); }
+            try {
+                out.compression = parse_exr_compression(value(i));
+            } catch (const std::invalid_argument& e) {
+                throw UsageError(std::string("--exr-compression: ") + e.what());
+            }
+        } else if (a == "--ppm-rounding") {
+            try {
+                out.ppm_rounding = parse_ppm_rounding(value(i));
+            } catch (const std::invalid_argument& e) {
+                throw UsageError(std::string("--ppm-rounding: ") + e.what());
+            }
+        } else if (a == "--mode") {
+            try {
+                out.mode = parse_mode(value(i));
+            } catch (const std::invalid_argument& e) {
+                throw UsageError(std::string("--mode: ") + e.what());
+            }
         } else if (a == "--fix") {
             try {
-                for (Quirk q : parse_quirk_list(value(i))) out.fixes.push_back(q);
+                for (Quirk q : parse_quirk_list(value(i))) out.quirk_changes.push_back({q, false});
             } catch (const std::invalid_argument& e) {
                 throw UsageError(std::string("--fix: ") + e.what());
             }
-        }
-        else if (a == "--spp") out.spp = parse_int_arg(a, value(i), 1, 4096);
-        else if (a == "--max-depth") out.max_depth = parse_int_arg(a, value(i), 0, 64);
-        else if (a == "--width") out.width = parse_int_arg(a, value(i), 1, 16384);
-        else if (a == "--height") out.height = parse_int_arg(a, value(i), 1, 16384);
-        else if (a == "--threads") out.threads = parse_int_arg(a, value(i), 1, 1024);
-        else if (a == "--no-shadows") out.shadows = false;
-        else if (a == "--no-reflection") out.reflection = false;
-        else if (a == "--no-refraction") out.refraction = false;
+        } else if (a == "--quirk") {
+            try {
+                for (Quirk q : parse_quirk_list(value(i))) out.quirk_changes.push_back({q, true});
+            } catch (const std::invalid_argument& e) {
+                throw UsageError(std::string("--quirk: ") + e.what());
+            }
+        } else if (a == "--mistake") {
+            try {
+                out.mistakes = parse_mistake_list(value(i));
+            } catch (const std::invalid_argument& e) {
+                throw UsageError(std::string("--mistake: ") + e.what());
+            }
+        } else if (a == "--spp")
+            out.spp = parse_int_arg(a, value(i), 1, 4096);
+        else if (a == "--max-depth")
+            out.max_depth = parse_int_arg(a, value(i), 0, 64);
+        else if (a == "--width")
+            out.width = parse_int_arg(a, value(i), 1, 16384);
+        else if (a == "--height")
+            out.height = parse_int_arg(a, value(i), 1, 16384);
+        else if (a == "--threads")
+            out.threads = parse_int_arg(a, value(i), 1, 1024);
+        else if (a == "--no-shadows")
+            out.shadows = false;
+        else if (a == "--no-reflection")
+            out.reflection = false;
+        else if (a == "--no-refraction")
+            out.refraction = false;
         else if (a == "--backend") {
             const std::string& b = value(i);
-            if (b != "cpu" && b != "gl") throw UsageError("--backend: expected cpu or gl, got '" + b + "'");
+            if (b != "cpu" && b != "gl")
+                throw UsageError("--backend: expected cpu or gl, got '" + b + "'");
             out.gl = b == "gl";
-        }
-        else if (a == "--frames") out.frames = parse_int_arg(a, value(i), 1, 10000);
-        else if (a == "-q" || a == "--quiet") out.quiet = true;
-        else if (!a.empty() && a[0] == '-') throw UsageError("unknown option '" + a + "' (see rtdemo render --help)");
-        else if (out.scene_path.empty()) out.scene_path = a;
-        else throw UsageError("unexpected argument '" + a + "' (one scene file per call)");
+        } else if (a == "--frames")
+            out.frames = parse_int_arg(a, value(i), 1, 10000);
+        else if (a == "-q" || a == "--quiet")
+            out.quiet = true;
+        else if (!a.empty() && a[0] == '-')
+            throw UsageError("unknown option '" + a + "' (see rtdemo render --help)");
+        else if (out.scene_path.empty())
+            out.scene_path = a;
+        else
+            throw UsageError("unexpected argument '" + a + "' (one scene file per call)");
     }
     if (out.scene_path.empty()) throw UsageError("missing SCENE.json (see rtdemo render --help)");
     if (output_required && out.exr.empty() && out.png.empty() && out.ppm.empty())
         throw UsageError("no output: give -o OUT.exr, --png OUT.png or --ppm OUT.ppm");
     if (strata_per_axis(out.spp) == 0)
-        throw UsageError("--spp: expected a perfect square (1, 4, 9, 16, ...), got " + std::to_string(out.spp));
+        throw UsageError("--spp: expected a perfect square (1, 4, 9, 16, ...), got " +
+                         std::to_string(out.spp));
     return out;
 }
 
@@ -170,7 +244,15 @@ std::string format_seconds(double s) {
 RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
     RenderSettings settings;
     settings.trace.quirks = quirks_for(a.mode);
-    for (Quirk q : a.fixes) settings.trace.quirks.fix(q);
+    for (const auto& [q, present] : a.quirk_changes) {
+        if (present)
+            settings.trace.quirks.add(q);
+        else
+            settings.trace.quirks.fix(q);
+    }
+    if (a.mistakes.any() && a.gl)
+        throw UsageError("--mistake needs the CPU tracer (--backend cpu)");
+    settings.trace.mistakes = a.mistakes;
     if (a.spp > 1 && settings.trace.quirks.has(Quirk::Q10))
         throw UsageError("--spp " + std::to_string(a.spp) +
                          " needs quirk Q10 fixed (use --mode physical or --fix Q10)");
@@ -185,13 +267,31 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
                          std::to_string(settings.height) + " pixels is too large (at most " +
                          std::to_string(kMaxPixels) + " pixels)");
     settings.spp = a.spp;
-    settings.threads = a.threads > 0 ? a.threads
-                                     : std::max(1u, std::thread::hardware_concurrency());
+    settings.threads =
+        a.threads > 0 ? a.threads : std::max(1u, std::thread::hardware_concurrency());
     return settings;
+}
+
+// An output equal to the scene file or to another output is a usage error: one of the
+// two would be lost (exit 2, before anything is rendered).
+void check_distinct_outputs(const RenderArgs& a) {
+    const std::pair<const char*, const std::string*> outs[] = {
+        {"-o", &a.exr}, {"--png", &a.png}, {"--ppm", &a.ppm}};
+    for (std::size_t i = 0; i < std::size(outs); ++i) {
+        if (outs[i].second->empty()) continue;
+        if (same_file(*outs[i].second, a.scene_path))
+            throw UsageError(*outs[i].second + ": " + outs[i].first +
+                             " names the scene file; refusing to overwrite an input");
+        for (std::size_t j = 0; j < i; ++j)
+            if (!outs[j].second->empty() && same_file(*outs[i].second, *outs[j].second))
+                throw UsageError(*outs[i].second + ": " + outs[i].first + " and " + outs[j].first +
+                                 " name the same file");
+    }
 }
 
 int run_render(const std::vector<std::string>& args) {
     const RenderArgs a = parse_render_args(args);
+    check_distinct_outputs(a);
     for (const std::string* out : {&a.exr, &a.png, &a.ppm})
         if (!out->empty()) check_writable(*out);
 
@@ -221,6 +321,7 @@ int run_render(const std::vector<std::string>& args) {
         {"rtval.scene", scene.name},
         {"rtval.mode", mode_name(a.mode)},
         {"rtval.quirks", settings.trace.quirks.present_list()},
+        {"rtval.mistakes", settings.trace.mistakes.list()},
         {"rtval.spp", std::to_string(settings.spp)},
         {"rtval.max_depth", std::to_string(settings.trace.max_depth)},
         {"rtval.effects_off", effects.empty() ? "none" : effects},
@@ -240,16 +341,18 @@ int run_render(const std::vector<std::string>& args) {
     }
     if (!a.exr.empty()) write_exr(a.exr, image, attributes, a.compression);
     if (!a.png.empty()) write_png(a.png, image);
-    if (!a.ppm.empty()) write_ppm(a.ppm, image);
+    if (!a.ppm.empty()) write_ppm(a.ppm, image, a.ppm_rounding);
     if (!a.quiet && a.gl)
-        std::fprintf(stderr, "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: gl on %s, compile %.3f s, "
+        std::fprintf(stderr,
+                     "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: gl on %s, compile %.3f s, "
                      "first frame %.3f s, frame %.4f s (median of %d)\n",
                      scene.name.c_str(), settings.width, settings.height, mode_name(a.mode),
-                     settings.trace.quirks.present_list().c_str(), settings.spp, gl.renderer.c_str(),
-                     gl.compile_seconds, gl.first_frame_seconds, gl.frame_seconds,
-                     std::max(gl.frames - 1, 1));
+                     settings.trace.quirks.present_list().c_str(), settings.spp,
+                     gl.renderer.c_str(), gl.compile_seconds, gl.first_frame_seconds,
+                     gl.frame_seconds, std::max(gl.frames - 1, 1));
     else if (!a.quiet)
-        std::fprintf(stderr, "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: %.3f s on %d threads, "
+        std::fprintf(stderr,
+                     "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: %.3f s on %d threads, "
                      "%.2f M rays (%.1f M rays/s)\n",
                      scene.name.c_str(), settings.width, settings.height, mode_name(a.mode),
                      settings.trace.quirks.present_list().c_str(), settings.spp, seconds,
@@ -266,11 +369,14 @@ int run_view(const std::vector<std::string>& args) {
     for (std::size_t i = 0; i < args.size(); ++i) {
         if (args[i] == "--screenshot" || args[i] == "--frames") {
             if (i + 1 >= args.size()) throw UsageError(args[i] + ": expected a value");
-            if (args[i] == "--screenshot") screenshot = args[++i];
-            else frames = parse_int_arg("--frames", args[++i], 1, 100000);
-        } else if (args[i] == "-o" || args[i] == "--output" || args[i] == "--png" || args[i] == "--ppm" ||
-                   args[i] == "--exr-compression" ||
-                   args[i] == "--backend" || args[i] == "--spp") {
+            if (args[i] == "--screenshot")
+                screenshot = args[++i];
+            else
+                frames = parse_int_arg("--frames", args[++i], 1, 100000);
+        } else if (args[i] == "-o" || args[i] == "--output" || args[i] == "--png" ||
+                   args[i] == "--ppm" || args[i] == "--ppm-rounding" ||
+                   args[i] == "--exr-compression" || args[i] == "--backend" || args[i] == "--spp" ||
+                   args[i] == "--mistake") {
             throw UsageError(args[i] + " is not an option of view (see rtdemo view --help)");
         } else {
             rest.push_back(args[i]);
@@ -308,8 +414,15 @@ int main(int argc, char** argv) {
         const std::vector<std::string> rest(args.begin() + 1, args.end());
         for (const std::string& a : rest)
             if (a == "--help" || a == "-h") {
-                if (args[0] == "render") { std::fputs(kRenderHelp, stdout); return 0; }
-                if (args[0] == "view") { std::fputs(kViewHelp, stdout); return 0; }
+                if (args[0] == "render") {
+                    std::fputs(kRenderHelp, stdout);
+                    print_mistakes();
+                    return 0;
+                }
+                if (args[0] == "view") {
+                    std::fputs(kViewHelp, stdout);
+                    return 0;
+                }
             }
         if (args[0] == "render") return run_render(rest);
         if (args[0] == "view") return run_view(rest);

@@ -15,13 +15,16 @@ std::string QuirkSet::present_list() const {
 QuirkSet quirks_for(Mode mode) {
     QuirkSet s = QuirkSet::all();
     switch (mode) {
-        case Mode::paper: break;
+        case Mode::paper:
+            break;
         case Mode::classic:
             s.fix(Quirk::Q2);
             s.fix(Quirk::Q4);
             s.fix(Quirk::Q9);
             break;
-        case Mode::physical: s = QuirkSet::none(); break;
+        case Mode::physical:
+            s = QuirkSet::none();
+            break;
     }
     return s;
 }
@@ -30,14 +33,18 @@ Mode parse_mode(const std::string& text) {
     if (text == "paper") return Mode::paper;
     if (text == "classic") return Mode::classic;
     if (text == "physical") return Mode::physical;
-    throw std::invalid_argument("unknown mode '" + text + "' (expected paper, classic or physical)");
+    throw std::invalid_argument("unknown mode '" + text +
+                                "' (expected paper, classic or physical)");
 }
 
 const char* mode_name(Mode mode) {
     switch (mode) {
-        case Mode::paper: return "paper";
-        case Mode::classic: return "classic";
-        case Mode::physical: return "physical";
+        case Mode::paper:
+            return "paper";
+        case Mode::classic:
+            return "classic";
+        case Mode::physical:
+            return "physical";
     }
     return "?";
 }

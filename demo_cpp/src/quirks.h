@@ -1,4 +1,4 @@
-// The paper's quirks Q1-Q10 (paper-model.md) as switches, and the three modes as presets.
+// The paper's quirks Q1-Q10 (docs/paper-model.md) as switches, and the three modes as presets.
 #pragma once
 
 #include <bitset>
@@ -13,11 +13,16 @@ constexpr int kQuirkCount = 10;
 // A set of quirks that are *present* (the paper's behaviour). Fixing a quirk removes it.
 class QuirkSet {
 public:
-    static QuirkSet all() { QuirkSet s; s.bits_.set(); return s; }
+    static QuirkSet all() {
+        QuirkSet s;
+        s.bits_.set();
+        return s;
+    }
     static QuirkSet none() { return {}; }
 
     bool has(Quirk q) const { return bits_.test(index(q)); }
     void fix(Quirk q) { bits_.reset(index(q)); }
+    void add(Quirk q) { bits_.set(index(q)); }
     // "Q1,Q3,..." for the quirks present, "none" when all are fixed.
     std::string present_list() const;
 

@@ -1,4 +1,4 @@
-// One scene as `scene-format.md` defines it (rtval-scene/1).
+// One scene as `docs/scene-format.md` defines it (rtval-scene/1).
 #pragma once
 
 #include <string>

@@ -3,11 +3,12 @@
 #include <cmath>
 #include <fstream>
 #include <initializer_list>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <set>
 #include <sstream>
 
-#include <nlohmann/json.hpp>
+#include "file_kind.h"
 
 namespace rt {
 namespace {
@@ -56,7 +57,8 @@ public:
 
     template <class Pred>
     vec3 triple(const json& v, const std::string& path, const std::string& rule, Pred ok) const {
-        if (!v.is_array() || v.size() != 3) fail(path, "expected an array of 3 numbers " + rule, &v);
+        if (!v.is_array() || v.size() != 3)
+            fail(path, "expected an array of 3 numbers " + rule, &v);
         vec3 out;
         float* comps[3] = {&out.x, &out.y, &out.z};
         for (int i = 0; i < 3; ++i)
@@ -89,7 +91,12 @@ const auto positive = [](float f) { return f > 0; };
 std::pair<int, int> line_column(const std::string& text, std::size_t byte) {
     int line = 1, col = 1;
     for (std::size_t i = 0; i < byte && i < text.size(); ++i) {
-        if (text[i] == '\n') { ++line; col = 1; } else { ++col; }
+        if (text[i] == '\n') {
+            ++line;
+            col = 1;
+        } else {
+            ++col;
+        }
     }
     return {line, col};
 }
@@ -118,8 +125,9 @@ Camera parse_camera(const json& j, const Validator& v) {
 
 Sphere parse_sphere(const json& j, const std::string& path, const Validator& v) {
     if (!j.is_object()) v.fail(path, "expected an object", &j);
-    v.only_keys(j, path, {"name", "center", "radius", "color", "reflection", "transparency", "ior",
-                          "emission"});
+    v.only_keys(
+        j, path,
+        {"name", "center", "radius", "color", "reflection", "transparency", "ior", "emission"});
     for (const char* req : {"name", "center", "radius", "color"})
         if (!j.contains(req)) v.fail(path + "." + req, "missing; expected this required key");
     Sphere s;
@@ -156,8 +164,9 @@ Scene parse_scene(const std::string& text, const std::string& source) {
     }
     const Validator v(source);
     if (!root.is_object()) v.fail("", "expected a JSON object");
-    v.only_keys(root, "", {"format", "name", "description", "camera", "background", "max_depth",
-                           "bias", "spheres"});
+    v.only_keys(
+        root, "",
+        {"format", "name", "description", "camera", "background", "max_depth", "bias", "spheres"});
 
     Scene scene;
     if (!root.contains("format")) v.fail("format", "missing; expected \"rtval-scene/1\"");
@@ -168,11 +177,13 @@ Scene parse_scene(const std::string& text, const std::string& source) {
     static const std::regex name_rule("[a-z0-9_-]+");
     if (!std::regex_match(scene.name, name_rule))
         v.fail("name", "expected a name matching [a-z0-9_-]+", &root["name"]);
-    if (root.contains("description")) scene.description = v.string(root["description"], "description");
+    if (root.contains("description"))
+        scene.description = v.string(root["description"], "description");
     if (root.contains("camera")) scene.camera = parse_camera(root["camera"], v);
     if (root.contains("background"))
         scene.background = v.triple(root["background"], "background", ">= 0", non_negative);
-    if (root.contains("max_depth")) scene.max_depth = v.integer(root["max_depth"], "max_depth", 0, 64);
+    if (root.contains("max_depth"))
+        scene.max_depth = v.integer(root["max_depth"], "max_depth", 0, 64);
     if (root.contains("bias")) scene.bias = v.number(root["bias"], "bias", "> 0", positive);
 
     if (!root.contains("spheres")) v.fail("spheres", "missing; expected an array of spheres");
@@ -190,12 +201,16 @@ Scene parse_scene(const std::string& text, const std::string& source) {
 }
 
 Scene load_scene_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path + ": cannot open the scene file");
-    std::ostringstream buffer;
-    buffer << in.rdbuf();
-    if (in.bad()) throw SceneError(path + ": cannot read the scene file");
-    return parse_scene(buffer.str(), path);
+    // A regular file only, read with a bound: a FIFO would block, /dev/zero never ends
+    // (the same rule and bound as scene_model/scene.py).
+    constexpr std::size_t kMaxSceneBytes = 16u << 20;
+    std::string text;
+    try {
+        text = read_regular_file(path, kMaxSceneBytes);
+    } catch (const FileKindError& e) {
+        throw SceneError(std::string("cannot read the scene file: ") + e.what());
+    }
+    return parse_scene(text, path);
 }
 
 }  // namespace rt

@@ -1,4 +1,4 @@
-// Reads and validates an rtval-scene/1 JSON file. Every rule of scene-format.md is
+// Reads and validates an rtval-scene/1 JSON file. Every rule of docs/scene-format.md is
 // enforced; nothing is rendered from an invalid file.
 #pragma once
 

@@ -1,10 +1,13 @@
-// Every rule of scene-format.md, one case each: the error names the source, the JSON path
+// Every rule of docs/scene-format.md, one case each: the error names the source, the JSON path
 // and what was expected.
 #include "scene_loader.h"
 
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <nlohmann/json.hpp>
+#include <ostream>
+#include <string>
 
 namespace rt {
 namespace {
@@ -63,12 +66,29 @@ const BadCase kBadCases[] = {
     {"format wrong", [](json& j) { j["format"] = "rtval-scene/2"; }, "format"},
     {"name missing", [](json& j) { j.erase("name"); }, "name"},
     {"name pattern", [](json& j) { j["name"] = "Bad Name"; }, "name"},
-    {"unknown top key", [](json& j) { j["backgrund"] = json::array({1, 1, 1}); }, "backgrund"},
+    {"unknown top key",
+     [](json& j) {
+         j["backgrund"] = json::array({1, 1, 1});
+     },
+     "backgrund"},
     {"unknown camera key", [](json& j) { j["camera"]["fov"] = 30; }, "camera.fov"},
-    {"position not finite", [](json& j) { j["camera"]["position"][1] = 1e39; }, "camera.position[1]"},
-    {"position wrong length", [](json& j) { j["camera"]["position"] = json::array({0, 0}); }, "camera.position"},
-    {"look_at equals position", [](json& j) { j["camera"]["look_at"] = json::array({0, 0, 0}); }, "camera.look_at"},
-    {"up parallel", [](json& j) { j["camera"]["up"] = json::array({0, 0, -2}); }, "camera.up"},
+    {"position not finite", [](json& j) { j["camera"]["position"][1] = 1e39; },
+     "camera.position[1]"},
+    {"position wrong length",
+     [](json& j) {
+         j["camera"]["position"] = json::array({0, 0});
+     },
+     "camera.position"},
+    {"look_at equals position",
+     [](json& j) {
+         j["camera"]["look_at"] = json::array({0, 0, 0});
+     },
+     "camera.look_at"},
+    {"up parallel",
+     [](json& j) {
+         j["camera"]["up"] = json::array({0, 0, -2});
+     },
+     "camera.up"},
     {"fov zero", [](json& j) { j["camera"]["fov_y"] = 0; }, "camera.fov_y"},
     {"fov 180", [](json& j) { j["camera"]["fov_y"] = 180; }, "camera.fov_y"},
     {"width zero", [](json& j) { j["camera"]["width"] = 0; }, "camera.width"},
@@ -83,21 +103,33 @@ const BadCase kBadCases[] = {
     {"spheres not array", [](json& j) { j["spheres"] = json::object(); }, "spheres"},
     {"sphere name missing", [](json& j) { j["spheres"][0].erase("name"); }, "spheres[0].name"},
     {"sphere name duplicate", [](json& j) { j["spheres"][1]["name"] = "a"; }, "spheres[1].name"},
-    {"sphere center missing", [](json& j) { j["spheres"][0].erase("center"); }, "spheres[0].center"},
-    {"sphere center NaN-like", [](json& j) { j["spheres"][0]["center"][0] = "nan"; }, "spheres[0].center[0]"},
+    {"sphere center missing", [](json& j) { j["spheres"][0].erase("center"); },
+     "spheres[0].center"},
+    {"sphere center NaN-like", [](json& j) { j["spheres"][0]["center"][0] = "nan"; },
+     "spheres[0].center[0]"},
     {"radius missing", [](json& j) { j["spheres"][1].erase("radius"); }, "spheres[1].radius"},
     {"radius zero", [](json& j) { j["spheres"][0]["radius"] = 0; }, "spheres[0].radius"},
     {"radius negative", [](json& j) { j["spheres"][0]["radius"] = -1; }, "spheres[0].radius"},
     {"color missing", [](json& j) { j["spheres"][0].erase("color"); }, "spheres[0].color"},
     {"color negative", [](json& j) { j["spheres"][0]["color"][1] = -1; }, "spheres[0].color[1]"},
-    {"reflection negative", [](json& j) { j["spheres"][0]["reflection"] = -0.5; }, "spheres[0].reflection"},
-    {"transparency above 1", [](json& j) { j["spheres"][0]["transparency"] = 1.5; }, "spheres[0].transparency"},
+    {"reflection negative", [](json& j) { j["spheres"][0]["reflection"] = -0.5; },
+     "spheres[0].reflection"},
+    {"transparency above 1", [](json& j) { j["spheres"][0]["transparency"] = 1.5; },
+     "spheres[0].transparency"},
     {"ior below 1", [](json& j) { j["spheres"][0]["ior"] = 0.9; }, "spheres[0].ior"},
-    {"emission negative", [](json& j) { j["spheres"][1]["emission"][0] = -3; }, "spheres[1].emission[0]"},
-    {"unknown sphere key", [](json& j) { j["spheres"][0]["colour"] = json::array({1, 1, 1}); }, "spheres[0].colour"},
+    {"emission negative", [](json& j) { j["spheres"][1]["emission"][0] = -3; },
+     "spheres[1].emission[0]"},
+    {"unknown sphere key",
+     [](json& j) {
+         j["spheres"][0]["colour"] = json::array({1, 1, 1});
+     },
+     "spheres[0].colour"},
     {"sphere not object", [](json& j) { j["spheres"][0] = 3; }, "spheres[0]"},
     {"boolean as number", [](json& j) { j["bias"] = true; }, "bias"},
 };
+
+// GoogleTest prints a parameter in failure messages; by default as its raw bytes.
+void PrintTo(const BadCase& c, std::ostream* os) { *os << '"' << c.label << '"'; }
 
 class SceneLoaderRejects : public testing::TestWithParam<BadCase> {};
 
@@ -116,7 +148,17 @@ TEST_P(SceneLoaderRejects, NamingFileAndPath) {
     }
 }
 
-INSTANTIATE_TEST_SUITE_P(EveryRule, SceneLoaderRejects, testing::ValuesIn(kBadCases));
+// Test names from each case's label ("fov zero" -> .../NamingFileAndPath/fov_zero): readable
+// and stable from build to build, where the default printed the case's bytes. GoogleTest allows
+// letters, digits and underscores only, and stops at start-up on a duplicate name.
+std::string case_name(const testing::TestParamInfo<BadCase>& info) {
+    std::string name = info.param.label;
+    for (char& c : name)
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+    return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(EveryRule, SceneLoaderRejects, testing::ValuesIn(kBadCases), case_name);
 
 TEST(SceneLoader, InvalidJsonNamesLineAndColumn) {
     try {
@@ -124,7 +166,8 @@ TEST(SceneLoader, InvalidJsonNamesLineAndColumn) {
         FAIL() << "accepted";
     } catch (const SceneError& e) {
         const std::string msg = e.what();
-        EXPECT_NE(msg.find("broken.json: invalid JSON at line 3, column"), std::string::npos) << msg;
+        EXPECT_NE(msg.find("broken.json: invalid JSON at line 3, column"), std::string::npos)
+            << msg;
     }
 }
 
@@ -132,9 +175,10 @@ TEST(SceneLoader, InvalidJsonNamesLineAndColumn) {
 // not as a parse error; it must still be a SceneError.
 TEST(SceneLoader, OverflowingNumberLiteralIsASceneError) {
     EXPECT_THROW(parse_scene("9e6666 of669e", "fuzz.json"), SceneError);
-    EXPECT_THROW(parse_scene(R"({"format": "rtval-scene/1", "name": "x", "bias": 1e99999, "spheres": []})",
-                             "big.json"),
-                 SceneError);
+    EXPECT_THROW(
+        parse_scene(R"({"format": "rtval-scene/1", "name": "x", "bias": 1e99999, "spheres": []})",
+                    "big.json"),
+        SceneError);
 }
 
 TEST(SceneLoader, MissingFileIsASceneError) {
@@ -142,7 +186,8 @@ TEST(SceneLoader, MissingFileIsASceneError) {
 }
 
 TEST(SceneLoader, EmptySphereListIsAllowed) {
-    const Scene s = parse_scene(R"({"format": "rtval-scene/1", "name": "e", "spheres": []})", "e.json");
+    const Scene s =
+        parse_scene(R"({"format": "rtval-scene/1", "name": "e", "spheres": []})", "e.json");
     EXPECT_TRUE(s.spheres.empty());
 }
 

@@ -17,7 +17,8 @@ struct Sphere {
     point3 center;
     float radius = 1.0f;
     color surface_color;
-    float reflection = 0.0f;    // > 0 marks a mirror-like surface; never a weight (paper-model.md)
+    float reflection =
+        0.0f;  // > 0 marks a mirror-like surface; never a weight (docs/paper-model.md)
     float transparency = 0.0f;  // > 0 marks glass
     float ior = 1.1f;
     color emission;

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 
-#include "fault_injection.h"
 #include "fresnel.h"
 #include "light_units.h"
 #include "optics.h"
@@ -16,9 +15,11 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 }
 
 Tracer::Tracer(const Scene& scene, TraceOptions options)
-    : scene_(scene), opt_(options), lanes_(scene.spheres),
+    : scene_(scene),
+      opt_(options),
+      lanes_(scene.spheres),
       use_lanes_(opt_.quirks.has(Quirk::Q1) && lanes_.usable()) {
-    if (fault(Fault::depth_cut)) opt_.max_depth -= 1;
+    if (opt_.mistakes.has(Mistake::depth_cut)) opt_.max_depth -= 1;
     for (int i = 0; i < static_cast<int>(scene.spheres.size()); ++i) {
         if (scene.spheres[i].is_light()) {
             lights_.push_back(i);
@@ -28,7 +29,7 @@ Tracer::Tracer(const Scene& scene, TraceOptions options)
 }
 
 float Tracer::offset_at(const point3& p) const {
-    if (fault(Fault::no_bias)) return 0.0f;
+    if (opt_.mistakes.has(Mistake::no_offset)) return 0.0f;
     if (opt_.quirks.has(Quirk::Q1)) return scene_.bias;
     return scene_.bias * (1.0f + max_abs_component(p));
 }
@@ -40,8 +41,9 @@ Tracer::Hit Tracer::nearest_hit(const ray& r, int skip) const {
     const bool paper = opt_.quirks.has(Quirk::Q1);
     for (int i = 0; i < static_cast<int>(scene_.spheres.size()); ++i) {
         if (i == skip) continue;
-        const std::optional<float> t = paper ? intersect_paper(scene_.spheres[i], r)
-                                             : intersect_robust(scene_.spheres[i], r, {0.0f, t_near});
+        const std::optional<float> t = paper
+                                           ? intersect_paper(scene_.spheres[i], r)
+                                           : intersect_robust(scene_.spheres[i], r, {0.0f, t_near});
         if (t && *t < t_near) {
             t_near = *t;
             best = Hit{i, *t};
@@ -80,7 +82,7 @@ color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* firs
     ++(depth == 0 ? counts_.camera : counts_.secondary);
     const auto hit = nearest_hit(r, skip);
     if (first) *first = hit ? primary_hit(scene_, r, hit.index, hit.t) : PrimaryHit{};
-    if (!hit) return scene_.background;
+    if (!hit) return opt_.mistakes.has(Mistake::black_background) ? color(0.0f) : scene_.background;
 
     const Sphere& s = scene_.spheres[hit.index];
     const bool paper_light = opt_.quirks.has(Quirk::Q7);
@@ -90,10 +92,10 @@ color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* firs
     vec3 n = normalize(p - s.center);
     bool inside = false;
     if (dot(r.dir, n) > 0) {
-        n = -n;
+        if (!opt_.mistakes.has(Mistake::no_inside_flip)) n = -n;
         inside = true;
     }
-    if (fault(Fault::flipped_normal)) n = -n;
+    if (opt_.mistakes.has(Mistake::flipped_normal)) n = -n;
 
     color c;
     if (s.has_specular_flags() && depth < opt_.max_depth) {
@@ -119,7 +121,7 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
     float eta_ti_sq = 1.0f;  // radiance scale across the interface (exact mode only)
     if (s.transparency > 0) {
         float eta = (q.has(Quirk::Q2) || !inside) ? 1.0f / s.ior : s.ior;
-        if (fault(Fault::wrong_eta) && !inside) eta = s.ior;
+        if (opt_.mistakes.has(Mistake::eta_inverted)) eta = 1.0f / eta;
         total_internal = refraction_k(r.dir, n, eta) < 0 && !q.has(Quirk::Q3);
         if (!total_internal && opt_.refraction)
             refracted = trace({p - n * offset, refract(r.dir, n, eta)}, depth + 1);
@@ -130,13 +132,15 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
     if (total_internal) {
         fresnel = 1.0f;
     } else if (q.has(Quirk::Q8)) {
-        fresnel = fault(Fault::fresnel_exponent) ? 0.1f + 0.9f * (1 - facing) * (1 - facing)
-                                                 : paper_fresnel(facing);
+        fresnel = opt_.mistakes.has(Mistake::fresnel_exponent)
+                      ? 0.1f + 0.9f * (1 - facing) * (1 - facing)
+                      : paper_fresnel(facing);
     } else if (s.transparency > 0) {
         fresnel = dielectric_fresnel(inside ? -facing : facing, s.ior);
     } else {
         fresnel = 1.0f;  // conductor material="none": an exact mirror tinted by its colour
     }
+    if (!total_internal && opt_.mistakes.has(Mistake::fresnel_constant)) fresnel = 0.5f;
 
     color reflected(0.0f);
     if (opt_.reflection) {
@@ -146,6 +150,8 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
         reflected = trace_skipping({p + n * offset, r_dir}, depth + 1, skip);
     }
     const float t_weight = q.has(Quirk::Q8) ? 1.0f : eta_ti_sq;
+    if (opt_.mistakes.has(Mistake::fresnel_missing))  // both at full strength, unmixed
+        return (reflected + refracted * (s.transparency * t_weight)) * s.surface_color;
     return (reflected * fresnel + refracted * ((1.0f - fresnel) * s.transparency * t_weight)) *
            s.surface_color;
 }
@@ -168,12 +174,15 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
         const vec3 l = to_light / dist;
         const float cos_theta = std::max(0.0f, dot(n, l));
         float transmission = 1.0f;
-        if (opt_.shadows && !fault(Fault::no_shadows) && (q.has(Quirk::Q4) || cos_theta > 0)) {
+        if (opt_.shadows && !opt_.mistakes.has(Mistake::no_shadows) &&
+            (q.has(Quirk::Q4) || cos_theta > 0)) {
             ++counts_.shadow;
             const ray shadow_ray{origin, l};
-            const float max_t = q.has(Quirk::Q5) ? kInf : dist;
+            const float max_t =
+                q.has(Quirk::Q5) || opt_.mistakes.has(Mistake::shadow_past_light) ? kInf : dist;
             // With lanes, every sphere is tested at once and the blockers are walked in order.
-            const std::uint64_t blockers = use_lanes_ ? lanes_.blockers_paper(shadow_ray, max_t) : 0;
+            const std::uint64_t blockers =
+                use_lanes_ ? lanes_.blockers_paper(shadow_ray, max_t) : 0;
             for (int j = 0; j < static_cast<int>(scene_.spheres.size()); ++j) {
                 if (j == light) continue;
                 // Q1 fixed: a ray leaving a convex sphere outward cannot hit it again.

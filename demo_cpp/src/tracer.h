@@ -1,10 +1,11 @@
-// The paper's recursive Whitted tracer (paper-model.md), each quirk a switch.
+// The paper's recursive Whitted tracer (docs/paper-model.md), each quirk a switch.
 #pragma once
 
 #include <cstdint>
 #include <optional>
 #include <vector>
 
+#include "mistakes.h"
 #include "quirks.h"
 #include "scene.h"
 #include "sphere_lanes.h"
@@ -18,6 +19,9 @@ struct TraceOptions {
     bool shadows = true;
     bool reflection = true;
     bool refraction = true;
+    // Named mistakes (mistakes.h) on top: only the scalar tracer implements them, so a
+    // renderer with another engine must fall back to it when mistakes.any().
+    MistakeSet mistakes;
 };
 
 // Rays traced, for rays/s in the benchmark: camera rays (one per sample, plus the centre ray
@@ -36,8 +40,8 @@ struct RayCounts {
 
 // What the camera ray saw at a pixel, for the EXR's AOV channels.
 struct PrimaryHit {
-    int id = -1;       // index into scene.spheres, -1 on a miss
-    float depth = 0;   // camera-ray distance, 0 on a miss
+    int id = -1;           // index into scene.spheres, -1 on a miss
+    float depth = 0;       // camera-ray distance, 0 on a miss
     vec3 normal{0, 0, 0};  // facing the camera, 0 on a miss
 };
 
@@ -50,7 +54,7 @@ public:
     // renderer need not trace the pixel centre a second time.
     color trace(const ray& r, int depth, PrimaryHit* first = nullptr) const;
     PrimaryHit primary(const ray& r) const;
-    // Step 5 of paper-model.md: direct light at p (normal n) on sphere `hit_index`.
+    // Step 5 of docs/paper-model.md: direct light at p (normal n) on sphere `hit_index`.
     color shade_direct(int hit_index, const point3& p, const vec3& n) const;
     // Rays traced by this tracer so far. A tracer is not shared between threads (each
     // render thread has its own copy), so counting needs no atomics.
@@ -65,8 +69,8 @@ private:
     Hit nearest_hit(const ray& r, int skip) const;
     // Does sphere j block the shadow ray within `max_t`?
     bool blocks(int j, const ray& shadow_ray, float max_t) const;
-    color shade_specular(int hit_index, const ray& r, const point3& p, const vec3& n,
-                         bool inside, int depth) const;
+    color shade_specular(int hit_index, const ray& r, const point3& p, const vec3& n, bool inside,
+                         int depth) const;
     // Where a secondary ray leaves the surface: the paper's fixed bias, or (Q1 fixed) an
     // offset that grows with |p| so float32 rounding at large coordinates cannot re-hit.
     float offset_at(const point3& p) const;

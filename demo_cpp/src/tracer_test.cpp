@@ -1,4 +1,4 @@
-// Shading rules of paper-model.md, each on a scene small enough to work out by hand.
+// Shading rules of docs/paper-model.md, each on a scene small enough to work out by hand.
 #include "tracer.h"
 
 #include <gtest/gtest.h>

@@ -15,9 +15,24 @@ struct vec3 {
 
     constexpr float operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
     constexpr vec3 operator-() const { return {-x, -y, -z}; }
-    vec3& operator+=(const vec3& v) { x += v.x; y += v.y; z += v.z; return *this; }
-    vec3& operator*=(const vec3& v) { x *= v.x; y *= v.y; z *= v.z; return *this; }
-    vec3& operator*=(float s) { x *= s; y *= s; z *= s; return *this; }
+    vec3& operator+=(const vec3& v) {
+        x += v.x;
+        y += v.y;
+        z += v.z;
+        return *this;
+    }
+    vec3& operator*=(const vec3& v) {
+        x *= v.x;
+        y *= v.y;
+        z *= v.z;
+        return *this;
+    }
+    vec3& operator*=(float s) {
+        x *= s;
+        y *= s;
+        z *= s;
+        return *this;
+    }
 };
 
 using point3 = vec3;

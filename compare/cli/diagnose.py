@@ -1,0 +1,100 @@
+"""`rtval diagnose IMAGE --scene S`: which demo model, quirks, switched-off effects, depth and
+named mistakes explain a foreign image, effect by effect."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+EXIT_DIAGNOSED = 0
+EXIT_RENDERER = 1
+
+
+def run_diagnose(args: argparse.Namespace) -> int:
+    from compare.cli.common import stderr_progress
+    from compare.files import write_atomic
+    from compare.judge.candidate import Candidate
+    from compare.judge.diagnose import DiagnoseError, diagnose
+    from compare.judge.images import read_image
+    from compare.judge.target_model import parse_model
+    from compare.render.candidates import CandidateRenderer
+    from compare.render.runner import ToolError
+    from compare.safe_paths import check_outputs_distinct
+    from scene_model.scene import load_scene
+
+    start = None
+    if args.against_start:
+        model = parse_model(args.against_start)  # ModelError is a ValueError: exit 64
+        if not model.is_demo:
+            raise ValueError(
+                f"--against-start {args.against_start}: expected a demo model "
+                "(paper, classic, physical, optionally with +Qn/-Qn)"
+            )
+        start = Candidate.from_model(model)
+    scene_file = (
+        Path(args.scene)
+        if Path(args.scene).suffix == ".json"
+        else (Path("scenes") / f"{args.scene}.json")
+    )
+    check_outputs_distinct(
+        [("--json", args.json)], [("IMAGE", args.image), ("--scene", scene_file)]
+    )
+    scene = load_scene(scene_file)
+    image = read_image(args.image, encoding=args.encoding)
+    progress = (lambda _m: None) if args.quiet else stderr_progress
+    h, w = image.shape
+    try:
+        with CandidateRenderer(scene_file, w, h, threads=1 if args.parallel > 1 else 0) as r:
+            result = diagnose(
+                image, scene, r, start=start, progress=progress, parallel=args.parallel
+            )
+    except DiagnoseError as e:
+        raise ToolError(str(e)) from None
+    if args.json:
+        write_atomic(args.json, json.dumps(result.as_dict(), indent=2) + "\n")
+    print(f"{args.image}: {result.result}")
+    for line in result.sentences:
+        print(f"  {line}")
+    print(f"  (rtdemo render {scene_file} {' '.join(result.rtdemo_args)} renders it)")
+    sys.stdout.flush()
+    return EXIT_DIAGNOSED
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    from compare.cli.common import positive_int
+
+    p = sub.add_parser(
+        "diagnose",
+        help="explain a foreign image as the nearest demo model, quirks and named mistakes",
+        description="Explains IMAGE (a render of SCENE by another program) as the nearest demo "
+        "model: mode, quirks present or absent, effects switched off, max depth and named "
+        "mistakes (rtdemo render --help lists them), effect by effect, with FLIP before and "
+        "after. A region nothing explains is named: a new bug, not a quirk. Exit 0 diagnosed, "
+        "1 renderer failure, 3 invalid scene, 4 unreadable image or unwritable --json, "
+        "64 bad arguments (also --json naming IMAGE or the scene).",
+    )
+    p.add_argument("image", help="the image to explain (EXR, PNG, PPM, PFM)")
+    p.add_argument("--scene", required=True, metavar="S", help="scene name (scenes/S.json) or file")
+    p.add_argument("--json", metavar="F", help="write the diagnosis as JSON")
+    p.add_argument(
+        "--against-start",
+        metavar="MODE",
+        help="start the search from this demo model (e.g. classic, paper-Q8) instead of the "
+        "nearest of paper, classic and physical",
+    )
+    p.add_argument(
+        "--encoding",
+        choices=("srgb", "linear"),
+        default=None,
+        help="8-bit encoding of IMAGE (default: PNG srgb, PPM linear)",
+    )
+    p.add_argument(
+        "--parallel",
+        type=positive_int,
+        default=2,
+        help="renders at once, one thread each (default 2)",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(func=run_diagnose)

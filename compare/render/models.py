@@ -1,0 +1,119 @@
+"""Rendering a target model (compare/judge/target_model.py) for a scene at a size, through the
+shared render cache (cache.py, jobs.py): the image every judgement against that model uses.
+
+Demo models are rtdemo renders; `mitsuba` is the report plan's converged Whitted reference and
+`mitsuba-path` its 64 spp path-traced render (plan.py), so a report and a grading run share
+them. Exact judging also needs the demo model with the camera turned by OFFSET_PIXELS of a
+pixel along each image axis (render_offsets): rtdemo has no jitter option, so each is a copy of
+the scene with `look_at` nudged, cached like any render (docs/metrics.md, "Exact match").
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from compare.files import write_atomic
+from compare.judge.target_model import TargetModel
+from compare.render.cache import RenderCache
+from compare.render.jobs import RenderJob, run_jobs
+from compare.render.plan import REFERENCE_KEY, plan
+from compare.render.progress import Progress
+from scene_model.scene import load_scene
+
+# A float32 program's pixel-centre ray differs from another's by ~5e-5 px (a few ulps of the
+# direction over a pixel's 1e-3 rad); twice that covers it without reaching real features.
+OFFSET_PIXELS = 1e-4
+OFFSETS = ((1, 0), (-1, 0), (0, 1), (0, -1))
+MITSUBA_JOBS = {"mitsuba": REFERENCE_KEY, "mitsuba-path": "mitsuba-path-llvm-64spp"}
+
+
+def _size_args(size: tuple[int, int] | None) -> list[str]:
+    return ["--width", str(size[0]), "--height", str(size[1])] if size else []
+
+
+def model_job(model: TargetModel, scene_file: Path, size: tuple[int, int] | None) -> RenderJob:
+    """The render command of `model` (its cache key follows from it). Mitsuba models are the
+    plan's own commands, so a report's renders serve them and the other way round."""
+    if not model.is_demo:
+        return next(j for j in plan(str(scene_file), size) if j.key == MITSUBA_JOBS[model.kind])
+    return RenderJob(
+        f"model-{model.name}",
+        f"{model.name} model",
+        "rtdemo",
+        ["render", "{scene}", "-o", "{out}", "-q", *model.rtdemo_args(), *_size_args(size)],
+        "model",
+        scene=str(scene_file),
+    )
+
+
+def render_model(
+    model: TargetModel,
+    scene_file: Path,
+    size: tuple[int, int] | None,
+    cache: RenderCache,
+    *,
+    progress: Progress | None = None,
+) -> Path:
+    """Renders (or finds in the cache) `model` on the scene; returns the cached EXR's path."""
+    job = model_job(model, scene_file, size)
+    run_jobs([job], cache, progress=progress)
+    return job.exr(cache)
+
+
+def offset_scene(scene_file: Path, size: tuple[int, int] | None, dx: float, dy: float) -> str:
+    """The scene's JSON with the camera turned by (dx, dy) pixels: look_at moves across the
+    view by that many pixel footprints at its distance (at least 4 float32 ulps of it)."""
+    scene = load_scene(scene_file)  # validates; the copy keeps every other byte's meaning
+    raw = json.loads(Path(scene_file).read_text(encoding="utf-8-sig"))
+    cam = scene.camera
+    pos, at = np.array(cam.position, np.float64), np.array(cam.look_at, np.float64)
+    forward = at - pos
+    dist = float(np.linalg.norm(forward))
+    forward /= dist
+    right = np.cross(forward, np.array(cam.up, np.float64))
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    height = size[1] if size else cam.height
+    footprint = 2 * math.tan(math.radians(cam.fov_y) / 2) * dist / height
+    floor = 4 * float(np.spacing(np.float32(np.abs(at).max())))
+
+    def step(pixels: float) -> float:
+        return math.copysign(max(abs(pixels) * footprint, floor), pixels) if pixels else 0.0
+
+    # Image y grows downwards, the camera's up upwards.
+    nudged = at + step(dx) * right - step(dy) * up
+    raw["camera"]["look_at"] = [float(v) for v in nudged]
+    return json.dumps(raw, indent=1)
+
+
+def render_offsets(
+    model: TargetModel,
+    scene_file: Path,
+    size: tuple[int, int] | None,
+    cache: RenderCache,
+    *,
+    jobs_in_parallel: int = 1,
+    progress: Progress | None = None,
+) -> list[Path]:
+    """The demo model rendered with the camera turned by OFFSET_PIXELS along +x, -x, +y, -y."""
+    if not model.is_demo:
+        raise ValueError(f"{model.name}: sub-pixel offsets are for demo models only")
+    jobs = []
+    for dx, dy in OFFSETS:
+        text = offset_scene(scene_file, size, dx * OFFSET_PIXELS, dy * OFFSET_PIXELS)
+        digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+        # The scene copy is named by its content, so it is derived data like a figure.
+        copy = cache.derived(f"scene-{digest}-offset.json")
+        if not copy.is_file():
+            write_atomic(copy, text)
+        job = model_job(model, copy, size)
+        job.key += f"-offset{dx:+d}{dy:+d}"
+        job.label += f", camera turned ({dx:+d}, {dy:+d}) x {OFFSET_PIXELS:g} px"
+        jobs.append(job)
+    run_jobs(jobs, cache, jobs_in_parallel=jobs_in_parallel, progress=progress)
+    return [j.exr(cache) for j in jobs]

@@ -1,0 +1,130 @@
+"""What a path is, before anything reads or replaces it.
+
+Inputs are read only from regular files, with a bound on their size: a FIFO would block
+forever, a device (or a symlink to /dev/zero) would feed bytes without end. Outputs only
+ever replace regular files: renaming a temporary file over /dev/null or /dev/full would turn
+a device into a file. An output that is also an input, or twice an output, is refused.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from collections.abc import Iterable
+from pathlib import Path
+
+
+class UnsafePathError(OSError):
+    """A path that is not what it must be (an OSError: rtval exits 4 on it)."""
+
+
+class OutputClashError(ValueError):
+    """An output equal to an input or to another output (a usage error: rtval exits 64)."""
+
+
+def describe_mode(mode: int) -> str:
+    """A file type in words, for error messages."""
+    for test, name in (
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISSOCK, "a socket"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISLNK, "a symbolic link"),
+        (stat.S_ISREG, "a regular file"),
+    ):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def check_regular_input(path: str | Path, *, max_bytes: int | None = None) -> os.stat_result:
+    """The stat of ``path`` (symlinks followed) if it is a regular file of at most
+    ``max_bytes``; UnsafePathError naming the path otherwise."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise UnsafePathError(f"{path}: no such file") from None
+    except OSError as e:
+        raise UnsafePathError(f"{path}: cannot read: {e.strerror}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise UnsafePathError(f"{path}: is {describe_mode(st.st_mode)}, not a regular file")
+    if max_bytes is not None and st.st_size > max_bytes:
+        raise UnsafePathError(f"{path}: {st.st_size} bytes, more than the {max_bytes} allowed")
+    return st
+
+
+def read_bounded(path: str | Path, max_bytes: int) -> bytes:
+    """The bytes of a regular file of at most ``max_bytes``, never blocking on a FIFO (the
+    file is opened non-blocking and checked again after opening, against a swap)."""
+    check_regular_input(path, max_bytes=max_bytes)
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except OSError as e:
+        raise UnsafePathError(f"{path}: cannot open: {e.strerror}") from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise UnsafePathError(f"{path}: is {describe_mode(st.st_mode)}, not a regular file")
+        chunks: list[bytes] = []
+        total = 0
+        while True:
+            chunk = os.read(fd, min(1 << 20, max_bytes + 1 - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+            if total > max_bytes:  # grew while we read
+                raise UnsafePathError(f"{path}: more than the {max_bytes} bytes allowed")
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
+
+
+def check_output_target(path: str | Path) -> None:
+    """Refuses to replace anything but a regular file (a missing file is fine). A symbolic
+    link is refused too: renaming over it would silently cut it, not write through it."""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return
+    except OSError as e:
+        raise UnsafePathError(f"{path}: cannot write: {e.strerror}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise UnsafePathError(
+            f"{path}: is {describe_mode(st.st_mode)}; outputs only ever replace regular files"
+        )
+
+
+def _identity(path: str | Path) -> tuple[str, object]:
+    """Two paths name the same file when their (device, inode) agree, or, for files that do
+    not exist yet, when their resolved paths agree."""
+    p = Path(path)
+    try:
+        st = os.stat(p)
+        return ("inode", (st.st_dev, st.st_ino))
+    except OSError:
+        return ("path", str(p.resolve()))
+
+
+def check_outputs_distinct(
+    outputs: Iterable[tuple[str, str | Path | None]],
+    inputs: Iterable[tuple[str, str | Path | None]],
+) -> None:
+    """Each (option, path) output must differ from every input and every other output;
+    OutputClashError naming both options otherwise. None entries are skipped."""
+    seen: dict[tuple[str, object], str] = {}
+    for option, p in inputs:
+        if p is not None:
+            seen.setdefault(_identity(p), option)
+    for option, p in outputs:
+        if p is None:
+            continue
+        ident = _identity(p)
+        if ident in seen:
+            raise OutputClashError(
+                f"{p}: {option} names the same file as {seen[ident]}; "
+                "refusing to overwrite an input or to write one file twice"
+            )
+        seen[ident] = option
+        check_output_target(p)
