@@ -30,6 +30,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 from common import ROOT, SCENES, print_table, tool, write_results
 
+CLASSIC_CACHE = ROOT / "build" / "bench-grade" / "cache-classic"
+
 CLASSIC_KINDS = {  # kind -> expected status
     "ppm_round": "pass",
     "ppm_trunc": "pass",
@@ -147,16 +149,11 @@ def pair_costs() -> dict[str, float]:
     from compare.apps.against import judge, load, prepare
     from compare.judge.images import read_image
     from compare.judge.target_model import parse_model
+    from compare.render.cache import RenderCache
 
     work = ROOT / "build" / "bench-grade"
     loaded = load(
-        prepare(
-            parse_model("classic"),
-            SCENES / "classic.json",
-            None,
-            work / "cache",
-            progress=lambda m: None,
-        )
+        prepare(parse_model("classic"), SCENES / "classic.json", None, RenderCache(CLASSIC_CACHE))
     )
     test = read_image(work / "renders" / "numpy.ppm")
     judge(test, loaded)  # the model's bounds, once per process
@@ -186,12 +183,14 @@ def scenario_classic(students: int) -> dict[str, object]:
     expected = make_classic_class(subs, students)
     out = work / "out-classic"
     shutil.rmtree(out, ignore_errors=True)
-    # Cold: the command renders the model itself (five classic renders) before grading.
+    # Cold: the command renders the model itself (five classic renders) before grading, into
+    # a render cache of its own that starts empty.
+    shutil.rmtree(CLASSIC_CACHE, ignore_errors=True)
     cmd = [tool("rtval"), "grade", str(subs), "--scene", str(SCENES / "classic.json")]
     cmd += ["--out", str(out), "--jobs", "2", "--against", "classic"]
+    cmd += ["--cache", str(CLASSIC_CACHE)]
     load = os.getloadavg()[0]
     wall, first, cpu, _ = grade_timed(cmd)
-    shutil.copytree(out / "cache", work / "cache", dirs_exist_ok=True)
     import csv
 
     with (out / "gradebook.csv").open() as f:
@@ -237,7 +236,7 @@ def scenario_mitsuba(students: int) -> list[dict[str, object]]:
         check=True,
         capture_output=True,
     )
-    ref = warm / "cache" / "models" / "scene-size" / "ref-converged.exr"
+    ref = warm / "references" / "classic-mitsuba.exr"  # grade's copy of the model render
     subs = work / "subs"
     if not subs.is_dir():
         make_class(
@@ -247,8 +246,7 @@ def scenario_mitsuba(students: int) -> list[dict[str, object]]:
     results = []
     for executor in ("local", "dask"):
         out = work / f"out-{executor}"
-        shutil.rmtree(out, ignore_errors=True)
-        shutil.copytree(warm / "cache", out / "cache")
+        shutil.rmtree(out, ignore_errors=True)  # the reference stays in the render cache
         cmd = [rtval, "grade", str(subs), "--scene", str(scene), "--out", str(out), "--jobs", "2"]
         cmd += ["--against", "mitsuba"]
         cluster = None

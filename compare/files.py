@@ -7,6 +7,7 @@ import hashlib
 import math
 import os
 import tempfile
+import uuid
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -35,12 +36,20 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> None:
-    """Writes to a temporary sibling, then renames: readers never see half a file."""
+    """Writes to a temporary sibling, then renames: readers never see half a file. The
+    sibling's name is unique (mkstemp), so two processes writing one path never share it;
+    only a regular file is replaced, and the temporary file goes on every error."""
     raw = data.encode("utf-8") if isinstance(data, str) else data
     with atomic_output(path) as tmp, open(tmp, "wb") as f:
         f.write(raw)
         f.flush()
         os.fsync(f.fileno())  # a full disk shows here, before the rename
+
+
+def unique_sibling(path: Path) -> Path:
+    """A temporary name beside `path` that no other process or thread uses, for a file a
+    renderer writes itself (the render cache's renders in progress)."""
+    return path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
 
 
 def sha256_file(path: str | Path) -> str:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 from compare.cli.common import positive_float, positive_int, size_type
@@ -77,10 +79,44 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def run_reference(args: argparse.Namespace) -> int:
+    if args.batch:
+        if args.scene or args.output:
+            raise ValueError("--batch takes its scenes and outputs from the batch file")
+        from mitsuba_ref.batch import run_batch
+
+        return run_batch(Path(args.batch), _parse_job, render_to_file)
+    if not args.scene or not args.output:
+        raise ValueError("reference needs SCENE and -o OUT.exr (or --batch JOBS.json)")
+    from compare.render.progress import Progress
+
+    progress = Progress()
+    step = f"{args.integrator} {args.variant}"
+    seconds, summary = render_to_file(args, lambda d, t, e: progress.update(step, d, t, e))
+    progress.line(f"{step}: {summary} in {seconds:.2f} s")
+    print(args.output)
+    return 0
+
+
+def _parse_job(argv: list[str]) -> argparse.Namespace:
+    """One batch job's arguments, read by the same parser as `rtval reference`."""
+    from compare.cli.main import build_parser
+
+    args = build_parser().parse_args(["reference", *argv])
+    if args.batch or not args.scene or not args.output:
+        raise ValueError("each batch job needs SCENE and -o OUT.exr, and no --batch")
+    return args
+
+
+def render_to_file(
+    args: argparse.Namespace, progress: Callable[[int, int, float], None]
+) -> tuple[float, str]:
+    """Renders one `rtval reference` command's image to its -o file; returns the wall
+    seconds and what was done (samples, why it stopped)."""
     from compare.judge.images import write_exr
     from mitsuba_ref.reference import ReferenceSettings, render_reference
     from scene_model.scene import load_scene
 
+    start = time.perf_counter()
     scene = load_scene(args.scene)
     out = Path(args.output)
     if not out.parent.is_dir():
@@ -102,21 +138,13 @@ def run_reference(args: argparse.Namespace) -> int:
         target_stderr=args.target_stderr,
         size=args.size,
     )
-    result = render_reference(
-        scene, settings, progress=lambda m: print("\r" + m, end="", file=sys.stderr)
-    )
-    print(file=sys.stderr)
+    result = render_reference(scene, settings, progress=progress)
     aovs = dict(result.aovs)
     if result.variance is not None:
         aovs.update({f"var.{c}": result.variance[..., i] for i, c in enumerate("RGB")})
     write_exr(out, result.rgb, aovs=aovs, header=result.header)
-    print(out)
-    print(
-        f"{settings.integrator} {settings.variant}: {result.header['rtval.spp']} spp in "
-        f"{result.seconds:.2f} s (stopped by {result.header['rtval.stopped_by']})",
-        file=sys.stderr,
-    )
-    return 0
+    summary = f"{result.header['rtval.spp']} spp (stopped by {result.header['rtval.stopped_by']})"
+    return time.perf_counter() - start, summary
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -151,8 +179,15 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         description="Renders a reference with Mitsuba 3: colour plus id, depth, N.* AOVs "
         "(and var.* per-sample variance with spp >= 2).",
     )
-    p.add_argument("scene", help="scene file")
-    p.add_argument("-o", "--output", required=True, help="the EXR file to write")
+    p.add_argument("scene", nargs="?", help="scene file")
+    p.add_argument("-o", "--output", help="the EXR file to write")
+    p.add_argument(
+        "--batch",
+        metavar="JOBS.json",
+        help="render several references in one process (Mitsuba is imported once): "
+        '{"jobs": [[SCENE, "-o", OUT, OPTIONS...], ...]}; JSON lines on stdout report '
+        "progress and each finished render",
+    )
     p.add_argument(
         "--integrator",
         choices=("whitted", "path"),

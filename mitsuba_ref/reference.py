@@ -74,8 +74,11 @@ def _deterministic(s: ReferenceSettings) -> bool:
 
 
 def render_reference(
-    scene: Scene, settings: ReferenceSettings, progress: Callable[[str], None] | None = None
+    scene: Scene,
+    settings: ReferenceSettings,
+    progress: Callable[[int, int, float], None] | None = None,
 ) -> ReferenceImage:
+    """`progress(samples done, samples asked, seconds)` after each pass (or JIT batch)."""
     mi = load_mitsuba(settings.variant)
     import drjit as dr
 
@@ -142,12 +145,7 @@ def render_reference(
             var = np.maximum(total_sq / done - (total / done) ** 2, 0) * done / (done - 1)
             stderr = float(np.mean(np.sqrt(var / done)))
         if progress:
-            filled = int(20 * done / passes)
-            progress(
-                f"{settings.integrator} {settings.variant} [{'#' * filled}{'.' * (20 - filled)}] "
-                f"{done}/{passes} spp {elapsed:.1f} s"
-                + (f", std err {stderr:.2e}" if done >= 2 else "")
-            )
+            progress(done, passes, elapsed)
         if settings.time_budget is not None and elapsed >= settings.time_budget and done < passes:
             stopped_by = "time budget"
             break

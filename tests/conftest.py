@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -12,10 +13,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # helpers, numpy_refer
 
 
 @pytest.fixture(scope="session", autouse=True)
-def _render_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
-    """`rtval check` and `compare --against` cache model renders and effect masks in
-    $RTVAL_CACHE: one per test session, never the user's ~/.cache (subprocesses inherit it)."""
-    os.environ.setdefault("RTVAL_CACHE", str(tmp_path_factory.mktemp("rtval-cache")))
+def render_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """One render cache for the whole test session (every rtval command and test shares it,
+    as on a user's machine), never the user's own ~/.cache/rtval."""
+    folder = tmp_path_factory.mktemp("render-cache")
+    before = os.environ.get("RTVAL_CACHE")
+    os.environ["RTVAL_CACHE"] = str(folder)
+    yield folder
+    if before is None:
+        os.environ.pop("RTVAL_CACHE", None)
+    else:
+        os.environ["RTVAL_CACHE"] = before
 
 
 @pytest.fixture(scope="session")

@@ -71,7 +71,7 @@ def work(tmp_path_factory: pytest.TempPathFactory, rtdemo: str) -> dict[str, Pat
     assert (
         run([rtdemo, "render", str(SCENE), "--mode", "paper", "-q", *size, *wrong]).returncode == 0
     )
-    return {"root": root, "subs": subs, "cache": root / "grades" / "cache"}
+    return {"root": root, "subs": subs}
 
 
 def _compare(work: dict[str, Path], image: str, model: str) -> dict:  # type: ignore[type-arg]
@@ -89,7 +89,6 @@ def _compare(work: dict[str, Path], image: str, model: str) -> dict:  # type: ig
             str(out),
             "-q",
         ],
-        env={**os.environ, "RTVAL_CACHE": str(work["cache"])},
     )
     assert proc.returncode in (0, 2), proc.stderr
     data: dict = json.loads(out.read_text())  # type: ignore[type-arg]

@@ -89,7 +89,9 @@ def test_missing_scene_file_everywhere(tmp_path: Path, rtdemo: str) -> None:
         assert proc.returncode == 3 and "nope.json" in proc.stderr, cmd
 
 
-def test_interrupted_report_leaves_no_complete_looking_files(tmp_path: Path) -> None:
+def test_interrupted_report_leaves_no_complete_looking_files(
+    tmp_path: Path, render_cache: Path
+) -> None:
     proc = subprocess.Popen(
         [
             RTVAL,
@@ -114,3 +116,5 @@ def test_interrupted_report_leaves_no_complete_looking_files(tmp_path: Path) -> 
     assert not (folder / "index.html").exists() and not (folder / "report.json").exists()
     leftovers = [p.name for p in folder.rglob("*") if ".tmp" in p.name or ".partial" in p.name]
     assert not leftovers, leftovers
+    half_made = list((render_cache / "tmp").glob("*"))  # renders in progress are removed
+    assert not half_made, half_made

@@ -41,7 +41,7 @@ def hostile(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict,
     rc, err = _grade(subs, out)  # renders the model (classic, the default) the class is made of
     assert rc == 0, err
     reference = root / "reference.exr"
-    shutil.copyfile(out / "cache" / "models" / SIZE / "model-classic.exr", reference)
+    shutil.copyfile(out / "references" / "classic-classic.exr", reference)
     expected = make_hostile_class(reference, subs)
     rc, err = _grade(subs, out)
     assert rc == 0, err

@@ -241,6 +241,7 @@ def test_check_passes_unchanged_renderer_repeatedly_and_writes_junit(tmp_path: P
             baseline, "--junit", str(tmp_path / "j.xml"), "--json", str(tmp_path / "c.json")
         )
         assert code == 0, out
+    assert out.count("(cached render)") == 6  # the same binary: renders from the shared cache
     suite = ET.parse(tmp_path / "j.xml").getroot()
     cases = json.loads((tmp_path / "c.json").read_text())["cases"]
     # One testcase per case and effect (those with pixels) plus the whole image.

@@ -3,7 +3,10 @@ foreign image. Runs at 160x120 to keep the suite fast; `make report` runs full s
 
 from __future__ import annotations
 
+import hashlib
+import itertools
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -44,10 +47,15 @@ def report(
     return out / "classic", proc
 
 
-def test_page_loads_without_errors_and_flip_control_works(report: tuple[Path, object]) -> None:
+def test_page_loads_without_errors_and_flip_control_works(
+    report: tuple[Path, object], tmp_path: Path
+) -> None:
     from playwright.sync_api import sync_playwright
 
-    folder, _ = report
+    # The folder is sent as a zip and opened elsewhere: everything it links to must travel.
+    archive = shutil.make_archive(str(tmp_path / "sent"), "zip", report[0].parent, "classic")
+    shutil.unpack_archive(archive, tmp_path / "elsewhere")
+    folder = tmp_path / "elsewhere" / "classic"
     chromium = shutil.which("chromium")
     assert chromium, "Debian's chromium is installed by make setup"
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
@@ -144,13 +152,109 @@ def test_report_json_holds_every_section(
     assert all(r["command"].startswith(("rtdemo ", "rtval ")) for r in data["renders"])
     assert len(data["contributions"]) == 6
     assert data["versions"]["mitsuba"] != "not installed"
-    assert "[41/41]" in proc.stderr  # progress
+    assert "[41/41]" in proc.stderr  # one line per render: stderr is not a terminal
+    assert "\r" not in proc.stderr
+    steps = [t["step"] for t in data["timings"]]
+    assert steps[:3] == ["plan", "renders: demo", "renders: Mitsuba"] and "PDF (Chromium)" in steps
+    assert all(t["seconds"] >= 0 for t in data["timings"])
+    table = proc.stderr.splitlines()[-len(steps) - 2 :]  # the table ends the run
+    assert table[0].split() == ["step", "seconds"] and table[-1].startswith("total")
+    assert table[3].startswith("renders: Mitsuba")
+    assert any(line.startswith("metrics: ") for line in proc.stderr.splitlines())  # step done
     c = data["time_to_converged"]
     assert c["reference_spp"] == 32 and c["target_error"] > 0 and c["reference_seconds"] > 0
     assert set(c["demo_errors"]) == {"1", "4", "16"} and c["demo_yardstick_spp"] == 64
     # stratified sampling converges: each level is closer to the 64-spp render
     assert c["demo_errors"]["1"] > c["demo_errors"]["4"] > c["demo_errors"]["16"]
-    assert "Time to the converged error" in (folder / "index.html").read_text()
+    page = (folder / "index.html").read_text()
+    assert "Time to the converged error" in page
+    # The speed claim names both configurations, the fastest Mitsuba one included.
+    fastest = c["mitsuba"]["fastest"]
+    assert fastest and fastest["reaches"] and fastest["key"] == "ref-converged"
+    assert all(
+        r["seconds"] >= fastest["seconds"] for r in c["mitsuba"]["configurations"] if r["reaches"]
+    )
+    assert {r["key"] for r in c["mitsuba"]["configurations"]} >= {
+        "ref-converged",
+        "mitsuba-whitted-llvm-4spp",
+        "mitsuba-path-llvm-64spp",
+    }
+    assert f"The fastest Mitsuba configuration that reaches it is <b>{fastest['label']}" in page
+    if c["demo_spp"]:
+        assert c["demo"]["label"] in page and c["speedup_vs_fastest_mitsuba"] > 0
+
+
+def test_report_json_has_the_pareto_front(report: tuple[Path, object]) -> None:
+    folder, _ = report
+    data = json.loads((folder / "report.json").read_text())
+    rows = {r["key"]: r for r in data["speed_accuracy"]}
+    for error in ("flip", "one_minus_ssim"):
+        front = data["pareto_front"][error]
+        assert len(front) >= 2
+        times = [r["seconds"] for r in front]
+        errors = [r[error] for r in front]
+        assert times == sorted(times) and all(a > b for a, b in itertools.pairwise(errors))
+        for r in front:  # each point is a render of the chart, and none beats it on both
+            assert rows[r["key"]][error] == r[error] and r["label"] == rows[r["key"]]["label"]
+            assert not any(
+                o["seconds"] <= r["seconds"] and o[error] < r[error] for o in rows.values()
+            )
+
+
+def test_report_folder_is_self_contained_and_small(report: tuple[Path, object]) -> None:
+    import OpenEXR
+
+    folder, _ = report
+    html = (folder / "index.html").read_text()
+    data = json.loads((folder / "report.json").read_text())
+    text = html + (folder / "report.json").read_text()
+    for absolute in (str(folder.parent), str(ROOT), str(Path.home())):
+        assert absolute not in text, absolute
+    links = re.findall(r'(?:src|href)="([^"#]+)"', html)
+    assert links and all(not link.startswith(("/", "file:")) for link in links)
+    assert all((folder / link).is_file() for link in links), links
+    # Only the EXRs that matter for re-analysis, ZIP-compressed; everything else as PNG.
+    exrs = sorted(p.name for p in (folder / "images").glob("*.exr"))
+    assert exrs == ["demo-paper-cpu.exr", "ref-converged.exr"]
+    for name in exrs:
+        with OpenEXR.File(str(folder / "images" / name)) as f:
+            assert f.header()["compression"] == OpenEXR.ZIP_COMPRESSION
+            assert {"id", "depth"} <= set(f.channels())  # the AOVs the masks are made from
+    shown = [r for r in data["renders"] if r["png"]]
+    assert len(shown) == 31 and all((folder / r["png"]).is_file() for r in shown)
+    assert all(
+        r["exr"] is None or r["key"] in ("ref-converged", "demo-paper-cpu") for r in data["renders"]
+    )
+    assert (folder / "scene.json").read_bytes() == (SCENES / "classic.json").read_bytes()
+    assert data["reference"]["command"].startswith("rtval reference scene.json -o images/")
+    assert not (folder / "cache").exists()
+    total = sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
+    assert total < 25_000_000  # the budget at 640x480; at 160x120 it is far below
+
+
+def test_grading_right_after_the_report_renders_nothing(
+    report: tuple[Path, object], tmp_path: Path
+) -> None:
+    """The model renders grade needs are the report's own cache entries: its converged
+    reference for `--against mitsuba`, its classic-mode render for the default `classic`."""
+    (tmp_path / "subs").mkdir()
+    folder, _ = report
+    made = {
+        r["key"]: r["sha256"] for r in json.loads((folder / "report.json").read_text())["renders"]
+    }
+    for model, key, line in (
+        ("mitsuba", "ref-converged", "[1/1] Mitsuba whitted, point lights, 32 spp"),
+        ("classic", "demo-classic-cpu", "[1/1] classic model: cached"),
+    ):
+        proc = run(
+            [RTVAL, "grade", str(tmp_path / "subs"), "--scene", str(SCENES / "classic.json"),
+             "--out", str(tmp_path / "grades"), "--size", "160x120", "--against", model]
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        first = next(x for x in proc.stderr.splitlines() if x.startswith("[1/1]"))
+        assert first.startswith(line) and first.endswith(": cached"), proc.stderr
+        ref = tmp_path / "grades" / "references" / f"classic-{model}.exr"
+        assert hashlib.sha256(ref.read_bytes()).hexdigest() == made[key]
 
 
 def test_rerun_renders_nothing(report: tuple[Path, object]) -> None:
@@ -242,6 +346,20 @@ def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtd
         ]
     )
     assert bad.returncode == 4 and "never resampled" in bad.stderr
+    assert (folder / "index.html").read_text().count("student 42") >= 1  # the bad run left it
+    # The report's own test EXR as the image under test (read before images/ is tidied).
+    plain = [RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent),
+             "--size", "160x120", "--no-pdf"]  # fmt: skip
+    assert run(plain).returncode == 0
+    assert not list((folder / "images").glob("test-image*"))  # nothing of the last run stays
+    own = run(
+        [RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent),
+         "--size", "160x120", "--test-image", str(folder / "images" / "demo-paper-cpu.exr"),
+         "--no-pdf"]
+    )  # fmt: skip
+    assert own.returncode == 0, own.stderr
+    assert (folder / "images" / "test-image.exr").is_file()
+    assert json.loads((folder / "report.json").read_text())["test"]["label"] == "demo-paper-cpu"
 
 
 def test_diagnoses_a_student_variant(report: tuple[Path, object], tmp_path: Path) -> None:

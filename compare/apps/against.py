@@ -9,7 +9,6 @@ linear quantisation"); Mitsuba models by the rubric's per-effect FLIP and SSIM r
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,7 +24,9 @@ from compare.judge.rubric import Rubric
 from compare.judge.scoring import FLIP_AT_ZERO_SCORE
 from compare.judge.target_model import TargetModel, parse_model
 from compare.judge.tolerances import Tolerances
+from compare.render.cache import RenderCache
 from compare.render.models import render_model, render_offsets
+from compare.render.progress import Progress
 from scene_model.scene import load_scene
 
 GRADE_DEFAULT = "classic"  # README, "Grading a class": why classic
@@ -66,16 +67,14 @@ def prepare(
     model: TargetModel,
     scene_file: Path,
     size: tuple[int, int] | None,
-    cache_dir: Path,
+    cache: RenderCache,
     *,
-    progress: Callable[[str], None] = print,
+    progress: Progress | None = None,
 ) -> ModelRenders:
-    """Renders (or finds in the cache) everything judging against `model` needs."""
-    ref = render_model(model, scene_file, size, cache_dir, progress=progress)
+    """Renders (or finds in the shared cache) everything judging against `model` needs."""
+    ref = render_model(model, scene_file, size, cache, progress=progress)
     offsets = (
-        render_offsets(model, scene_file, size, cache_dir, progress=progress)
-        if model.is_demo
-        else []
+        render_offsets(model, scene_file, size, cache, progress=progress) if model.is_demo else []
     )
     return ModelRenders(model.name, str(scene_file), str(ref), tuple(str(p) for p in offsets))
 
@@ -129,16 +128,6 @@ def judge(
         flip_at_zero=rubric.flip_at_zero if rubric else FLIP_AT_ZERO_SCORE,
         pass_score=pass_score,
     )
-
-
-def default_cache() -> Path:
-    """Where compare and check keep model renders: $RTVAL_CACHE, else the XDG cache."""
-    import os
-
-    if os.environ.get("RTVAL_CACHE"):
-        return Path(os.environ["RTVAL_CACHE"])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "rtval"
 
 
 def nan_pixels(img: Image) -> int:

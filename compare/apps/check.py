@@ -38,6 +38,7 @@ from compare.judge.images import F32, Image, ImageError, read_image, write_exr
 from compare.judge.target_model import ModelError, TargetModel, parse_model
 from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
 from compare.render import foreign
+from compare.render.cache import RenderCache
 from compare.render.models import scene_masks
 from compare.render.runner import ToolError, run_rtdemo
 from compare.safe_paths import read_bounded
@@ -259,7 +260,7 @@ class CheckSettings:
     against: str | None = None
     spp: int = 1
     timeout: float | None = None
-    cache_dir: Path | None = None  # model renders and effect masks (against.default_cache())
+    cache_dir: Path | None = None  # model renders and effect masks (the shared render cache)
     keep_images: bool = False  # keep failing cases' pictures (for --html)
 
 
@@ -314,7 +315,7 @@ def run_check(
     model = _target(settings)
     cmd = settings.renderer
     tolerances = load_tolerances(settings.baseline_dir, cmd.name if cmd else None)
-    cache_dir = settings.cache_dir or against.default_cache()
+    cache = RenderCache(settings.cache_dir)
     runs = _runs(settings, model)
     results: list[CaseResult] = []
     with tempfile.TemporaryDirectory(prefix="rtval-check-") as tmp:
@@ -323,13 +324,11 @@ def run_check(
             tol = tolerances.get(scene.name, tolerances.get("default", DEFAULT_TOLERANCES))
             loaded = None
             if model is not None:
-                renders = against.prepare(
-                    model, Path(scene_path), settings.size, cache_dir, progress=progress
-                )
+                renders = against.prepare(model, Path(scene_path), settings.size, cache)
                 loaded = against.load(renders)
             for backend, mode in runs:
                 case = _one_case(
-                    settings, scene, scene_path, backend, mode, loaded, tol, cache_dir, Path(tmp)
+                    settings, scene, scene_path, backend, mode, loaded, tol, cache, Path(tmp)
                 )
                 progress(
                     f"{case.name:<28} {case.status.upper():<5}"
@@ -349,7 +348,7 @@ def _one_case(
     mode: str,
     model: LoadedModel | None,
     tol: Tolerances,
-    cache_dir: Path,
+    cache: RenderCache,
     tmp: Path,
 ) -> CaseResult:
     cmd = settings.renderer
@@ -402,7 +401,7 @@ def _one_case(
     elif model is not None:
         judge_against(case, test, model, keep=settings.keep_images)
     else:
-        masks = scene_masks(Path(scene_path), settings.size, cache_dir, progress=lambda _: None)
+        masks = scene_masks(Path(scene_path), settings.size, cache)
         judge_case(case, ref, test.rgb, tol, masks, keep=settings.keep_images)
     if settings.update and case.status == "fail":
         baseline.parent.mkdir(parents=True, exist_ok=True)

@@ -17,6 +17,8 @@ from compare.judge.exact_match import ENCODING_WORDS
 from compare.judge.images import Image, ImageError, read_image, write_png
 from compare.judge.metrics import Metrics, check_same_size, display
 from compare.judge.tolerances import Tolerances, Verdict, diff_image
+from compare.render.cache import RenderCache
+from compare.render.progress import Progress
 from scene_model.scene import Scene
 
 
@@ -126,11 +128,11 @@ def run_against(
     test: Image,
     model_name: str,
     scene_file: Path,
-    cache_dir: Path,
+    cache: RenderCache,
     *,
     tolerances: Tolerances = Tolerances(),
     mask: np.ndarray | None = None,
-    progress: Any = print,
+    progress: Progress | None = None,
 ) -> Comparison:
     """`test` judged against a target model rendered at the test's size (never resampled)."""
     from compare.apps.against import judge, load, prepare
@@ -138,7 +140,7 @@ def run_against(
 
     model = parse_model(model_name)
     h, w = test.shape
-    renders = prepare(model, scene_file, (w, h), cache_dir, progress=progress)
+    renders = prepare(model, scene_file, (w, h), cache, progress=progress)
     loaded = load(renders)
     evaluation = judge(test, loaded, region=mask, tolerances=tolerances)
     return Comparison(loaded.reference, test, evaluation, renders.reference, model.name)

@@ -2,8 +2,9 @@
 
 A submission is an image (its file name is the student id; one --scene only) or a folder
 of images named after the scenes. The model (--against, the rubric's `against`, else
-`classic`: README "Grading a class") is rendered once per scene and cached by content hash;
-a demo model needs no Mitsuba render at all. Every row names the model; every fail says why.
+`classic`: README "Grading a class") is rendered once per scene through the shared render
+cache (the same entries `rtval report` makes); a demo model needs no Mitsuba render at all.
+Every row names the model; every fail says why.
 Each student is an idempotent task keyed by the hashes of its files, the model's renders and the
 rubric: a re-run (or a resumed, interrupted one) skips what is done. Bad submissions become
 rows with a reason, never an aborted batch. Tasks run in a local process pool or on a Dask
@@ -12,15 +13,17 @@ cluster.
 A submission that fails against a demo model is diagnosed (compare/apps/diagnosis.py): the
 gradebook's `diagnosis` column and the fail reasons say what it looks like ("looks like Q2
 (...)"), its page shows the evidence. Passing submissions cost nothing more; --no-diagnose
-skips it. Candidate renders are cached in OUT/cache/diagnose by content hash, shared by every
+skips it. Candidate renders are cached in the render cache's candidates/ folder by content hash, shared by every
 student and worker.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import io
 import json
+import shutil
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
@@ -33,7 +36,7 @@ import numpy as np
 from compare.apps.against import ModelRenders
 from compare.apps.submissions import IMAGE_SUFFIXES  # noqa: F401  (re-exported)
 from compare.csv_safe import csv_text
-from compare.files import sha256_file, write_atomic
+from compare.files import atomic_output, sha256_file, write_atomic
 from compare.student_ids import student_slug
 
 
@@ -48,6 +51,7 @@ class GradeTask:
     rubric_source: str
     out_dir: str
     diagnose: int = 0  # diagnose failing scenes with this many renders at once; 0: never
+    candidates_dir: str = ""  # the diagnosis' candidate renders, inside the render cache
 
 
 def task_key(task: GradeTask) -> str:
@@ -153,7 +157,7 @@ def _diagnose_scene(
         return diagnose_image(
             img,
             renders.scene_file,
-            Path(task.out_dir) / "cache" / "diagnose",
+            Path(task.candidates_dir),
             page_dir,
             prefix=f"{scene_name}-diagnosis",
             assigned=renders.model,
@@ -263,6 +267,27 @@ def collect(
     ]
 
 
+def _beside(renders: ModelRenders, scene_name: str, folder: Path) -> ModelRenders:
+    """The model's renders copied out of the shared cache beside the grades, as
+    references/SCENE-MODEL.exr (and -offsetN.exr): the tasks (maybe on other machines) read
+    them from there. A copy already there with the same bytes stays."""
+    folder.mkdir(parents=True, exist_ok=True)
+    stem = student_slug(f"{scene_name}-{renders.model}")  # names from the scene file: made safe
+
+    def copy(src: str, suffix: str) -> str:
+        target = folder / f"{stem}{suffix}.exr"
+        if not (target.is_file() and sha256_file(target) == sha256_file(src)):
+            with atomic_output(target) as tmp:
+                shutil.copyfile(src, tmp)
+        return str(target)
+
+    return dataclasses.replace(
+        renders,
+        reference=copy(renders.reference, ""),
+        offsets=tuple(copy(p, f"-offset{i}") for i, p in enumerate(renders.offsets)),
+    )
+
+
 def run_grading(
     submissions: Path,
     scene_files: list[Path],
@@ -275,21 +300,32 @@ def run_grading(
     size: tuple[int, int] | None = None,
     against: str | None = None,
     diagnose: bool = True,
+    cache_dir: Path | str | None = None,
     progress: Callable[[str], None] = print,
 ) -> list[dict[str, Any]]:
     from compare.apps.against import GRADE_DEFAULT, prepare, resolve_model
     from compare.judge.rubric import DEFAULT_RUBRIC_TEXT, load_rubric
+    from compare.render.cache import RenderCache
+    from compare.render.progress import Progress
     from scene_model.scene import load_scene
 
     rubric = load_rubric(rubric_path)  # validates before any work
     rubric_text = Path(rubric_path).read_text() if rubric_path else DEFAULT_RUBRIC_TEXT
     model = resolve_model(against, rubric, GRADE_DEFAULT)
     out.mkdir(parents=True, exist_ok=True)
+    cache = RenderCache(cache_dir)
     models: dict[str, ModelRenders] = {}
     for scene_file in scene_files:
         scene = load_scene(scene_file)
         progress(f"model {model.name} on {scene.name} ...")
-        models[scene.name] = prepare(model, scene_file, size, out / "cache", progress=progress)
+        renders = prepare(
+            model,
+            scene_file,
+            size,
+            cache,
+            progress=progress if isinstance(progress, Progress) else None,
+        )
+        models[scene.name] = _beside(renders, scene.name, out / "references")
     h = hashlib.sha256()
     for name in sorted(models):
         h.update(name.encode() + models[name].digest().encode())
@@ -307,6 +343,7 @@ def run_grading(
             rubric.source,
             str(out),
             diagnose_parallel,
+            str(cache.root / "candidates"),
         )
         for student, files, problem in collect(
             submissions, list(models), exclude=[out], notice=progress

@@ -9,6 +9,7 @@ import numpy as np
 
 from compare.escape import mathtext_literal
 from compare.files import atomic_output
+from compare.judge.pareto import pareto_front
 from compare.judge.sentences import luminance
 
 
@@ -58,17 +59,6 @@ def signed_difference(ref: np.ndarray, test: np.ndarray, path: Path, title: str)
     )
 
 
-def pareto_front(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    """Points not beaten by a faster-and-better one, sorted by time."""
-    front = []
-    best = float("inf")
-    for t, e in sorted(points):
-        if e < best:
-            front.append((t, e))
-            best = e
-    return front
-
-
 def speed_accuracy_chart(rows: list[dict[str, Any]], path: Path) -> None:
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
@@ -78,7 +68,6 @@ def speed_accuracy_chart(rows: list[dict[str, Any]], path: Path) -> None:
         (axes[0], "one_minus_ssim", "1 - SSIM"),
         (axes[1], "flip", "mean FLIP (LDR)"),
     ):
-        pts = []
         for i, fam in enumerate(families):
             sel = [r for r in rows if r["family"] == fam and r[key] > 0 and r["seconds"] > 0]
             if not sel:
@@ -98,12 +87,11 @@ def speed_accuracy_chart(rows: list[dict[str, Any]], path: Path) -> None:
                     xytext=(3, 3),
                     textcoords="offset points",
                 )
-            pts += [(r["seconds"], r[key]) for r in sel]
-        front = pareto_front(pts)
+        front = pareto_front(rows, key)
         if len(front) > 1:
             ax.step(
-                [p[0] for p in front],
-                [p[1] for p in front],
+                [r["seconds"] for r in front],
+                [r[key] for r in front],
                 where="post",
                 color="k",
                 lw=1,

@@ -22,7 +22,9 @@ from jinja2 import Environment, PackageLoader, select_autoescape
 from compare.files import write_atomic
 from compare.judge.evaluate import evaluate_pair
 from compare.judge.images import read_image, write_png
-from compare.render.runner import run_rtdemo
+from compare.render.cache import RenderCache
+from compare.render.jobs import RenderJob, run_jobs
+from compare.render.progress import Progress
 from scene_model.scene import load_scene
 
 DEMO_METHODS = [
@@ -77,60 +79,97 @@ def _flip(a: np.ndarray, b: np.ndarray) -> float:
     return evaluate_pair(a, b).metrics.flip_ldr
 
 
+def _jobs(scene_name: str, variants: dict[str, Path], size: tuple[int, int]) -> list[RenderJob]:
+    """Every render of one stress scene: each method on the scene and on its nudges."""
+    jobs = []
+    for method, mode, backend in DEMO_METHODS:
+        for name, path in variants.items():
+            jobs.append(
+                RenderJob(
+                    f"{method}|{name}",
+                    f"{scene_name}: {method}, {name}",
+                    "rtdemo",
+                    [
+                        "render",
+                        "{scene}",
+                        "-o",
+                        "{out}",
+                        "--mode",
+                        mode,
+                        "--backend",
+                        backend,
+                        "--width",
+                        str(size[0]),
+                        "--height",
+                        str(size[1]),
+                        "-q",
+                    ],
+                    method,
+                    scene=str(path),
+                )
+            )
+    for method in REF_METHODS:
+        whitted = method.endswith("whitted")
+        names = list(variants) + ([] if whitted else ["seed 1"])
+        for name in names:
+            jobs.append(
+                RenderJob(
+                    f"{method}|{name}",
+                    f"{scene_name}: {method}, {name}",
+                    "rtval",
+                    [
+                        "reference",
+                        "{scene}",
+                        "-o",
+                        "{out}",
+                        "--integrator",
+                        "whitted" if whitted else "path",
+                        "--light",
+                        "point",
+                        "--centre-rays",
+                        "--spp",
+                        "1" if whitted else "16",
+                        "--seed",
+                        "1" if name == "seed 1" else "0",
+                        "--size",
+                        f"{size[0]}x{size[1]}",
+                    ],
+                    method,
+                    scene=str(variants.get(name, variants["base"])),
+                )
+            )
+    return jobs
+
+
 def run_stress(
     scene_files: list[Path],
     out_dir: Path,
     *,
     size: tuple[int, int],
+    cache_dir: Path | str | None = None,
     progress: Callable[[str], None] = print,
 ) -> dict[str, Any]:
-    from mitsuba_ref.reference import ReferenceSettings, render_reference
-
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "images").mkdir(exist_ok=True)
+    cache = RenderCache(cache_dir)
     results: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="rtval-stress-") as tmp_name:
         tmp = Path(tmp_name)
-        for n, scene_file in enumerate(scene_files, 1):
+        # Every render of every scene in one run: the Mitsuba ones in one process.
+        per_scene = []
+        for scene_file in scene_files:
             scene = load_scene(scene_file)
-            variants = _perturbed(scene_file, tmp)
+            per_scene.append((scene, _jobs(scene.name, _perturbed(scene_file, tmp), size)))
+        run_jobs(
+            [j for _, jobs in per_scene for j in jobs],
+            cache,
+            progress=progress if isinstance(progress, Progress) else Progress(),
+        )
+        for n, (scene, jobs) in enumerate(per_scene, 1):
             renders: dict[str, dict[str, np.ndarray]] = {}
-            for method, mode, backend in DEMO_METHODS:
-                renders[method] = {}
-                for name, path in variants.items():
-                    exr = tmp / "demo.exr"
-                    run_rtdemo(
-                        [
-                            "render",
-                            str(path),
-                            "-o",
-                            str(exr),
-                            "--mode",
-                            mode,
-                            "--backend",
-                            backend,
-                            "--width",
-                            str(size[0]),
-                            "--height",
-                            str(size[1]),
-                            "-q",
-                        ]
-                    )
-                    renders[method][name] = read_image(exr).rgb
-            for method in REF_METHODS:
-                renders[method] = {}
-                names = list(variants) + (["seed 1"] if method.endswith("path") else [])
-                for name in names:
-                    s = load_scene(variants.get(name, scene_file))
-                    settings = ReferenceSettings(
-                        integrator="whitted" if method.endswith("whitted") else "path",
-                        light="point",
-                        centre_rays=True,
-                        spp=1 if method.endswith("whitted") else 16,
-                        seed=1 if name == "seed 1" else 0,
-                        size=size,
-                    )
-                    renders[method][name] = render_reference(s, settings).rgb
+            for job in jobs:
+                method, name = job.key.split("|")
+                renders.setdefault(method, {})[name] = read_image(job.exr(cache)).rgb
             reference = renders["mitsuba whitted"]["base"]
             scene_result: dict[str, Any] = {
                 "scene": scene.name,

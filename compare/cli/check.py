@@ -8,7 +8,7 @@ import os
 import sys
 from pathlib import Path
 
-from compare.cli.common import positive_int, size_type
+from compare.cli.common import add_cache_argument, positive_int, size_type
 
 
 def _seconds(text: str) -> float:
@@ -157,10 +157,5 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "such as classic or paper-Q8: exact match, rtdemo itself then rendered with the "
         "model's options unless --modes is given; mitsuba: the default rubric)",
     )
-    p.add_argument(
-        "--cache",
-        metavar="DIR",
-        help="render cache for the effect masks and --against models (default $RTVAL_CACHE "
-        "or ~/.cache/rtval)",
-    )
+    add_cache_argument(p)
     p.set_defaults(func=run_check)

@@ -54,3 +54,13 @@ positive_float = _positive(float, "number")
 
 def stderr_progress(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
+
+
+def add_cache_argument(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--cache",
+        metavar="DIR",
+        default=None,
+        help="the render cache shared by every command (default: $RTVAL_CACHE, else "
+        "$XDG_CACHE_HOME/rtval, else ~/.cache/rtval); see `rtval cache`",
+    )

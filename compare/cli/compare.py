@@ -6,9 +6,10 @@ import argparse
 import sys
 from pathlib import Path
 
+from compare.cli.common import add_cache_argument
+
 
 def run_compare(args: argparse.Namespace) -> int:
-    from compare.apps.against import default_cache
     from compare.apps.compare_pair import (
         load_mask,
         run_against,
@@ -16,10 +17,11 @@ def run_compare(args: argparse.Namespace) -> int:
         table,
         write_outputs,
     )
-    from compare.cli.common import stderr_progress
     from compare.judge.images import image_size, read_image
     from compare.judge.metrics import SizeMismatch
     from compare.judge.tolerances import EXIT_SIZE, Tolerances
+    from compare.render.cache import RenderCache
+    from compare.render.progress import Progress
     from compare.safe_paths import check_outputs_distinct
     from scene_model.scene import load_scene
 
@@ -53,15 +55,14 @@ def run_compare(args: argparse.Namespace) -> int:
         if ref_path is None:
             test = read_image(test_path, encoding=args.test_encoding)
             mask = load_mask(args.mask, test.shape) if args.mask else None
-            cache = Path(args.cache) if args.cache else default_cache()
             result = run_against(
                 test,
                 args.against,
                 Path(args.scene),
-                cache,
+                RenderCache(args.cache),
                 tolerances=tol,
                 mask=mask,
-                progress=stderr_progress,
+                progress=Progress(sys.stderr),
             )
         else:
             # Sizes from the headers first: a mismatch costs no decoding (two 8192^2 EXRs or a
@@ -108,12 +109,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "mitsuba-path, paper, classic, physical, MODE+Qn/-Qn (needs --scene)",
     )
     p.add_argument(
-        "--cache",
-        metavar="DIR",
-        default=None,
-        help="render cache for --against (default $RTVAL_CACHE or ~/.cache/rtval)",
-    )
-    p.add_argument(
         "--ref-encoding",
         choices=("srgb", "linear"),
         default=None,
@@ -153,4 +148,5 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     g.add_argument("--min-ssim", type=float, default=None, help="fail below this SSIM")
     g.add_argument("--max-flip", type=float, default=None, help="fail above this mean LDR FLIP")
     p.add_argument("-q", "--quiet", action="store_true", help="no table on stdout")
+    add_cache_argument(p)
     p.set_defaults(func=run_compare)

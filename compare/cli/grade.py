@@ -6,11 +6,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from compare.cli.common import positive_int, size_type
+from compare.cli.common import add_cache_argument, positive_int, size_type
 
 
 def run_grade(args: argparse.Namespace) -> int:
     from compare.apps import grade
+    from compare.render.progress import Progress
 
     out = Path(args.out)
     if args.explain:
@@ -32,7 +33,8 @@ def run_grade(args: argparse.Namespace) -> int:
         size=args.size,
         against=args.against,
         diagnose=not args.no_diagnose,
-        progress=lambda m: print(m, file=sys.stderr, flush=True),
+        cache_dir=args.cache,
+        progress=Progress(sys.stderr),
     )
     passed = sum(r["status"] == "pass" for r in results)
     print(f"{passed} passed, {len(results) - passed} failed")
@@ -92,4 +94,5 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--explain", metavar="ID", help="print how student ID's score came about, then exit"
     )
+    add_cache_argument(p)
     p.set_defaults(func=run_grade)

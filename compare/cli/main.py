@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import sys
 
-from compare.cli import check, compare, diagnose, grade, report, stress, ztest
+from compare.cli import cache, check, compare, diagnose, grade, report, stress, ztest
 from compare.cli.common import EXIT_USAGE, Parser
 from compare.judge.images import ImageError
 from compare.judge.rubric import RubricError
@@ -39,6 +39,7 @@ def build_parser() -> Parser:
     stress.register(sub)
     grade.register(sub)
     diagnose.register(sub)
+    cache.register(sub)
     return parser
 
 

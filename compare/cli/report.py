@@ -6,12 +6,13 @@ import argparse
 import sys
 from pathlib import Path
 
-from compare.cli.common import positive_int, size_type
+from compare.cli.common import add_cache_argument, positive_int, size_type
 
 
 def run_report(args: argparse.Namespace) -> int:
     from compare.apps.report import build_report
     from compare.judge.target_model import parse_model
+    from compare.render.progress import Progress
 
     if args.against:
         if not args.test_image:
@@ -28,7 +29,8 @@ def run_report(args: argparse.Namespace) -> int:
         against=args.against,
         jobs=args.jobs,
         pdf=not args.no_pdf,
-        progress=lambda m: print(m, file=sys.stderr, flush=True),
+        cache_dir=args.cache,
+        progress=Progress(sys.stderr),
     )
     print(index)
     return 0
@@ -38,7 +40,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser(
         "report",
         help="render a scene with every renderer and write reports/<scene>/index.html",
-        description="Renders SCENE with every renderer and writes reports/<scene>/index.html, report.json and images.",
+        description="Renders SCENE with every renderer (renders come from the shared cache when "
+        "nothing changed) and writes reports/<scene>/: index.html, report.json, report.pdf, "
+        "PNGs, the reference and test EXRs and a copy of the scene; relative links only, so "
+        "the folder can be zipped and sent. Prints a time per step at the end.",
     )
     p.add_argument(
         "scene",
@@ -84,4 +89,5 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--no-pdf", action="store_true", help="skip report.pdf (printed by headless Chromium)"
     )
+    add_cache_argument(p)
     p.set_defaults(func=run_report)

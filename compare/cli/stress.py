@@ -6,11 +6,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from compare.cli.common import size_type
+from compare.cli.common import add_cache_argument, size_type
 
 
 def run_stress(args: argparse.Namespace) -> int:
     from compare.apps import stress
+    from compare.render.progress import Progress
 
     files = (
         [Path(p) for p in args.scenes]
@@ -22,7 +23,7 @@ def run_stress(args: argparse.Namespace) -> int:
             "no stress scenes: give files, or run from the project folder (scenes/stress/*.json)"
         )
     data = stress.run_stress(
-        files, Path(args.out), size=args.size, progress=lambda m: print(m, file=sys.stderr)
+        files, Path(args.out), size=args.size, cache_dir=args.cache, progress=Progress(sys.stderr)
     )
     print(stress.table(data))
     print(Path(args.out) / "index.html")
@@ -46,4 +47,5 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         metavar="WxH",
         help="render size (default 160x120)",
     )
+    add_cache_argument(p)
     p.set_defaults(func=run_stress)

@@ -48,3 +48,45 @@ def time_to_converged(reference: Image, demo_by_spp: dict[int, Image]) -> dict[s
         "demo_seconds": demo_seconds,
         "speedup": ratio,
     }
+
+
+def mitsuba_to_converged(
+    reference: Image, candidates: list[dict[str, Any]], same_estimator: set[str]
+) -> dict[str, Any]:
+    """Which Mitsuba configurations reach the reference's error, and the fastest that does.
+
+    `candidates`: {"key", "label", "spp", "image"} per Mitsuba render, the reference included.
+    Those whose key is in `same_estimator` estimate the reference's very image (same
+    integrator, lights and pixel filter, independent samples): their error at k spp is the
+    mean standard error the reference's per-sample variance predicts, mean sqrt(var / k),
+    the same measure as the target. Any other (another integrator, pixel centres) is
+    measured by its mean per-pixel |difference| from the reference, which its bias keeps
+    above the target.
+    """
+    target = float(reference.header.get("rtval.mean_stderr", "nan"))
+    var = [reference.aovs[f"var.{c}"] for c in "RGB" if f"var.{c}" in reference.aovs]
+    per_sample = np.stack(var, -1).astype(np.float64) if len(var) == 3 else None
+    rows = []
+    for c in candidates:
+        img: Image = c["image"]
+        if c["key"] in same_estimator and per_sample is not None:
+            error = float(np.mean(np.sqrt(per_sample / max(int(c["spp"]), 1))))
+            measure = "predicted standard error"
+        else:
+            error = float(np.abs(np.nan_to_num(img.rgb) - reference.rgb).mean())
+            measure = "mean |difference| from the reference"
+        rows.append(
+            {
+                "key": c["key"],
+                "label": c["label"],
+                "spp": int(c["spp"]),
+                "seconds": _seconds(img),
+                "error": error,
+                "measure": measure,
+                # float32 variance round trip: allow a relative 1e-4 at the target itself
+                "reaches": bool(np.isfinite(target) and error <= target * (1 + 1e-4)),
+            }
+        )
+    reaching = [r for r in rows if r["reaches"] and np.isfinite(r["seconds"])]
+    fastest = min(reaching, key=lambda r: r["seconds"]) if reaching else None
+    return {"target_error": target, "configurations": rows, "fastest": fastest}

@@ -1,51 +1,58 @@
-"""Renders as commands, cached by content hash.
+"""The render cache every command shares: renders (and results derived from them) by content.
 
 A render is the command a person could type (`rtdemo render ...`, `rtval reference ...`).
-Its cache key hashes the command (output path left out), the scene file's bytes and the
-renderer's identity (the rtdemo binary's bytes, or the mitsuba_ref sources plus the Mitsuba
-version), so a re-run with nothing changed renders nothing and any change re-renders.
+Its key hashes the command's arguments (scene and output paths left out), the scene file's
+bytes, rtdemo's RTDEMO_* environment and the renderer's identity (the rtdemo binary's bytes, or the mitsuba_ref and
+scene_model sources plus the Mitsuba version): a re-run with nothing changed renders
+nothing, any change re-renders, and the same render asked for by `report` and `grade` is
+made once.
+
+Where: `--cache DIR`, else $RTVAL_CACHE, else $XDG_CACHE_HOME/rtval, else ~/.cache/rtval.
+Layout: renders/KEY.exr with KEY.json beside it (sha256, times, the command), derived/ for
+metrics and figures keyed by their inputs' hashes, tmp/ for renders in progress.
+
+Several processes may share a cache: every file appears by an atomic rename of a uniquely
+named temporary file, so a reader sees a whole file or none, and two writers of one key
+both succeed (the entry is the same render).
 """
 
 from __future__ import annotations
 
 import hashlib
 import importlib.metadata
-import shlex
-import subprocess
-import sys
+import json
+import os
+import shutil
 import time
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
+from typing import Any
 
-from compare.files import sha256_file, write_atomic
+from compare.files import atomic_output, sha256_file, unique_sibling, write_atomic
 from compare.render.runner import ToolError, rtdemo_path
+from compare.safe_paths import check_output_target
+
+ENV = "RTVAL_CACHE"
+STALE_TMP_SECONDS = 24 * 3600  # a temporary file this old belongs to a process that died
 
 
-@dataclass
-class RenderJob:
-    key: str  # file stem in the report folder, e.g. "demo-paper-cpu-1spp"
-    label: str
-    tool: str  # "rtdemo" | "rtval"
-    args: list[str]  # arguments after the tool; "{out}" stands for the output EXR
-    family: str  # for charts: e.g. "demo paper cpu", "mitsuba whitted llvm"
-    spp: int = 1
-    cached: bool = field(default=False, compare=False)
-    seconds: float = field(default=0.0, compare=False)  # wall time of the command when run
-
-    def command(self, out: Path) -> list[str]:
-        return [self.tool, *[a.replace("{out}", str(out)) for a in self.args]]
-
-    def command_text(self, out: Path) -> str:
-        return shlex.join(self.command(out))
+def default_cache_dir() -> Path:
+    chosen = os.environ.get(ENV)
+    if chosen:
+        return Path(chosen)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    if xdg and Path(xdg).is_absolute():  # the XDG spec ignores relative values
+        return Path(xdg) / "rtval"
+    return Path.home() / ".cache" / "rtval"
 
 
 @cache
-def renderer_identity(tool: str) -> str:
+def renderer_identity(tool: str, executable: str | None = None) -> str:
     if tool == "rtdemo":
-        return sha256_file(Path(rtdemo_path()))
+        binary = Path(executable or rtdemo_path())
+        if not binary.is_file():
+            raise ToolError(f"{binary}: no such rtdemo executable")
+        return sha256_file(binary)
     h = hashlib.sha256()
     # The renderer and the scene loader it reads with; report code changes must not re-render.
     for pkg in ("mitsuba_ref", "scene_model"):
@@ -57,66 +64,95 @@ def renderer_identity(tool: str) -> str:
     return h.hexdigest()
 
 
-def cache_key(job: RenderJob, scene_file: Path) -> str:
+def render_key(tool: str, args: list[str], scene_file: Path, executable: str | None = None) -> str:
+    """`args` with the scene and output as the placeholders {scene} and {out}. rtdemo's
+    RTDEMO_* environment variables (fault injection in tests) change what it renders, so
+    they are part of the key too."""
     h = hashlib.sha256()
-    h.update(shlex.join(job.args).encode())
-    h.update(sha256_file(scene_file).encode())
-    h.update(renderer_identity(job.tool).encode())
-    return h.hexdigest()[:20]
-
-
-def _executable(tool: str) -> str:
+    h.update(tool.encode() + b"\0")
+    h.update(json.dumps(args).encode())
     if tool == "rtdemo":
-        return rtdemo_path()
-    return str(Path(sys.executable).with_name(tool))
+        env = sorted((k, v) for k, v in os.environ.items() if k.startswith("RTDEMO_"))
+        h.update(json.dumps(env).encode())
+    h.update(sha256_file(scene_file).encode())
+    h.update(renderer_identity(tool, executable).encode())
+    return h.hexdigest()[:24]
 
 
-def run_jobs(
-    jobs: list[RenderJob],
-    scene_file: Path,
-    cache_dir: Path,
-    out_dir: Path,
-    *,
-    jobs_in_parallel: int = 1,
-    progress: Callable[[str], None] = print,
-) -> None:
-    """Makes out_dir/<key>.exr for every job, from the cache when the key matches."""
-    cache_dir.mkdir(parents=True, exist_ok=True)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    total = len(jobs)
-    done = [0]
+class RenderCache:
+    def __init__(self, root: Path | str | None = None) -> None:
+        self.root = Path(root) if root is not None else default_cache_dir()
+        self.renders = self.root / "renders"
+        self.derived_dir = self.root / "derived"
+        self.tmp_dir = self.root / "tmp"
 
-    def one(job: RenderJob) -> None:
-        cached = cache_dir / f"{job.key}-{cache_key(job, scene_file)}.exr"
-        target = out_dir / f"{job.key}.exr"
-        if cached.is_file():
-            job.cached = True
-        else:
-            tmp = cached.with_name(cached.stem + ".partial.exr")
-            cmd = job.command(tmp)
-            cmd[0] = _executable(cmd[0])
-            start = time.perf_counter()
-            try:
-                proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-            except BaseException:  # interrupted: leave nothing that looks like a result
-                tmp.unlink(missing_ok=True)
-                raise
-            job.seconds = time.perf_counter() - start
-            if proc.returncode != 0:
-                tmp.unlink(missing_ok=True)
-                raise ToolError(
-                    f"{job.label} failed (exit {proc.returncode}): "
-                    f"{job.command_text(target)}\n{proc.stderr.strip()[-2000:]}"
-                )
-            tmp.replace(cached)
-        write_atomic(target, cached.read_bytes())
-        done[0] += 1
-        state = "cached" if job.cached else f"{job.seconds:.1f} s"
-        progress(f"[{done[0]}/{total}] {job.label}: {state}")
+    def _ready(self) -> None:
+        try:
+            for d in (self.renders, self.derived_dir, self.tmp_dir):
+                d.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise OSError(f"render cache {self.root}: cannot create it: {e.strerror}") from None
 
-    # Mitsuba runs take the whole machine; demo runs are short. Run demo jobs in the pool.
-    demo = [j for j in jobs if j.tool == "rtdemo"]
-    other = [j for j in jobs if j.tool != "rtdemo"]
-    with ThreadPoolExecutor(max_workers=max(1, jobs_in_parallel)) as pool:
-        list(pool.map(one, demo))
-        list(pool.map(one, other))
+    def exr(self, key: str) -> Path:
+        return self.renders / f"{key}.exr"
+
+    def info(self, key: str) -> dict[str, Any] | None:
+        """The entry's facts, or None when the render is not (completely) cached."""
+        side = self.renders / f"{key}.json"
+        if not (side.is_file() and self.exr(key).is_file()):
+            return None
+        try:
+            return dict(json.loads(side.read_text()))
+        except (OSError, ValueError):
+            return None
+
+    def tmp_path(self, key: str) -> Path:
+        """Where a renderer writes a render in progress (then `store` moves it in)."""
+        self._ready()
+        return unique_sibling(self.tmp_dir / f"{key}.exr").with_suffix(".exr")
+
+    def store(self, key: str, produced: Path, facts: dict[str, Any]) -> dict[str, Any]:
+        """Moves a finished render into the cache; the sidecar written last marks it whole."""
+        self._ready()
+        info = {**facts, "sha256": sha256_file(produced), "stored": time.time()}
+        check_output_target(self.exr(key))  # only ever replace a regular file
+        produced.replace(self.exr(key))
+        write_atomic(self.renders / f"{key}.json", json.dumps(info, indent=1))
+        return info
+
+    def derived(self, name: str) -> Path:
+        """A file computed from cached inputs; `name` carries the inputs' hashes."""
+        self._ready()
+        return self.derived_dir / name
+
+    def size(self) -> tuple[int, int]:
+        """(files, bytes) under the cache folder."""
+        files = total = 0
+        if self.root.is_dir():
+            for p in self.root.rglob("*"):
+                if p.is_file():
+                    files += 1
+                    total += p.stat().st_size
+        return files, total
+
+    def clear(self) -> tuple[int, int]:
+        """Removes every entry; returns what was removed. Renders in progress elsewhere
+        are left alone unless stale."""
+        files, total = 0, 0
+        for d in (self.renders, self.derived_dir, self.tmp_dir):
+            if not d.is_dir():
+                continue
+            for p in d.iterdir():
+                if not p.is_file():
+                    continue
+                if d == self.tmp_dir and time.time() - p.stat().st_mtime < STALE_TMP_SECONDS:
+                    continue
+                size = p.stat().st_size
+                p.unlink(missing_ok=True)
+                files, total = files + 1, total + size
+        return files, total
+
+    def copy_out(self, key: str, target: Path) -> None:
+        """A copy of a cached render elsewhere (e.g. grade's references/), atomically."""
+        with atomic_output(target) as tmp:
+            shutil.copyfile(self.exr(key), tmp)

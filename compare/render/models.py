@@ -1,5 +1,5 @@
 """Rendering a target model (compare/judge/target_model.py) for a scene at a size, through the
-content-hash render cache (cache.py): the image every judgement against that model uses.
+shared render cache (cache.py, jobs.py): the image every judgement against that model uses.
 
 Demo models are rtdemo renders; `mitsuba` is the report plan's converged Whitted reference and
 `mitsuba-path` its 64 spp path-traced render (plan.py), so a report and a grading run share
@@ -16,7 +16,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -26,8 +25,10 @@ from compare.judge import effects
 from compare.judge.effects import BOOL, EFFECTS, effect_masks
 from compare.judge.images import read_image
 from compare.judge.target_model import TargetModel, parse_model
-from compare.render.cache import RenderJob, cache_key, run_jobs
+from compare.render.cache import RenderCache
+from compare.render.jobs import RenderJob, run_jobs
 from compare.render.plan import REFERENCE_KEY, plan
+from compare.render.progress import Progress
 from scene_model.scene import load_scene
 
 # A float32 program's pixel-centre ray differs from another's by ~5e-5 px (a few ulps of the
@@ -42,21 +43,18 @@ def _size_args(size: tuple[int, int] | None) -> list[str]:
     return ["--width", str(size[0]), "--height", str(size[1])] if size else []
 
 
-def _tag(size: tuple[int, int] | None) -> str:
-    return f"{size[0]}x{size[1]}" if size else "scene-size"
-
-
 def model_job(model: TargetModel, scene_file: Path, size: tuple[int, int] | None) -> RenderJob:
-    """The render command of `model` (its cache key follows from it). Mitsuba models keep the
-    plan's job key, so a report's cache already holds them."""
+    """The render command of `model` (its cache key follows from it). Mitsuba models are the
+    plan's own commands, so a report's renders serve them and the other way round."""
     if not model.is_demo:
         return next(j for j in plan(str(scene_file), size) if j.key == MITSUBA_JOBS[model.kind])
     return RenderJob(
         f"model-{model.name}",
         f"{model.name} model",
         "rtdemo",
-        ["render", str(scene_file), "-o", "{out}", "-q", *model.rtdemo_args(), *_size_args(size)],
+        ["render", "{scene}", "-o", "{out}", "-q", *model.rtdemo_args(), *_size_args(size)],
         "model",
+        scene=str(scene_file),
     )
 
 
@@ -64,15 +62,14 @@ def render_model(
     model: TargetModel,
     scene_file: Path,
     size: tuple[int, int] | None,
-    cache_dir: Path,
+    cache: RenderCache,
     *,
-    progress: Callable[[str], None] = print,
+    progress: Progress | None = None,
 ) -> Path:
-    """Renders (or finds in the cache) `model` on the scene; returns the EXR's path."""
+    """Renders (or finds in the cache) `model` on the scene; returns the cached EXR's path."""
     job = model_job(model, scene_file, size)
-    out = cache_dir / "models" / _tag(size)
-    run_jobs([job], scene_file, cache_dir, out, progress=progress)
-    return out / f"{job.key}.exr"
+    run_jobs([job], cache, progress=progress)
+    return job.exr(cache)
 
 
 def offset_scene(scene_file: Path, size: tuple[int, int] | None, dx: float, dy: float) -> str:
@@ -105,53 +102,49 @@ def render_offsets(
     model: TargetModel,
     scene_file: Path,
     size: tuple[int, int] | None,
-    cache_dir: Path,
+    cache: RenderCache,
     *,
     jobs_in_parallel: int = 1,
-    progress: Callable[[str], None] = print,
+    progress: Progress | None = None,
 ) -> list[Path]:
     """The demo model rendered with the camera turned by OFFSET_PIXELS along +x, -x, +y, -y."""
     if not model.is_demo:
         raise ValueError(f"{model.name}: sub-pixel offsets are for demo models only")
-    out = cache_dir / "models" / _tag(size)
-    scenes = cache_dir / "scenes"
-    scenes.mkdir(parents=True, exist_ok=True)
-    paths = []
+    jobs = []
     for dx, dy in OFFSETS:
         text = offset_scene(scene_file, size, dx * OFFSET_PIXELS, dy * OFFSET_PIXELS)
         digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-        copy = scenes / f"{Path(scene_file).stem}-offset-{digest}.json"
+        # The scene copy is named by its content, so it is derived data like a figure.
+        copy = cache.derived(f"scene-{digest}-offset.json")
         if not copy.is_file():
             write_atomic(copy, text)
         job = model_job(model, copy, size)
         job.key += f"-offset{dx:+d}{dy:+d}"
         job.label += f", camera turned ({dx:+d}, {dy:+d}) x {OFFSET_PIXELS:g} px"
-        run_jobs([job], copy, cache_dir, out, jobs_in_parallel=jobs_in_parallel, progress=progress)
-        paths.append(out / f"{job.key}.exr")
-    return paths
+        jobs.append(job)
+    run_jobs(jobs, cache, jobs_in_parallel=jobs_in_parallel, progress=progress)
+    return [j.exr(cache) for j in jobs]
 
 
 def scene_masks(
     scene_file: Path,
     size: tuple[int, int] | None,
-    cache_dir: Path,
-    *,
-    progress: Callable[[str], None] = print,
+    cache: RenderCache,
 ) -> dict[str, BOOL]:
-    """The effect masks of a scene at a size (docs/metrics.md), from the classic model's AOVs."""
+    """The effect masks of a scene at a size (docs/metrics.md), from the classic model's AOVs;
+    stored in the cache beside the render they come from, keyed by it and the mask code."""
     model = parse_model(MASK_MODEL)
-    job = model_job(model, scene_file, size)
+    exr = render_model(model, scene_file, size, cache)
     code = sha256_file(effects.__file__)[:12]
-    stored = cache_dir / "masks" / f"{job.key}-{cache_key(job, scene_file)}-{code}.npz"
+    stored = cache.derived(f"masks-{exr.stem}-{code}.npz")
     if stored.is_file():
         with np.load(stored) as data:
             return {name: data[name].astype(bool) for name in EFFECTS if name in data.files}
-    image = read_image(render_model(model, scene_file, size, cache_dir, progress=progress))
+    image = read_image(exr)
     missing = [c for c in ("id", "depth") if c not in image.aovs]
     if missing:
         raise ValueError(f"{image.path}: no {' or '.join(missing)} AOV for the effect masks")
     masks = effect_masks(load_scene(scene_file), image.aovs["id"], image.aovs["depth"])
-    stored.parent.mkdir(parents=True, exist_ok=True)
     with atomic_output(stored) as tmp, open(tmp, "wb") as f:
         np.savez_compressed(f, **masks)  # type: ignore[arg-type]
     return masks

@@ -1,4 +1,4 @@
-"""Which renders a report makes, as commands (see render_cache.py).
+"""Which renders a report makes, as commands (see jobs.py).
 
 The converged reference is Mitsuba with rtval_whitted (the demo's physical light transport,
 sphere lights as calibrated points), box-filtered with REFERENCE_SPP random samples per pixel.
@@ -7,7 +7,7 @@ Everything is measured against it.
 
 from __future__ import annotations
 
-from compare.render.cache import RenderJob
+from compare.render.jobs import RenderJob
 
 REFERENCE_KEY = "ref-converged"
 REFERENCE_SPP = 32
@@ -26,14 +26,21 @@ def plan(scene: str, size: tuple[int, int] | None) -> list[RenderJob]:
             key,
             label,
             "rtdemo",
-            ["render", scene, "-o", "{out}", "-q", *args, *size_demo],
+            ["render", "{scene}", "-o", "{out}", "-q", *args, *size_demo],
             family,
             spp,
+            scene,
         )
 
     def ref(key: str, label: str, family: str, *args: str, spp: int = 1) -> RenderJob:
         return RenderJob(
-            key, label, "rtval", ["reference", scene, "-o", "{out}", *args, *size_ref], family, spp
+            key,
+            label,
+            "rtval",
+            ["reference", "{scene}", "-o", "{out}", *args, *size_ref],
+            family,
+            spp,
+            scene,
         )
 
     jobs = [

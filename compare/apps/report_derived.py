@@ -1,0 +1,202 @@
+"""Results the report derives from renders, kept in the render cache (derived/): metrics,
+PNGs, compressed EXRs, figures and facts, each keyed by its inputs' content hashes and the
+judge's code, so that a warm `rtval report` reads no render and draws nothing."""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import hashlib
+import json
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.apps import report_figures as figs
+from compare.files import atomic_output, write_atomic
+from compare.files import json_safe as _json_safe
+from compare.judge.evaluate import evaluate_pair
+from compare.judge.images import Image, read_image, write_exr, write_png
+from compare.judge.tolerances import Tolerances
+from compare.render.cache import RenderCache
+
+
+@functools.cache
+def judge_identity() -> str:
+    """The judge's and the figures' code: derived results are keyed by it as well, so that
+    a change to a metric or a chart is never hidden by the cache."""
+    h = hashlib.sha256()
+    root = Path(__file__).resolve().parents[1]
+    for p in [*sorted((root / "judge").glob("*.py")), root / "apps" / "report_figures.py"]:
+        h.update(p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+class LazyImages:
+    """The report's images by key, read from the cache on first use. Facts the page needs
+    of every render (its render time, its size) are kept in the cache, so that a warm run
+    reads no EXR at all."""
+
+    def __init__(self, paths: dict[str, Path], hashes: dict[str, str], cache: RenderCache) -> None:
+        self.paths, self.hashes, self.cache = paths, hashes, cache
+        self.loaded: dict[str, Image] = {}
+
+    def __getitem__(self, key: str) -> Image:
+        if key not in self.loaded:
+            self.loaded[key] = read_image(self.paths[key])
+        return self.loaded[key]
+
+    def add(self, key: str, image: Image, sha: str) -> None:
+        self.loaded[key], self.hashes[key] = image, sha
+
+    def loader(self, key: str) -> Callable[[], Image]:
+        return lambda: self[key]
+
+    def facts(self, key: str) -> dict[str, Any]:
+        def read() -> dict[str, Any]:
+            img = self[key]
+            return {"seconds": render_seconds(img), "size": [img.shape[1], img.shape[0]]}
+
+        return memo_json(self.cache, "facts", self.hashes[key], read)
+
+
+def memo_json(
+    cache: RenderCache, name: str, inputs: str, compute: Callable[[], dict[str, Any]]
+) -> dict[str, Any]:
+    path = cache.derived(f"{name}-{digest(inputs)}.json")
+    if path.is_file():
+        with contextlib.suppress(ValueError, OSError):
+            return dict(json.loads(path.read_text()))
+    value = compute()
+    write_atomic(path, json.dumps(value))
+    return value
+
+
+class Evaluator:
+    """Metrics of images against the reference, cached by the pair's content hashes (and the
+    judge's code); the reference and its masks are read only when a metric is computed."""
+
+    def __init__(
+        self,
+        ref: Callable[[], Image],
+        ref_hash: str,
+        masks: Callable[[], dict[str, np.ndarray]],
+        cache: RenderCache,
+    ) -> None:
+        self.ref, self.ref_hash, self.masks, self.cache = ref, ref_hash, masks, cache
+        self._maps: dict[int, Any] = {}
+
+    def _path(self, test_hash: str, per_effect: bool) -> Path:
+        return self.cache.derived(
+            f"metrics-{self.ref_hash[:16]}-{test_hash[:16]}-{judge_identity()}-{int(per_effect)}.json"
+        )
+
+    def evaluate(
+        self, test: Callable[[], Image], test_hash: str, *, per_effect: bool
+    ) -> dict[str, Any]:
+        path = self._path(test_hash, per_effect)
+        if path.is_file():
+            return dict(json.loads(path.read_text()))
+        # The global metrics of a per-effect evaluation are the same numbers (HDR FLIP added).
+        full = self._path(test_hash, True)
+        if not per_effect and full.is_file():
+            return dict(json.loads(full.read_text()))
+        # Pixels over 1/255 are counted in the report (compare's default failing error is 0.01).
+        ev = evaluate_pair(
+            self.ref().rgb,
+            test().rgb,
+            hdr=per_effect,
+            tolerances=Tolerances(fail=1.0 / 255.0),
+            masks=self.masks() if per_effect else None,
+        )
+        out: dict[str, Any] = {
+            "global": _json_safe(ev.metrics.as_dict()),
+            "per_effect": {k: _json_safe(e.metrics.as_dict()) for k, e in ev.per_effect.items()},
+        }
+        write_atomic(path, json.dumps(out))
+        return out
+
+    def maps(self, test: Image) -> Any:
+        if id(test) not in self._maps:
+            self._maps[id(test)] = evaluate_pair(self.ref().rgb, test.rgb).maps
+        return self._maps[id(test)]
+
+
+def copy_file(src: Path, dst: Path) -> None:
+    with atomic_output(dst) as tmp:  # only a regular file is replaced; no partial copy stays
+        shutil.copyfile(src, tmp)
+
+
+def render_seconds(img: Image) -> float:
+    return float(img.header.get("rtval.render_seconds", "nan"))
+
+
+def digest(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def derived_png(cache: RenderCache, sha: str, img: Callable[[], Image], target: Path) -> None:
+    """The display PNG of a render, encoded once per render content."""
+    cached = cache.derived(f"png-{sha[:24]}.png")
+    if not cached.is_file():
+        write_png(cached, img().rgb)
+    copy_file(cached, target)
+
+
+def derived_exr(cache: RenderCache, sha: str, img: Callable[[], Image], target: Path) -> None:
+    """A render as a ZIP-compressed EXR with all its channels (lossless)."""
+    cached = cache.derived(f"exr-zip-{sha[:24]}.exr")
+    if not cached.is_file():
+        image = img()
+        write_exr(cached, image.rgb, aovs=image.aovs, header=image.header)
+    copy_file(cached, target)
+
+
+def derived_figure(
+    cache: RenderCache, name: str, inputs: str, target: Path, draw: Callable[[Path], None]
+) -> None:
+    """A chart drawn once per input data (and figure code)."""
+    cached = cache.derived(f"{name}-{digest(inputs + judge_identity())}.png")
+    if not cached.is_file():
+        draw(cached)
+    copy_file(cached, target)
+
+
+def derived_map(
+    cache: RenderCache,
+    ev: Evaluator,
+    kind: str,
+    title: str,
+    ref: Callable[[], Image],
+    test: Callable[[], Image],
+    pair: str,
+    target: Path,
+) -> None:
+    def draw(p: Path) -> None:
+        if kind == "diff":
+            figs.signed_difference(ref().rgb, test().rgb, p, f"signed difference: {title}")
+        elif kind == "flip":
+            figs.map_figure(
+                ev.maps(test()).flip_ldr,
+                p,
+                title=f"FLIP (LDR, 67 ppd): {title}",
+                cmap="magma",
+                vmin=0,
+                vmax=1,
+                label="FLIP error",
+            )
+        else:
+            figs.map_figure(
+                np.nan_to_num(ev.maps(test()).ssim, nan=1.0),
+                p,
+                title=f"SSIM map: {title}",
+                cmap="viridis",
+                vmin=0,
+                vmax=1,
+                label="SSIM",
+            )
+
+    derived_figure(cache, f"map-{kind}", pair + title, target, draw)

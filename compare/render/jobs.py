@@ -1,0 +1,225 @@
+"""Renders as commands, run through the shared render cache (cache.py).
+
+A job is the command a person could type, `rtdemo render ...` or `rtval reference ...`,
+with the scene and output paths as placeholders. Demo jobs run as processes (in a pool);
+every Mitsuba job that is not cached runs in ONE `rtval reference --batch` process, since
+importing drjit/Mitsuba and warming its JIT costs seconds per process
+(bench/bench_reference_batch.py measures it). The batch process reports progress and each
+finished render as JSON lines on stdout (mitsuba_ref/batch.py).
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Iterable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from compare.render.cache import RenderCache, render_key
+from compare.render.progress import Progress
+from compare.render.runner import ToolError, rtdemo_path
+
+
+@dataclass
+class RenderJob:
+    key: str  # a name within one command, e.g. "demo-paper-cpu"
+    label: str
+    tool: str  # "rtdemo" | "rtval"
+    args: list[str]  # after the tool; "{scene}" and "{out}" stand for the two paths
+    family: str  # for charts: e.g. "demo paper cpu", "mitsuba whitted llvm"
+    spp: int = 1
+    scene: str = ""  # the scene file the job renders
+    executable: str | None = None  # another rtdemo build (rtval check --rtdemo)
+    cached: bool = field(default=False, compare=False)
+    seconds: float = field(default=0.0, compare=False)  # wall time of the command when run
+    cache_key: str = field(default="", compare=False)
+    info: dict[str, Any] = field(default_factory=dict, compare=False)  # the cache's facts
+
+    def command(self, out: str | Path, scene: str | Path | None = None) -> list[str]:
+        values = {"{out}": str(out), "{scene}": str(scene if scene is not None else self.scene)}
+        return [self.tool, *[values.get(a, a) for a in self.args]]
+
+    def command_text(self, out: str | Path, scene: str | Path | None = None) -> str:
+        return shlex.join(self.command(out, scene))
+
+    def exr(self, cache: RenderCache) -> Path:
+        return cache.exr(self.cache_key)
+
+
+def _executable(job: RenderJob) -> str:
+    if job.tool == "rtdemo":
+        return job.executable or rtdemo_path()
+    return str(Path(sys.executable).with_name(job.tool))
+
+
+class _Counter:
+    """[n/N] lines from several threads."""
+
+    def __init__(self, total: int, progress: Progress) -> None:
+        self.total, self.done, self.progress = total, 0, progress
+        self.lock = threading.Lock()
+
+    def finished(self, job: RenderJob) -> None:
+        with self.lock:
+            self.done += 1
+            state = "cached" if job.cached else f"{job.seconds:.1f} s"
+            self.progress.line(f"[{self.done}/{self.total}] {job.label}: {state}")
+
+    def update(self, label: str, done: int, total: int, elapsed: float) -> None:
+        with self.lock:
+            self.progress.update(f"[{self.done + 1}/{self.total}] {label}", done, total, elapsed)
+
+
+def run_jobs(
+    jobs: list[RenderJob],
+    cache: RenderCache,
+    *,
+    jobs_in_parallel: int = 1,
+    progress: Progress | None = None,
+) -> dict[str, float]:
+    """Makes every job's render in the cache (job.exr(cache)); returns seconds per phase."""
+    progress = progress or Progress()
+    for job in jobs:
+        if not job.scene:
+            raise ValueError(f"render job {job.key} has no scene")
+        job.cache_key = render_key(job.tool, job.args, Path(job.scene), job.executable)
+    counter = _Counter(len(jobs), progress)
+    todo: list[RenderJob] = []
+    seen: set[str] = set()
+    for job in jobs:
+        info = cache.info(job.cache_key)
+        if info is not None:
+            job.cached, job.info = True, info
+            job.seconds = float(info.get("seconds", 0.0))
+            counter.finished(job)
+        elif job.cache_key in seen:  # the same render twice in one list: made once
+            todo.append(job)
+        else:
+            seen.add(job.cache_key)
+            todo.append(job)
+    demo = [j for j in todo if j.tool == "rtdemo"]
+    mitsuba = [j for j in todo if j.tool != "rtdemo"]
+    timings: dict[str, float] = {}
+    start = time.perf_counter()
+    # Demo renders first, then Mitsuba: never both at once, so that render times stay honest.
+    with ThreadPoolExecutor(max_workers=max(1, jobs_in_parallel)) as pool:
+        list(pool.map(lambda j: _run_demo(j, cache, counter), _unique(demo)))
+    timings["renders: demo"] = time.perf_counter() - start
+    start = time.perf_counter()
+    if mitsuba:
+        _run_batch(_unique(mitsuba), cache, counter)
+    timings["renders: Mitsuba"] = time.perf_counter() - start
+    for job in todo:  # duplicates take the entry their twin made
+        if not job.info:
+            info = cache.info(job.cache_key)
+            if info is None:
+                raise ToolError(f"{job.label}: no render in the cache after running it")
+            job.cached, job.info = True, info
+            counter.finished(job)
+    return timings
+
+
+def _unique(jobs: Iterable[RenderJob]) -> list[RenderJob]:
+    out, seen = [], set()
+    for j in jobs:
+        if j.cache_key not in seen:
+            seen.add(j.cache_key)
+            out.append(j)
+    return out
+
+
+def _run_demo(job: RenderJob, cache: RenderCache, counter: _Counter) -> None:
+    tmp = cache.tmp_path(job.cache_key)
+    cmd = job.command(tmp)
+    cmd[0] = _executable(job)
+    start = time.perf_counter()
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        job.seconds = time.perf_counter() - start
+        if proc.returncode != 0:
+            raise ToolError(
+                f"{job.label} failed (exit {proc.returncode}): {job.command_text('OUT.exr')}\n"
+                f"{proc.stderr.strip()[-2000:]}"
+            )
+        job.info = cache.store(job.cache_key, tmp, _facts(job))
+    finally:  # interrupted or failed: leave nothing that looks like a result
+        tmp.unlink(missing_ok=True)
+    counter.finished(job)
+
+
+def _facts(job: RenderJob) -> dict[str, Any]:
+    return {"seconds": job.seconds, "label": job.label, "command": job.command("OUT.exr")}
+
+
+def _run_batch(jobs: list[RenderJob], cache: RenderCache, counter: _Counter) -> None:
+    """All Mitsuba jobs in one `rtval reference --batch` process."""
+    outs = [cache.tmp_path(j.cache_key) for j in jobs]
+    spec = {"jobs": [j.command(out)[2:] for j, out in zip(jobs, outs, strict=True)]}
+    with tempfile.TemporaryDirectory(prefix="rtval-batch-") as tmp_name:
+        batch_file = Path(tmp_name) / "jobs.json"
+        batch_file.write_text(json.dumps(spec, indent=1))
+        log = Path(tmp_name) / "stderr.txt"
+        cmd = [
+            str(Path(sys.executable).with_name("rtval")),
+            "reference",
+            "--batch",
+            str(batch_file),
+        ]
+        try:
+            with log.open("w") as err:
+                proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=err, text=True)
+                assert proc.stdout is not None
+                failed: int | None = None
+                try:
+                    for line in proc.stdout:
+                        failed = _event(line, jobs, outs, cache, counter, failed)
+                    proc.wait()
+                except BaseException:
+                    proc.kill()
+                    proc.wait()
+                    raise
+            if proc.returncode != 0 or failed is not None:
+                which = jobs[failed] if failed is not None else None
+                head = (
+                    f"{which.label} failed: {which.command_text('OUT.exr')}"
+                    if which
+                    else f"rtval reference --batch failed (exit {proc.returncode})"
+                )
+                raise ToolError(f"{head}\n{log.read_text().strip()[-2000:]}")
+        finally:
+            for out in outs:
+                out.unlink(missing_ok=True)
+
+
+def _event(
+    line: str,
+    jobs: list[RenderJob],
+    outs: list[Path],
+    cache: RenderCache,
+    counter: _Counter,
+    failed: int | None,
+) -> int | None:
+    try:
+        ev = json.loads(line)
+        i = int(ev["job"])
+        job = jobs[i]
+    except (ValueError, KeyError, IndexError, TypeError):
+        return failed  # not an event (a library printing to stdout)
+    kind = ev.get("event")
+    if kind == "progress":
+        counter.update(job.label, int(ev["done"]), int(ev["total"]), float(ev["elapsed"]))
+    elif kind == "done":
+        job.seconds = float(ev["seconds"])
+        job.info = cache.store(job.cache_key, outs[i], _facts(job))
+        counter.finished(job)
+    elif kind == "error":
+        return i
+    return failed
