@@ -20,6 +20,7 @@ Tolerances: BASELINE/tolerances.json, overlaid by BASELINE/<renderer-name>/toler
 
 from __future__ import annotations
 
+import io
 import json
 import tempfile
 import time
@@ -39,8 +40,10 @@ from compare.judge.target_model import ModelError, TargetModel, parse_model
 from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
 from compare.render import foreign
 from compare.render.cache import RenderCache
+from compare.render.jobs import RenderJob, run_jobs
 from compare.render.models import scene_masks
-from compare.render.runner import ToolError, run_rtdemo
+from compare.render.progress import Progress
+from compare.render.runner import ToolError
 from compare.safe_paths import read_bounded
 from scene_model.scene import Scene, load_scene
 
@@ -85,6 +88,7 @@ class CaseResult:
     seconds: float = 0.0  # the renderer's own time
     overhead_seconds: float = 0.0  # everything else this case cost (masks, reading, judging)
     updated: bool = False
+    cached: bool = False  # rtdemo's render came from the shared render cache
     renderer: str = "rtdemo"
     against: str = "baseline"  # what the render was judged against: a target model's name
     scene_file: str = ""
@@ -265,17 +269,30 @@ class CheckSettings:
 
 
 def _render_rtdemo(
-    settings: CheckSettings, scene_path: str, backend: str, mode_args: list[str], tmp: Path
-) -> tuple[Image, float]:
-    out = tmp / f"render-{backend}.exr"
-    args = ["render", scene_path, "-o", str(out), *mode_args, "--backend", backend]
+    settings: CheckSettings,
+    scene_path: str,
+    backend: str,
+    mode_args: list[str],
+    cache: RenderCache,
+) -> tuple[Image, float, bool]:
+    """rtdemo's render of one case, through the shared cache: its key holds the binary's hash,
+    so a changed build always renders afresh. Returns (image, seconds, from the cache)."""
+    args = ["render", "{scene}", "-o", "{out}", *mode_args, "--backend", backend]
     args += ["--width", str(settings.size[0]), "--height", str(settings.size[1]), "-q"]
     if settings.spp != 1:
         args += ["--spp", str(settings.spp)]
-    start = time.perf_counter()
-    run_rtdemo(args, executable=settings.rtdemo)
-    seconds = time.perf_counter() - start
-    return read_image(out), seconds
+    name = "-".join(a.lstrip("-") for a in mode_args)
+    job = RenderJob(
+        f"check-{backend}-{name}",
+        f"check {backend} {name}",
+        "rtdemo",
+        args,
+        "check",
+        scene=scene_path,
+        executable=settings.rtdemo,
+    )
+    run_jobs([job], cache, progress=Progress(io.StringIO(), tty=False))  # check prints its own
+    return read_image(job.exr(cache)), job.seconds, job.cached
 
 
 def _target(settings: CheckSettings) -> TargetModel | None:
@@ -333,6 +350,7 @@ def run_check(
                 progress(
                     f"{case.name:<28} {case.status.upper():<5}"
                     + (f" against {case.against}" if model else "")
+                    + (" (cached render)" if case.cached else "")
                     + (" (baseline updated)" if case.updated else "")
                     + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
                 )
@@ -366,7 +384,9 @@ def _one_case(
         if cmd is None:
             demo = model is not None and model.target.is_demo and mode == model.target.name
             mode_args = model.target.rtdemo_args() if model and demo else ["--mode", mode]
-            test, case.seconds = _render_rtdemo(settings, scene_path, backend, mode_args, tmp)
+            test, case.seconds, case.cached = _render_rtdemo(
+                settings, scene_path, backend, mode_args, cache
+            )
         else:
             got = foreign.render(
                 cmd,
