@@ -3,10 +3,10 @@ made from a reference render and from the demo. Returns the expected verdict per
 
 from __future__ import annotations
 
-import subprocess
 from pathlib import Path
 
 import numpy as np
+from helpers import render_demo
 
 from compare.judge.images import read_image, write_exr, write_png
 
@@ -48,25 +48,9 @@ def make_class(
         ("no_refraction", ["--no-refraction", "--spp", "16"]),
     ):
         out = folder.parent / f"_{kind}.exr"
-        subprocess.run(
-            [
-                rtdemo,
-                "render",
-                str(scene_file),
-                "-o",
-                str(out),
-                "--mode",
-                "physical",
-                "-q",
-                "--width",
-                str(size[0]),
-                "--height",
-                str(size[1]),
-                *args,
-            ],
-            check=True,
-        )
-        demo[kind] = read_image(out).rgb
+        demo[kind] = render_demo(
+            rtdemo, scene_file, out, "--mode", "physical", "-q", *args, size=size
+        ).rgb
     expected = {}
     for kind, status in KINDS.items():
         for i in range(per_kind):

@@ -1,10 +1,12 @@
-"""Paths and a subprocess runner shared by the test modules (imported as `helpers`; pytest's
-rootdir-relative import puts tests/ on sys.path)."""
+"""Paths, a subprocess runner and an rtdemo render shared by the test modules (imported as
+`helpers`; pytest's rootdir-relative import puts tests/ on sys.path)."""
 
 from __future__ import annotations
 
 import subprocess
 from pathlib import Path
+
+from compare.judge.images import Image, read_image
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
@@ -13,3 +15,24 @@ SCENES = ROOT / "scenes"
 def run(cmd: list[str], **kw: object) -> subprocess.CompletedProcess[str]:
     """Runs a command, capturing text output; never raises on a non-zero exit."""
     return subprocess.run(cmd, capture_output=True, text=True, check=False, **kw)  # type: ignore[call-overload]
+
+
+_OUTPUT_FLAGS = {".exr": "-o", ".png": "--png", ".ppm": "--ppm"}
+
+
+def render_demo(
+    rtdemo: str,
+    scene: Path | str,
+    out: Path,
+    *options: str,
+    size: tuple[int, int] | None = None,
+    **kw: object,
+) -> Image:
+    """`rtdemo render SCENE -o OUT [--width W --height H] OPTIONS...`, which must succeed
+    (the assertion shows its stderr); the image it wrote. OUT's suffix picks the output option
+    (.exr -o, .png --png, .ppm --ppm); kw goes to run() (env, timeout)."""
+    flag = _OUTPUT_FLAGS[out.suffix]
+    sized = [] if size is None else ["--width", str(size[0]), "--height", str(size[1])]
+    proc = run([rtdemo, "render", str(scene), flag, str(out), *sized, *options], **kw)
+    assert proc.returncode == 0, proc.stderr
+    return read_image(out)

@@ -1,7 +1,9 @@
 """An independent float64 numpy implementation of docs/paper-model.md (`paper` and `classic`
 modes), written from the spec rather than from demo_cpp, to check the C++ renderer.
 
-Vectorised over rays; the recursion follows both branches for whole batches.
+Vectorised over rays; the recursion follows both branches for whole batches. The small
+hook methods (background, offset, face_forward, eta, fresnel, occluded) are the single steps
+tests/student_variants.py overrides to make one student mistake each.
 """
 
 from __future__ import annotations
@@ -70,7 +72,7 @@ class ReferenceTracer:
             better = ok & (t < t_near)
             t_near = np.where(better, t, t_near)
             index = np.where(better, i, index)
-        out = np.tile(np.array(self.scene.background, dtype=np.float64), (n_rays, 1))
+        out = np.tile(self.background(), (n_rays, 1))
         hit = index >= 0
         if not hit.any():
             return out
@@ -79,7 +81,7 @@ class ReferenceTracer:
         p = oh + dh * t_near[hit][:, None]
         n = _normalize(p - self.centers[idx])
         inside = _dot(dh, n) > 0
-        n = np.where(inside[:, None], -n, n)
+        n = self.face_forward(n, inside)
         transp, refl = self.transparency[idx], self.reflection[idx]
         specular = ((transp > 0) | (refl > 0)) & (depth < self.scene.max_depth)
         colour = np.zeros_like(p)
@@ -93,13 +95,42 @@ class ReferenceTracer:
         out[hit] = colour + self.emission[idx]
         return out
 
+    # --- the hooks: one step of the algorithm each ----------------------------------------
+
+    def background(self) -> F64:
+        """The colour a ray that hits nothing returns."""
+        return np.array(self.scene.background, dtype=np.float64)
+
+    def offset(self) -> float:
+        """How far secondary and shadow rays start off the surface, along the normal."""
+        return self.scene.bias
+
+    def face_forward(self, n: F64, inside: NDArray[np.bool_]) -> F64:
+        """The shading normal: flipped to face the ray when the hit is inside the sphere."""
+        return np.where(inside[:, None], -n, n)
+
+    def eta(self, ior: F64, inside: NDArray[np.bool_]) -> F64:
+        """The refraction ratio; paper mode always uses 1/ior (Q2), classic inverts it inside."""
+        return np.where(inside, ior, 1 / ior) if self.classic else 1 / ior
+
+    def fresnel(self, facing: F64) -> F64:
+        """The reflection weight from the cosine between the ray and the normal."""
+        return 0.1 + 0.9 * (1 - facing) ** 3
+
+    def occluded(self, j: int, origin: F64, l_dir: F64) -> NDArray[np.bool_]:
+        """Whether sphere j stands in the way of each shadow ray."""
+        blocked, _ = _paper_hit(self.centers[j], self.radii[j], origin, l_dir)
+        return blocked
+
+    # --- the recursion ------------------------------------------------------------------------
+
     def _specular(
         self, d: F64, p: F64, n: F64, inside: NDArray[np.bool_], idx: NDArray[np.int_], depth: int
     ) -> F64:
-        bias = self.scene.bias
+        bias = self.offset()
         idotn = _dot(d, n)
         facing = np.maximum(0.0, -idotn)
-        fresnel = 0.1 + 0.9 * (1 - facing) ** 3
+        fresnel = self.fresnel(facing)
         r = _normalize(d - 2 * idotn[:, None] * n)
         reflection = self.trace(p + n * bias, r, depth + 1)
         refraction = np.zeros_like(p)
@@ -107,7 +138,7 @@ class ReferenceTracer:
         glass = transp > 0
         if glass.any():
             ior = self.ior[idx][glass]
-            eta = np.where(inside[glass], ior, 1 / ior) if self.classic else 1 / ior
+            eta = self.eta(ior, inside[glass])
             cosi = -idotn[glass]
             k = 1 - eta * eta * (1 - cosi * cosi)
             t = d[glass] * eta[:, None] + n[glass] * (eta * cosi - np.sqrt(k))[:, None]
@@ -120,14 +151,14 @@ class ReferenceTracer:
         """Light arriving at p, before the surface colour multiplies it."""
         colour = np.zeros_like(p)
         shadow = np.ones(len(p))  # shared by all lights (Q4) in paper mode
-        origin = p + n * self.scene.bias
+        origin = p + n * self.offset()
         for light in self.lights:
             l_dir = _normalize(self.centers[light][None, :] - p)
             transmission = np.ones(len(p))
             for j in range(len(self.radii)):
                 if j == light:
                     continue
-                blocked, _ = _paper_hit(self.centers[j], self.radii[j], origin, l_dir)
+                blocked = self.occluded(j, origin, l_dir)
                 if self.classic:
                     transmission = np.where(blocked, 0.0, transmission)
                 else:

@@ -14,9 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import ROOT, SCENES, run
-
-from compare.judge.images import read_image
+from helpers import ROOT, SCENES, render_demo, run
 
 pytestmark = pytest.mark.slow
 RTVAL = str(Path(sys.executable).with_name("rtval"))
@@ -35,31 +33,14 @@ def work(tmp_path_factory: pytest.TempPathFactory, rtdemo: str) -> dict[str, Pat
     root = tmp_path_factory.mktemp("against")
     subs = root / "subs"
     subs.mkdir()
-    size = ["--width", str(SIZE[0]), "--height", str(SIZE[1])]
+    outputs = ["--png", str(subs / "rtdemo_png.png"), "--ppm", str(subs / "rtdemo_ppm.ppm")]
     exr = subs / "rtdemo_exr.exr"
-    proc = run(
-        [
-            rtdemo,
-            "render",
-            str(SCENE),
-            "--mode",
-            "classic",
-            "-q",
-            *size,
-            "-o",
-            str(exr),
-            "--png",
-            str(subs / "rtdemo_png.png"),
-            "--ppm",
-            str(subs / "rtdemo_ppm.ppm"),
-        ]
-    )
-    assert proc.returncode == 0, proc.stderr
+    rgb = render_demo(rtdemo, SCENE, exr, "--mode", "classic", "-q", *outputs, size=SIZE).rgb
     # rtdemo's PPM truncates by default; its rounding twin, and both again from its EXR:
-    round_ppm = ["--ppm", str(subs / "rtdemo_ppm_round.ppm"), "--ppm-rounding", "round"]
-    proc = run([rtdemo, "render", str(SCENE), "--mode", "classic", "-q", *size, *round_ppm])
-    assert proc.returncode == 0, proc.stderr
-    rgb = read_image(exr).rgb
+    round_ppm = subs / "rtdemo_ppm_round.ppm"
+    render_demo(
+        rtdemo, SCENE, round_ppm, "--mode", "classic", "-q", "--ppm-rounding", "round", size=SIZE
+    )
     _write_ppm(subs / "rtdemo_trunc.ppm", np.floor(255 * np.clip(rgb, 0, 1)))
     _write_ppm(subs / "rtdemo_round.ppm", np.floor(255 * np.clip(rgb, 0, 1) + 0.5))
     proc = run(
@@ -67,10 +48,7 @@ def work(tmp_path_factory: pytest.TempPathFactory, rtdemo: str) -> dict[str, Pat
         env={**os.environ, "PYTHONPATH": str(ROOT)},
     )
     assert proc.returncode == 0, proc.stderr
-    wrong = ["--ppm", str(subs / "paper_mode.ppm")]
-    assert (
-        run([rtdemo, "render", str(SCENE), "--mode", "paper", "-q", *size, *wrong]).returncode == 0
-    )
+    render_demo(rtdemo, SCENE, subs / "paper_mode.ppm", "--mode", "paper", "-q", size=SIZE)
     return {"root": root, "subs": subs}
 
 
@@ -146,23 +124,19 @@ def test_exact_classic_fails_against_mitsuba(work: dict[str, Path]) -> None:
 
 def test_gradebook_names_the_model_and_every_fail_says_why(work: dict[str, Path]) -> None:
     out = work["root"] / "grades"
-    proc = run(
-        [
-            RTVAL,
-            "grade",
-            str(work["subs"]),
-            "--scene",
-            str(SCENE),
-            "--out",
-            str(out),
-            "--size",
-            "320x240",
-        ]
-    )
-    assert proc.returncode == 0, proc.stderr
-    assert "against classic" in proc.stderr
-    with (out / "gradebook.csv").open() as f:
-        book = {row["student"]: row for row in csv.DictReader(f)}
+
+    def grade(*extra: str) -> tuple[str, dict[str, dict[str, str]]]:
+        """Grades the submissions into out; rtval's stderr and the gradebook by student."""
+        proc = run(
+            [RTVAL, "grade", str(work["subs"]), "--scene", str(SCENE), "--out", str(out),
+             "--size", "320x240", *extra]
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        with (out / "gradebook.csv").open() as f:
+            return proc.stderr, {row["student"]: row for row in csv.DictReader(f)}
+
+    stderr, book = grade()
+    assert "against classic" in stderr
     assert set(book) == {Path(p).stem for p in EXACT} | {"paper_mode"}
     for sid, row in book.items():
         assert row["model"] == "classic"
@@ -175,30 +149,13 @@ def test_gradebook_names_the_model_and_every_fail_says_why(work: dict[str, Path]
     page = (out / "students" / "numpy" / "index.html").read_text()
     assert "Judged against <strong>classic</strong>" in page
     # Grading against a demo model renders no Mitsuba reference.
-    assert "mitsuba" not in proc.stderr.lower()
+    assert "mitsuba" not in stderr.lower()
     explain = run([RTVAL, "grade", "--explain", "paper_mode", "--out", str(out)])
     assert explain.returncode == 0 and "judged against classic" in explain.stdout
     # The rubric's `against` chooses the model; --against wins over it.
     rubric = work["root"] / "rubric.toml"
     rubric.write_text('[rubric]\nagainst = "paper"\n')
-    proc = run(
-        [
-            RTVAL,
-            "grade",
-            str(work["subs"]),
-            "--scene",
-            str(SCENE),
-            "--out",
-            str(out),
-            "--size",
-            "320x240",
-            "--rubric",
-            str(rubric),
-        ]
-    )
-    assert proc.returncode == 0, proc.stderr
-    with (out / "gradebook.csv").open() as f:
-        book = {row["student"]: row for row in csv.DictReader(f)}
+    _, book = grade("--rubric", str(rubric))
     assert book["paper_mode"]["status"] == "pass" and book["numpy"]["status"] == "fail"
     assert all(r["model"] == "paper" for r in book.values())
 
@@ -212,26 +169,9 @@ def test_against_needs_a_scene_and_a_known_model(work: dict[str, Path]) -> None:
 
 @pytest.mark.parametrize("mode", ["paper", "physical"])
 def test_every_mode_passes_against_itself(tmp_path: Path, rtdemo: str, mode: str) -> None:
-    size = ["--width", "160", "--height", "120"]
     outs = [tmp_path / f"{mode}.{ext}" for ext in ("exr", "png", "ppm")]
-    proc = run(
-        [
-            rtdemo,
-            "render",
-            str(SCENE),
-            "--mode",
-            mode,
-            "-q",
-            *size,
-            "-o",
-            str(outs[0]),
-            "--png",
-            str(outs[1]),
-            "--ppm",
-            str(outs[2]),
-        ]
-    )
-    assert proc.returncode == 0, proc.stderr
+    outputs = ["--png", str(outs[1]), "--ppm", str(outs[2])]
+    render_demo(rtdemo, SCENE, outs[0], "--mode", mode, "-q", *outputs, size=(160, 120))
     for image in outs:
         js = tmp_path / f"{image.name}.json"
         proc = run(

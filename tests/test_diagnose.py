@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, run
+from helpers import SCENES, render_demo, run
 from student_variants import VARIANTS, render_variant
 
 from compare.judge.candidate import Candidate
@@ -29,12 +29,7 @@ W, H = 160, 120
 
 
 def _render(rtdemo: str, out: Path, *args: str, size: tuple[int, int] = (W, H)) -> Image:
-    proc = run(
-        [rtdemo, "render", str(CLASSIC), "-o", str(out), "-q", "--width", str(size[0]),
-         "--height", str(size[1]), *args]
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    return read_image(out)
+    return render_demo(rtdemo, CLASSIC, out, "-q", *args, size=size)
 
 
 # --- the catalogue, in one place -----------------------------------------------------------
@@ -241,10 +236,9 @@ def test_several_causes_from_a_far_start_are_retold_from_the_simplest_mode(
     # result is retold from paper in two steps.
     png = tmp_path / "gamma.png"
     scene_file = SCENES / "paper.json"
-    proc = run([rtdemo, "render", str(scene_file), "--png", str(png), "-q", "--width", str(W),
-                "--height", str(H), "--mode", "paper", "--fix", "Q8", "--mistake", "double_gamma"])  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
+    image = render_demo(rtdemo, scene_file, png, "-q", "--mode", "paper", "--fix", "Q8",
+                        "--mistake", "double_gamma", size=(W, H))  # fmt: skip
     with CandidateRenderer(scene_file, W, H, threads=1) as render:
-        d = diagnose(read_image(png), load_scene(scene_file), render, parallel=2)
+        d = diagnose(image, load_scene(scene_file), render, parallel=2)
     assert d.result == "paper-Q8 --mistake double_gamma", d.sentences
     assert sorted(d.causes) == ["-Q8", "double_gamma"] and d.exact

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, run
+from helpers import SCENES, render_demo, run
 
 from compare.judge.images import read_image
 from compare.judge.metrics import compute_maps, compute_metrics
@@ -21,22 +21,9 @@ def render_both(scene: Path, mode: str, rtdemo: str, tmp_path: Path, *options: s
     images = []
     for backend in ("cpu", "gl"):
         out = tmp_path / f"{backend}.exr"
-        proc = run(
-            [
-                rtdemo,
-                "render",
-                str(scene),
-                "-o",
-                str(out),
-                "--mode",
-                mode,
-                "--backend",
-                backend,
-                *options,
-            ]
+        images.append(
+            render_demo(rtdemo, scene, out, "--mode", mode, "--backend", backend, *options)
         )
-        assert proc.returncode == 0, proc.stderr
-        images.append(read_image(out))
     return tuple(images)
 
 

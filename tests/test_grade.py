@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import subprocess
 import sys
 from pathlib import Path
 
@@ -25,26 +26,18 @@ def graded(tmp_path_factory: pytest.TempPathFactory, rtdemo: str) -> tuple[Path,
     root = tmp_path_factory.mktemp("class")
     out = root / "grades"
     # First run renders the reference, which the class is made from.
-    warm = run([RTVAL, "grade", str(root), "--scene", str(SCENE), "--out", str(out), *SIZE])
+    warm = _grade(root, out, *SIZE)
     assert warm.returncode == 0, warm.stderr
     reference = out / "references" / "classic-mitsuba.exr"
     expected = make_class(reference, SCENE, rtdemo, root / "subs")
-    proc = run(
-        [
-            RTVAL,
-            "grade",
-            str(root / "subs"),
-            "--scene",
-            str(SCENE),
-            "--out",
-            str(out),
-            *SIZE,
-            "--jobs",
-            "2",
-        ]
-    )
+    proc = _grade(root / "subs", out, *SIZE, "--jobs", "2")
     assert proc.returncode == 0, proc.stderr
     return out, expected, root
+
+
+def _grade(subs: Path, out: Path, *options: str) -> subprocess.CompletedProcess[str]:
+    """`rtval grade SUBS --scene classic.json --out OUT OPTIONS...`."""
+    return run([RTVAL, "grade", str(subs), "--scene", str(SCENE), "--out", str(out), *options])
 
 
 def _gradebook(out: Path) -> dict[str, dict[str, str]]:
@@ -85,18 +78,7 @@ def test_every_verdict_is_the_expected_one(graded: tuple[Path, dict, Path]) -> N
 
 def test_rerun_resumes_everything(graded: tuple[Path, dict, Path]) -> None:  # type: ignore[type-arg]
     out, expected, root = graded
-    proc = run(
-        [
-            RTVAL,
-            "grade",
-            str(root / "subs"),
-            "--scene",
-            str(SCENE),
-            "--out",
-            str(out),
-            *SIZE,
-        ]
-    )
+    proc = _grade(root / "subs", out, *SIZE)
     assert proc.returncode == 0
     assert f"({len(expected)} resumed)" in proc.stderr
 
@@ -111,21 +93,14 @@ def test_dask_cluster_gives_the_same_gradebook(
     with LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
     ) as cluster:
-        proc = run(
-            [
-                RTVAL,
-                "grade",
-                str(root / "subs"),
-                "--scene",
-                str(SCENE),
-                "--out",
-                str(dask_out),
-                *SIZE,
-                "--executor",
-                "dask",
-                "--scheduler",
-                cluster.scheduler_address,
-            ]
+        proc = _grade(
+            root / "subs",
+            dask_out,
+            *SIZE,
+            "--executor",
+            "dask",
+            "--scheduler",
+            cluster.scheduler_address,
         )
     assert proc.returncode == 0, proc.stderr
     a, b = _gradebook(out), _gradebook(dask_out)
@@ -158,50 +133,14 @@ def test_rubric_changes_verdicts_and_errors_name_the_line(
             for e in ("direct", "shadow", "reflection", "edges")
         )
     )
-    proc = run(
-        [
-            RTVAL,
-            "grade",
-            str(root / "subs"),
-            "--scene",
-            str(SCENE),
-            "--out",
-            str(tmp_path / "g"),
-            *SIZE,
-            "--rubric",
-            str(lenient),
-        ]
-    )
+    proc = _grade(root / "subs", tmp_path / "g", *SIZE, "--rubric", str(lenient))
     assert proc.returncode == 0, proc.stderr
     assert _gradebook(tmp_path / "g")["no_shadows_0"]["status"] == "pass"
     bad = tmp_path / "bad.toml"
-    bad.write_text("[rubric]\npass_score = 60\n\n[effects.shadows]\nmax_flip = 0.1\n")
-    proc = run(
-        [
-            RTVAL,
-            "grade",
-            str(root / "subs"),
-            "--scene",
-            str(SCENE),
-            "--out",
-            str(tmp_path / "h"),
-            "--rubric",
-            str(bad),
-        ]
-    )
-    assert proc.returncode == 4 and "bad.toml: line 4: unknown effect 'shadows'" in proc.stderr
-    bad.write_text("[rubric]\npass_score = 60\n\n[effects.shadow]\nmax_flip = 'low'\n")
-    proc = run(
-        [
-            RTVAL,
-            "grade",
-            str(root / "subs"),
-            "--scene",
-            str(SCENE),
-            "--out",
-            str(tmp_path / "h"),
-            "--rubric",
-            str(bad),
-        ]
-    )
-    assert proc.returncode == 4 and "bad.toml: line 5: max_flip must be a number" in proc.stderr
+    for effect, error in (
+        ("[effects.shadows]\nmax_flip = 0.1", "line 4: unknown effect 'shadows'"),
+        ("[effects.shadow]\nmax_flip = 'low'", "line 5: max_flip must be a number"),
+    ):
+        bad.write_text(f"[rubric]\npass_score = 60\n\n{effect}\n")
+        proc = _grade(root / "subs", tmp_path / "h", "--rubric", str(bad))
+        assert proc.returncode == 4 and f"bad.toml: {error}" in proc.stderr

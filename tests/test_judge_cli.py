@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import ROOT, SCENES, run
+from helpers import ROOT, SCENES, render_demo, run
 from PIL import Image as PILImage
 
 from compare.judge.images import read_image, write_exr
@@ -141,42 +141,8 @@ def test_ppm_is_read_as_linear_unless_told(tmp_path: Path) -> None:
 def test_per_effect_table_names_every_visible_effect(rtdemo: str, tmp_path: Path) -> None:
     a, b = tmp_path / "a.exr", tmp_path / "b.exr"
     scene = str(SCENES / "classic.json")
-    assert (
-        run(
-            [
-                rtdemo,
-                "render",
-                scene,
-                "-o",
-                str(a),
-                "--mode",
-                "classic",
-                "--width",
-                "160",
-                "--height",
-                "120",
-            ]
-        ).returncode
-        == 0
-    )
-    assert (
-        run(
-            [
-                rtdemo,
-                "render",
-                scene,
-                "-o",
-                str(b),
-                "--mode",
-                "paper",
-                "--width",
-                "160",
-                "--height",
-                "120",
-            ]
-        ).returncode
-        == 0
-    )
+    for out, mode in ((a, "classic"), (b, "paper")):
+        render_demo(rtdemo, scene, out, "--mode", mode, size=(160, 120))
     proc = run(
         [RTVAL, "compare", str(a), str(b), "--scene", scene, "--json", str(tmp_path / "r.json")]
     )

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, run
+from helpers import SCENES, render_demo, run
 
 from compare.judge.images import read_image
 from mitsuba_ref.conductor_fit import conductor_fresnel, fit_paper_conductor, paper_fresnel
@@ -93,11 +93,7 @@ def demo_physical(rtdemo: str, tmp_path_factory: pytest.TempPathFactory) -> dict
     folder = tmp_path_factory.mktemp("demo")
     for scene in ("paper", "classic"):
         exr = folder / f"{scene}.exr"
-        proc = run(
-            [rtdemo, "render", str(SCENES / f"{scene}.json"), "-o", str(exr), "--mode", "physical"]
-        )
-        assert proc.returncode == 0, proc.stderr
-        out[scene] = read_image(exr)
+        out[scene] = render_demo(rtdemo, SCENES / f"{scene}.json", exr, "--mode", "physical")
     return out
 
 
@@ -313,33 +309,18 @@ def test_scalar_variant_agrees_with_llvm_on_whitted() -> None:
     assert (np.abs(np.clip(a.rgb, 0, 1) - np.clip(b.rgb, 0, 1)) <= 1 / 255).all(-1).mean() > 0.99
 
 
-def test_bad_reference_options_are_clear(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    "options,needle",
+    [
+        (["--integrator", "path", "--no-shadows"], "whitted integrator only"),
+        (["--spp", "0"], "positive integer"),
+    ],
+)
+def test_bad_reference_options_are_clear(tmp_path: Path, options: list[str], needle: str) -> None:
     import sys
 
     rtval = str(Path(sys.executable).with_name("rtval"))
-    proc = run(
-        [
-            rtval,
-            "reference",
-            str(SCENES / "classic.json"),
-            "-o",
-            str(tmp_path / "x.exr"),
-            "--integrator",
-            "path",
-            "--no-shadows",
-        ]
-    )
-    assert proc.returncode == 64 and "whitted integrator only" in proc.stderr
-    proc = run(
-        [
-            rtval,
-            "reference",
-            str(SCENES / "classic.json"),
-            "-o",
-            str(tmp_path / "x.exr"),
-            "--spp",
-            "0",
-        ]
-    )
-    assert proc.returncode == 64 and "positive integer" in proc.stderr
-    assert not (tmp_path / "x.exr").exists()
+    out = tmp_path / "x.exr"
+    proc = run([rtval, "reference", str(SCENES / "classic.json"), "-o", str(out), *options])
+    assert proc.returncode == 64 and needle in proc.stderr
+    assert not out.exists()

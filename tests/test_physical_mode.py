@@ -8,10 +8,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, run
+from helpers import SCENES, render_demo
 
 from compare.judge.effects import effect_masks
-from compare.judge.images import read_image
 from compare.judge.metrics import compute_maps, compute_metrics
 from mitsuba_ref.reference import ReferenceSettings, render_reference
 from scene_model.scene import load_scene
@@ -22,22 +21,7 @@ SIZE = (320, 240)
 
 def _demo(rtdemo: str, scene: str, tmp: Path, *args: str) -> np.ndarray:
     out = tmp / f"{scene}-{'_'.join(args)}.exr"
-    proc = run(
-        [
-            rtdemo,
-            "render",
-            str(SCENES / f"{scene}.json"),
-            "-o",
-            str(out),
-            "--width",
-            str(SIZE[0]),
-            "--height",
-            str(SIZE[1]),
-            *args,
-        ]
-    )
-    assert proc.returncode == 0, proc.stderr
-    return read_image(out).rgb
+    return render_demo(rtdemo, SCENES / f"{scene}.json", out, *args, size=SIZE).rgb
 
 
 @pytest.mark.parametrize("scene", ["paper", "classic"])

@@ -11,10 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, run
+from helpers import SCENES, render_demo
 from numpy_reference import ReferenceTracer
 
-from compare.judge.images import read_image
 from scene_model.scene import load_scene
 
 
@@ -26,10 +25,7 @@ from scene_model.scene import load_scene
 def test_cpu_render_matches_numpy_reference(
     scene: str, mode: str, rtdemo: str, tmp_path: Path
 ) -> None:
-    out = tmp_path / "demo.exr"
-    proc = run([rtdemo, "render", str(SCENES / f"{scene}.json"), "-o", str(out), "--mode", mode])
-    assert proc.returncode == 0, proc.stderr
-    demo = read_image(out)
+    demo = render_demo(rtdemo, SCENES / f"{scene}.json", tmp_path / "demo.exr", "--mode", mode)
     s = load_scene(SCENES / f"{scene}.json")
     ref = ReferenceTracer(s, mode).render(s.camera.width, s.camera.height)
     assert demo.rgb.shape == ref.shape

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import ROOT, SCENES, run
+from helpers import ROOT, SCENES, render_demo, run
 from PIL import Image as PILImage
 from student_variants import render_variant
 
@@ -25,24 +25,20 @@ RTVAL = str(Path(sys.executable).with_name("rtval"))
 ARTIFACTS = ROOT / "build" / "test-artifacts"
 
 
+def _report(reports_dir: Path, *options: str) -> subprocess.CompletedProcess[str]:
+    """`rtval report classic.json --reports-dir DIR --size 160x120 OPTIONS...`."""
+    return run(
+        [RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(reports_dir),
+         "--size", "160x120", *options]
+    )  # fmt: skip
+
+
 @pytest.fixture(scope="module")
 def report(
     tmp_path_factory: pytest.TempPathFactory,
 ) -> tuple[Path, subprocess.CompletedProcess[str]]:
     out = tmp_path_factory.mktemp("reports")
-    proc = run(
-        [
-            RTVAL,
-            "report",
-            str(SCENES / "classic.json"),
-            "--reports-dir",
-            str(out),
-            "--size",
-            "160x120",
-            "--jobs",
-            "2",
-        ]
-    )
+    proc = _report(out, "--jobs", "2")
     assert proc.returncode == 0, proc.stderr
     return out / "classic", proc
 
@@ -259,18 +255,7 @@ def test_grading_right_after_the_report_renders_nothing(
 
 def test_rerun_renders_nothing(report: tuple[Path, object]) -> None:
     folder, _ = report
-    proc = run(
-        [
-            RTVAL,
-            "report",
-            str(SCENES / "classic.json"),
-            "--reports-dir",
-            str(folder.parent),
-            "--size",
-            "160x120",
-            "--no-pdf",
-        ]
-    )
+    proc = _report(folder.parent, "--no-pdf")
     assert proc.returncode == 0, proc.stderr
     lines = [line for line in proc.stderr.splitlines() if line.startswith("[")]
     assert len(lines) == 41 and all(line.endswith(": cached") for line in lines), lines
@@ -279,40 +264,8 @@ def test_rerun_renders_nothing(report: tuple[Path, object]) -> None:
 def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtdemo: str) -> None:
     folder, _ = report
     student = tmp_path / "student.ppm"
-    assert (
-        run(
-            [
-                rtdemo,
-                "render",
-                str(SCENES / "classic.json"),
-                "--ppm",
-                str(student),
-                "--mode",
-                "classic",
-                "--width",
-                "160",
-                "--height",
-                "120",
-            ]
-        ).returncode
-        == 0
-    )
-    proc = run(
-        [
-            RTVAL,
-            "report",
-            str(SCENES / "classic.json"),
-            "--reports-dir",
-            str(folder.parent),
-            "--size",
-            "160x120",
-            "--test-image",
-            str(student),
-            "--label",
-            "student 42",
-            "--no-pdf",
-        ]
-    )
+    render_demo(rtdemo, SCENES / "classic.json", student, "--mode", "classic", size=(160, 120))
+    proc = _report(folder.parent, "--test-image", str(student), "--label", "student 42", "--no-pdf")
     assert proc.returncode == 0, proc.stderr
     data = json.loads((folder / "report.json").read_text())
     assert data["test"]["label"] == "student 42" and data["featured"][0]["key"] == "test-image"
@@ -331,20 +284,7 @@ def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtd
     assert diag["result"] == "classic" and diag["causes"] == [] and diag["unexplained"] == []
     small = tmp_path / "small.png"
     PILImage.fromarray(np.zeros((10, 10, 3), np.uint8)).save(small)
-    bad = run(
-        [
-            RTVAL,
-            "report",
-            str(SCENES / "classic.json"),
-            "--reports-dir",
-            str(folder.parent),
-            "--size",
-            "160x120",
-            "--test-image",
-            str(small),
-            "--no-pdf",
-        ]
-    )
+    bad = _report(folder.parent, "--test-image", str(small), "--no-pdf")
     assert bad.returncode == 4 and "never resampled" in bad.stderr
     assert (folder / "index.html").read_text().count("student 42") >= 1  # the bad run left it
     # The report's own test EXR as the image under test (read before images/ is tidied).
@@ -369,10 +309,7 @@ def test_diagnoses_a_student_variant(report: tuple[Path, object], tmp_path: Path
     student = render_variant(
         load_scene(SCENES / "classic.json"), "wrong_eta_leaving", 160, 120, tmp_path / "eta.ppm"
     )
-    proc = run(
-        [RTVAL, "report", str(SCENES / "classic.json"), "--reports-dir", str(folder.parent),
-         "--size", "160x120", "--test-image", str(student), "--against", "classic", "--no-pdf"]
-    )  # fmt: skip
+    proc = _report(folder.parent, "--test-image", str(student), "--against", "classic", "--no-pdf")
     assert proc.returncode == 0, proc.stderr
     data = json.loads((folder / "report.json").read_text())
     diag = data["diagnosis"]

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, run
+from helpers import SCENES, render_demo, run
 from PIL import Image as PILImage
 
 from compare.judge.images import read_image
@@ -38,26 +38,9 @@ def test_help_lists_modes_and_says_physical_has_point_lights(rtdemo: str) -> Non
 
 
 def test_exr_has_colour_aovs_and_header(rtdemo: str, tmp_path: Path) -> None:
-    out = tmp_path / "c.exr"
-    proc = run(
-        [
-            rtdemo,
-            "render",
-            CLASSIC,
-            "-o",
-            str(out),
-            "--width",
-            "64",
-            "--height",
-            "48",
-            "--mode",
-            "classic",
-            "--threads",
-            "2",
-        ]
+    img = render_demo(
+        rtdemo, CLASSIC, tmp_path / "c.exr", "--mode", "classic", "--threads", "2", size=(64, 48)
     )
-    assert proc.returncode == 0, proc.stderr
-    img = read_image(out)
     assert img.shape == (48, 64)
     assert set(img.aovs) == {"id", "depth", "N.X", "N.Y", "N.Z"}
     ids = img.aovs["id"]
@@ -78,25 +61,7 @@ def test_exr_has_colour_aovs_and_header(rtdemo: str, tmp_path: Path) -> None:
 
 def test_ray_counts_follow_the_options(rtdemo: str, tmp_path: Path) -> None:
     def rays(*args: str) -> dict[str, int]:
-        out = tmp_path / "r.exr"
-        assert (
-            run(
-                [
-                    rtdemo,
-                    "render",
-                    CLASSIC,
-                    "-o",
-                    str(out),
-                    "--width",
-                    "40",
-                    "--height",
-                    "30",
-                    *args,
-                ]
-            ).returncode
-            == 0
-        )
-        h = read_image(out).header
+        h = render_demo(rtdemo, CLASSIC, tmp_path / "r.exr", *args, size=(40, 30)).header
         return {k: int(h[f"rtval.rays_{k}"]) for k in ("camera", "secondary", "shadow")}
 
     base = rays()
@@ -111,25 +76,7 @@ def test_exr_compression_is_lossless_and_checked(rtdemo: str, tmp_path: Path) ->
     images = {}
     for c in ("none", "rle", "zip"):
         out = tmp_path / f"{c}.exr"
-        assert (
-            run(
-                [
-                    rtdemo,
-                    "render",
-                    CLASSIC,
-                    "-o",
-                    str(out),
-                    "--width",
-                    "80",
-                    "--height",
-                    "60",
-                    "--exr-compression",
-                    c,
-                ]
-            ).returncode
-            == 0
-        )
-        images[c] = read_image(out)
+        images[c] = render_demo(rtdemo, CLASSIC, out, "--exr-compression", c, size=(80, 60))
     for c in ("rle", "zip"):
         np.testing.assert_array_equal(images[c].rgb, images["none"].rgb)
         np.testing.assert_array_equal(images[c].aovs["depth"], images["none"].aovs["depth"])
@@ -143,28 +90,12 @@ def test_exr_compression_is_lossless_and_checked(rtdemo: str, tmp_path: Path) ->
 
 def test_ppm_is_linear_and_png_is_srgb_of_the_same_render(rtdemo: str, tmp_path: Path) -> None:
     exr, png, ppm = tmp_path / "a.exr", tmp_path / "a.png", tmp_path / "a.ppm"
-    proc = run(
-        [
-            rtdemo,
-            "render",
-            CLASSIC,
-            "-o",
-            str(exr),
-            "--png",
-            str(png),
-            "--ppm",
-            str(ppm),
-            "--width",
-            "80",
-            "--height",
-            "60",
-        ]
-    )
-    assert proc.returncode == 0, proc.stderr
-    ref = np.clip(read_image(exr).rgb, 0, 1)
+    linear = render_demo(
+        rtdemo, CLASSIC, exr, "--png", str(png), "--ppm", str(ppm), size=(80, 60)
+    ).rgb.astype(np.float32)
+    ref = np.clip(linear, 0, 1)
     # PPM is linear and truncated by default, byte = (unsigned char)(min(1, x) * 255) as the
     # paper's program family writes it: exactly that in float32, not just within a level.
-    linear = read_image(exr).rgb.astype(np.float32)
     truncated = (np.clip(np.nan_to_num(linear, nan=0.0), 0, 1) * np.float32(255)).astype(np.uint8)
     ppm_bytes = np.asarray(PILImage.open(ppm))
     assert np.array_equal(ppm_bytes, truncated)
@@ -175,25 +106,10 @@ def test_ppm_is_linear_and_png_is_srgb_of_the_same_render(rtdemo: str, tmp_path:
 
 def test_ppm_rounding_option(rtdemo: str, tmp_path: Path) -> None:
     exr, rounded = tmp_path / "a.exr", tmp_path / "round.ppm"
-    proc = run(
-        [
-            rtdemo,
-            "render",
-            CLASSIC,
-            "-o",
-            str(exr),
-            "--ppm",
-            str(rounded),
-            "--ppm-rounding",
-            "round",
-            "--width",
-            "80",
-            "--height",
-            "60",
-        ]
-    )
-    assert proc.returncode == 0, proc.stderr
-    ref = np.clip(read_image(exr).rgb, 0, 1)
+    linear = render_demo(
+        rtdemo, CLASSIC, exr, "--ppm", str(rounded), "--ppm-rounding", "round", size=(80, 60)
+    ).rgb
+    ref = np.clip(linear, 0, 1)
     assert np.abs(read_image(rounded).rgb - ref).max() <= 0.5 / 255 + 1e-6
     bad = run(
         [rtdemo, "render", CLASSIC, "--ppm", str(tmp_path / "bad.ppm"), "--ppm-rounding", "floor"]
@@ -203,61 +119,22 @@ def test_ppm_rounding_option(rtdemo: str, tmp_path: Path) -> None:
 
 
 def test_threads_do_not_change_the_image(rtdemo: str, tmp_path: Path) -> None:
-    a, b = tmp_path / "1.exr", tmp_path / "2.exr"
-    for out, threads in ((a, "1"), (b, "2")):
-        assert (
-            run(
-                [
-                    rtdemo,
-                    "render",
-                    CLASSIC,
-                    "-o",
-                    str(out),
-                    "--width",
-                    "96",
-                    "--height",
-                    "72",
-                    "--threads",
-                    threads,
-                ]
-            ).returncode
-            == 0
-        )
-    np.testing.assert_array_equal(read_image(a).rgb, read_image(b).rgb)
+    a, b = (
+        render_demo(rtdemo, CLASSIC, tmp_path / f"{t}.exr", "--threads", t, size=(96, 72))
+        for t in ("1", "2")
+    )
+    np.testing.assert_array_equal(a.rgb, b.rgb)
 
 
 def test_spp_averages_stratum_centres_and_needs_q10_fixed(rtdemo: str, tmp_path: Path) -> None:
     out = tmp_path / "s.exr"
     refused = run([rtdemo, "render", CLASSIC, "-o", str(out), "--spp", "4"])
     assert refused.returncode == 2 and "Q10" in refused.stderr and not out.exists()
-    ok = run(
-        [
-            rtdemo,
-            "render",
-            CLASSIC,
-            "-o",
-            str(out),
-            "--spp",
-            "4",
-            "--fix",
-            "Q10",
-            "--width",
-            "32",
-            "--height",
-            "24",
-        ]
-    )
-    assert ok.returncode == 0, ok.stderr
+    strata = render_demo(rtdemo, CLASSIC, out, "--spp", "4", "--fix", "Q10", size=(32, 24))
     # 2x2 stratum centres of a 32x24 image are the pixel centres of the 64x48 image.
-    big = tmp_path / "big.exr"
-    assert (
-        run(
-            [rtdemo, "render", CLASSIC, "-o", str(big), "--width", "64", "--height", "48"]
-        ).returncode
-        == 0
-    )
-    fine = read_image(big).rgb.reshape(24, 2, 32, 2, 3).mean(axis=(1, 3))
-    np.testing.assert_allclose(read_image(out).rgb, fine, atol=1e-5)
+    big = render_demo(rtdemo, CLASSIC, tmp_path / "big.exr", size=(64, 48))
+    fine = big.rgb.reshape(24, 2, 32, 2, 3).mean(axis=(1, 3))
+    np.testing.assert_allclose(strata.rgb, fine, atol=1e-5)
 
 
 @pytest.mark.parametrize(
@@ -300,22 +177,7 @@ def test_unwritable_output_is_exit_4_before_rendering(rtdemo: str, tmp_path: Pat
 
 
 def test_no_temporary_files_are_left_behind(rtdemo: str, tmp_path: Path) -> None:
-    assert (
-        run(
-            [
-                rtdemo,
-                "render",
-                CLASSIC,
-                "-o",
-                str(tmp_path / "x.exr"),
-                "--png",
-                str(tmp_path / "x.png"),
-                "--width",
-                "16",
-                "--height",
-                "12",
-            ]
-        ).returncode
-        == 0
+    render_demo(
+        rtdemo, CLASSIC, tmp_path / "x.exr", "--png", str(tmp_path / "x.png"), size=(16, 12)
     )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.exr", "x.png"]

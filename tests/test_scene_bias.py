@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, run
+from helpers import SCENES, render_demo
 
-from compare.judge.images import linear_to_srgb, read_image
+from compare.judge.images import linear_to_srgb
 from mitsuba_ref.reference import ReferenceSettings, render_reference
 from scene_model.scene import load_scene
 
@@ -31,24 +31,7 @@ def _scene_with_bias(tmp: Path, bias: float) -> Path:
 
 def _demo(rtdemo: str, scene: Path, tmp: Path) -> np.ndarray:
     out = tmp / f"{scene.stem}.exr"
-    proc = run(
-        [
-            rtdemo,
-            "render",
-            str(scene),
-            "-o",
-            str(out),
-            "--mode",
-            "physical",
-            "--width",
-            str(SIZE[0]),
-            "--height",
-            str(SIZE[1]),
-            "-q",
-        ]
-    )
-    assert proc.returncode == 0, proc.stderr
-    return read_image(out).rgb
+    return render_demo(rtdemo, scene, out, "--mode", "physical", "-q", size=SIZE).rgb
 
 
 def _mitsuba(scene: Path) -> np.ndarray:

@@ -9,9 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, run
+from helpers import SCENES, render_demo, run
 
-from compare.judge.images import read_image
 from mitsuba_ref.reference import ReferenceSettings, render_reference
 from scene_model.scene import load_scene
 
@@ -42,25 +41,10 @@ def test_there_is_a_scene_for_every_listed_failure() -> None:
 def test_physical_and_references_are_finite(scene: Path, rtdemo: str, tmp_path: Path) -> None:
     for backend in ("cpu", "gl"):
         out = tmp_path / f"{backend}.exr"
-        proc = run(
-            [
-                rtdemo,
-                "render",
-                str(scene),
-                "-o",
-                str(out),
-                "--mode",
-                "physical",
-                "--backend",
-                backend,
-                "--width",
-                "48",
-                "--height",
-                "36",
-            ]
+        image = render_demo(
+            rtdemo, scene, out, "--mode", "physical", "--backend", backend, size=(48, 36)
         )
-        assert proc.returncode == 0, proc.stderr
-        assert np.isfinite(read_image(out).rgb).all()
+        assert np.isfinite(image.rgb).all()
     s = load_scene(scene)
     for integrator in ("whitted", "path"):
         r = render_reference(

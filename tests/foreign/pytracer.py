@@ -14,22 +14,19 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE.parent), str(HERE.parent.parent)]  # numpy_reference; the repo
 
-from numpy_reference import F64, ReferenceTracer, _dot, _normalize  # noqa: E402
+from numpy_reference import F64, ReferenceTracer  # noqa: E402
 
 from scene_model.scene import load_scene  # noqa: E402
 
 
 class NoShadows(ReferenceTracer):
-    def _direct(self, p: F64, n: F64) -> F64:
-        colour = np.zeros_like(p)
-        for light in self.lights:
-            l_dir = _normalize(self.centers[light][None, :] - p)
-            colour += np.maximum(0.0, _dot(n, l_dir))[:, None] * self.emission[light][None, :]
-        return colour
+    def occluded(self, j: int, origin: F64, l_dir: F64) -> NDArray[np.bool_]:
+        return np.zeros(len(origin), dtype=bool)  # no shadow rays
 
 
 def write_pfm(path: str, rgb: np.ndarray) -> None:
