@@ -148,7 +148,7 @@ def test_report_json_holds_every_section(
     assert all(r["command"].startswith(("rtdemo ", "rtval ")) for r in data["renders"])
     assert len(data["contributions"]) == 6
     assert data["versions"]["mitsuba"] != "not installed"
-    assert "[41/41]" in proc.stderr  # one line per render: stderr is not a terminal
+    assert "[40/40]" in proc.stderr  # one line per render: stderr is not a terminal
     assert "\r" not in proc.stderr
     steps = [t["step"] for t in data["timings"]]
     assert steps[:3] == ["plan", "renders: demo", "renders: Mitsuba"] and "PDF (Chromium)" in steps
@@ -217,7 +217,7 @@ def test_report_folder_is_self_contained_and_small(report: tuple[Path, object]) 
             assert f.header()["compression"] == OpenEXR.ZIP_COMPRESSION
             assert {"id", "depth"} <= set(f.channels())  # the AOVs the masks are made from
     shown = [r for r in data["renders"] if r["png"]]
-    assert len(shown) == 31 and all((folder / r["png"]).is_file() for r in shown)
+    assert len(shown) == 30 and all((folder / r["png"]).is_file() for r in shown)
     assert all(
         r["exr"] is None or r["key"] in ("ref-converged", "demo-paper-cpu") for r in data["renders"]
     )
@@ -258,7 +258,7 @@ def test_rerun_renders_nothing(report: tuple[Path, object]) -> None:
     proc = _report(folder.parent, "--no-pdf")
     assert proc.returncode == 0, proc.stderr
     lines = [line for line in proc.stderr.splitlines() if line.startswith("[")]
-    assert len(lines) == 41 and all(line.endswith(": cached") for line in lines), lines
+    assert len(lines) == 40 and all(line.endswith(": cached") for line in lines), lines
 
 
 def test_grades_a_foreign_image(report: tuple[Path, object], tmp_path: Path, rtdemo: str) -> None:

@@ -86,7 +86,6 @@ SAME_ESTIMATOR_AS_REFERENCE = {
     REFERENCE_KEY,
     "mitsuba-whitted-llvm-1spp",
     "mitsuba-whitted-llvm-4spp",
-    "mitsuba-whitted-scalar-1spp",
 }
 SCENE_COPY = "scene.json"  # the scene beside the page; the printed commands read it
 
@@ -283,10 +282,14 @@ def build_report(
         pairs = [(k, True) for k, _ in featured]
         pairs += [(k, False) for k in dict.fromkeys([j.key for j in chart_jobs] + ladder_keys)]
         start = time.perf_counter()
-        metrics: dict[tuple[str, bool], dict[str, Any]] = {}
-        for n, (k, per_effect) in enumerate(pairs):
-            progress.update("metrics", n, len(pairs), time.perf_counter() - start, unit="pairs")
-            metrics[k, per_effect] = ev.evaluate(imgs.loader(k), hashes[k], per_effect=per_effect)
+        found = ev.evaluate_all(
+            [(imgs.loader(k), hashes[k], per_effect) for k, per_effect in pairs],
+            workers=min(4, os.cpu_count() or 1),
+            done=lambda n: progress.update(
+                "metrics", n, len(pairs), time.perf_counter() - start, unit="pairs"
+            ),
+        )
+        metrics: dict[tuple[str, bool], dict[str, Any]] = dict(zip(pairs, found, strict=True))
         results = {k: metrics[k, True] for k, _ in featured}
 
     with steps("difference maps"):

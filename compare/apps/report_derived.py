@@ -94,35 +94,78 @@ class Evaluator:
             f"metrics-{self.ref_hash[:16]}-{test_hash[:16]}-{judge_identity()}-{int(per_effect)}.json"
         )
 
+    def _stored(self, test_hash: str, per_effect: bool) -> Path | None:
+        path = self._path(test_hash, per_effect)
+        if path.is_file():
+            return path
+        # The global metrics of a per-effect evaluation are the same numbers (HDR FLIP added).
+        full = self._path(test_hash, True)
+        return full if not per_effect and full.is_file() else None
+
     def evaluate(
         self, test: Callable[[], Image], test_hash: str, *, per_effect: bool
     ) -> dict[str, Any]:
-        path = self._path(test_hash, per_effect)
-        if path.is_file():
-            return dict(json.loads(path.read_text()))
-        # The global metrics of a per-effect evaluation are the same numbers (HDR FLIP added).
-        full = self._path(test_hash, True)
-        if not per_effect and full.is_file():
-            return dict(json.loads(full.read_text()))
-        # Pixels over 1/255 are counted in the report (compare's default failing error is 0.01).
-        ev = evaluate_pair(
-            self.ref().rgb,
-            test().rgb,
-            hdr=per_effect,
-            tolerances=Tolerances(fail=1.0 / 255.0),
-            masks=self.masks() if per_effect else None,
-        )
-        out: dict[str, Any] = {
-            "global": _json_safe(ev.metrics.as_dict()),
-            "per_effect": {k: _json_safe(e.metrics.as_dict()) for k, e in ev.per_effect.items()},
-        }
-        write_atomic(path, json.dumps(out))
+        stored = self._stored(test_hash, per_effect)
+        if stored is not None:
+            return dict(json.loads(stored.read_text()))
+        masks = self.masks() if per_effect else None
+        out = pair_metrics(self.ref().rgb, test().rgb, masks)
+        write_atomic(self._path(test_hash, per_effect), json.dumps(out))
         return out
+
+    def evaluate_all(
+        self,
+        pairs: list[tuple[Callable[[], Image], str, bool]],
+        *,
+        workers: int,
+        done: Callable[[int], None] | None = None,
+    ) -> list[dict[str, Any]]:
+        """`evaluate` for many (image, hash, per_effect), the missing ones in `workers`
+        processes (FLIP holds the GIL: threads would not overlap)."""
+        covered = {h for _, h, per_effect in pairs if per_effect}
+        missing, seen = [], set()
+        for load, h, pe in pairs:
+            if (h, pe) not in seen and self._stored(h, pe) is None and (pe or h not in covered):
+                missing.append((load, h, pe))
+            seen.add((h, pe))
+        if missing and workers > 1:
+            from concurrent.futures import ProcessPoolExecutor
+
+            ref = self.ref().rgb
+            with ProcessPoolExecutor(max_workers=workers) as pool:
+                futures = [
+                    pool.submit(pair_metrics, ref, load().rgb, self.masks() if pe else None)
+                    for load, _, pe in missing
+                ]
+                for n, ((_, h, pe), f) in enumerate(zip(missing, futures, strict=True)):
+                    write_atomic(self._path(h, pe), json.dumps(f.result()))
+                    if done:
+                        done(n + 1)
+        return [self.evaluate(load, h, per_effect=pe) for load, h, pe in pairs]
 
     def maps(self, test: Image) -> Any:
         if id(test) not in self._maps:
             self._maps[id(test)] = evaluate_pair(self.ref().rgb, test.rgb).maps
         return self._maps[id(test)]
+
+
+def pair_metrics(
+    ref: np.ndarray, test: np.ndarray, masks: dict[str, np.ndarray] | None
+) -> dict[str, Any]:
+    """The report's numbers for one render against the reference: global, and per effect
+    (with HDR FLIP) when masks are given. A plain function of arrays, so a process pool can
+    run it. Pixels over 1/255 are counted (compare's default failing error is 0.01)."""
+    ev = evaluate_pair(
+        ref,
+        test,
+        hdr=masks is not None,
+        tolerances=Tolerances(fail=1.0 / 255.0),
+        masks=masks,
+    )
+    return {
+        "global": _json_safe(ev.metrics.as_dict()),
+        "per_effect": {k: _json_safe(e.metrics.as_dict()) for k, e in ev.per_effect.items()},
+    }
 
 
 def copy_file(src: Path, dst: Path) -> None:
