@@ -176,7 +176,7 @@ def pair_costs() -> dict[str, float]:
     }
 
 
-def scenario_classic(students: int) -> dict[str, object]:
+def scenario_classic(students: int, diagnose: bool = True) -> dict[str, object]:
     work = ROOT / "build" / "bench-grade"
     subs = work / "subs-classic"
     shutil.rmtree(subs, ignore_errors=True)
@@ -189,6 +189,8 @@ def scenario_classic(students: int) -> dict[str, object]:
     cmd = [tool("rtval"), "grade", str(subs), "--scene", str(SCENES / "classic.json")]
     cmd += ["--out", str(out), "--jobs", "2", "--against", "classic"]
     cmd += ["--cache", str(CLASSIC_CACHE)]
+    if not diagnose:
+        cmd += ["--no-diagnose"]  # the judging alone; diagnosis costs extra per failing student
     load = os.getloadavg()[0]
     wall, first, cpu, _ = grade_timed(cmd)
     import csv
@@ -198,7 +200,7 @@ def scenario_classic(students: int) -> dict[str, object]:
     wrong = [s for s, st in expected.items() if book[s]["status"] != st]
     empty = [s for s, r in book.items() if r["status"] == "fail" and not r["reasons"]]
     return {
-        "scenario": "classic",
+        "scenario": "classic" if diagnose else "classic --no-diagnose",
         "submissions": students,
         "wall_s": wall,
         "per_submission_s": wall / students,
@@ -282,10 +284,13 @@ def main() -> None:
     )
     parser.add_argument("--students", type=int, default=200)
     parser.add_argument("--scenario", choices=("classic", "mitsuba", "all"), default="all")
+    parser.add_argument(
+        "--no-diagnose", action="store_true", help="grade the classic class without diagnoses"
+    )
     args = parser.parse_args()
     results: list[dict[str, object]] = []
     if args.scenario in ("classic", "all"):
-        results.append(scenario_classic(args.students))
+        results.append(scenario_classic(args.students, diagnose=not args.no_diagnose))
     if args.scenario in ("mitsuba", "all"):
         results += scenario_mitsuba(args.students)
     rows = [
