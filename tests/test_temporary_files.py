@@ -1,5 +1,6 @@
-"""Nothing of rtval's is left in $TMPDIR: a Mitsuba reference (its cap meshes), a regression
-check and a comparison each clean up after themselves, on success and on error."""
+"""Nothing of rtval's is left in $TMPDIR: grading a class and a failing reference clean up after
+themselves (a reference render's cap meshes: test_hostile_inputs; the report: its renders go
+through the render cache's own tmp/ folder)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from helpers import SCENES, run
+from helpers import SCENES, render_demo, run
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
 
@@ -19,15 +20,27 @@ def _run_in(tmpdir: Path, *args: str) -> int:
 
 
 @pytest.mark.slow
-def test_reference_render_leaves_no_mesh_folder(tmp_path: Path) -> None:
-    tmpdir = tmp_path / "tmp"
+def test_grading_leaves_nothing(rtdemo: str, tmp_path: Path) -> None:
+    tmpdir, subs = tmp_path / "tmp", tmp_path / "subs"
     tmpdir.mkdir()
-    out = tmp_path / "ref.exr"
-    # The paper scene's floor is a cap mesh written as PLY for Mitsuba to load.
-    code = _run_in(
-        tmpdir, "reference", str(SCENES / "paper.json"), "-o", str(out), "--size", "32x24"
+    subs.mkdir()
+    # One exact student and one that fails (and so is diagnosed, rendering candidates).
+    render_demo(
+        rtdemo, SCENES / "classic.json", subs / "alice.ppm", "--mode", "classic", size=(64, 48)
     )
-    assert code == 0 and out.is_file()
+    render_demo(rtdemo, SCENES / "classic.json", subs / "bob.ppm", "--mode", "paper", size=(64, 48))
+    code = _run_in(
+        tmpdir,
+        "grade",
+        str(subs),
+        "--scene",
+        "classic",
+        "--size",
+        "64x48",
+        "--out",
+        str(tmp_path / "grades"),
+    )
+    assert code == 0 and (tmp_path / "grades" / "gradebook.csv").is_file()
     assert list(tmpdir.iterdir()) == []
 
 
