@@ -1,10 +1,9 @@
-"""Finding and running the project's renderers from Python."""
+"""Finding rtdemo (renders run as cached jobs: compare/render/jobs.py)."""
 
 from __future__ import annotations
 
 import os
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -28,14 +27,3 @@ def rtdemo_path() -> str:
     if not found:
         raise ToolError("rtdemo not found: run `make setup` (it builds demo_cpp into .venv)")
     return found
-
-
-def run_rtdemo(
-    args: list[str], *, executable: str | None = None
-) -> subprocess.CompletedProcess[str]:
-    """Runs `rtdemo ARGS` (or `executable ARGS`); raises ToolError on a non-zero exit."""
-    cmd = [executable or rtdemo_path(), *args]
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    if proc.returncode != 0:
-        raise ToolError(f"rtdemo failed (exit {proc.returncode}): {proc.stderr.strip()}")
-    return proc
