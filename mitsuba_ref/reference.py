@@ -23,7 +23,11 @@ from scene_model.scene import Scene
 
 INTEGRATORS = ("whitted", "path")
 MAX_PIXELS = 64 * 1024 * 1024  # as rtdemo: refuse before allocating
-MAX_WAVEFRONT = 1 << 22  # rays per JIT launch (~4 M): memory stays well under 4 GiB
+# Rays per JIT launch. Larger launches spend their time in the kernel, not in the render:
+# drjit maps each launch's gigabyte of fresh state and page-faults it in (paper 640x480,
+# whitted 32 spp: 11.1 s wall of which 10.4 s system time at 4 M rays per launch; 5.8 s and
+# 0.25 s at 512 K; path 64 spp 16.3 s -> 13.9 s; bench/NOTES.md).
+MAX_WAVEFRONT = 1 << 19
 F32 = NDArray[np.float32]
 
 

@@ -284,7 +284,7 @@ def build_report(
         start = time.perf_counter()
         found = ev.evaluate_all(
             [(imgs.loader(k), hashes[k], per_effect) for k, per_effect in pairs],
-            workers=min(4, os.cpu_count() or 1),
+            workers=os.cpu_count() or 1,
             done=lambda n: progress.update(
                 "metrics", n, len(pairs), time.perf_counter() - start, unit="pairs"
             ),

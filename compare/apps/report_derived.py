@@ -8,6 +8,7 @@ import contextlib
 import functools
 import hashlib
 import json
+import os
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -132,7 +133,7 @@ class Evaluator:
             from concurrent.futures import ProcessPoolExecutor
 
             ref = self.ref().rgb
-            with ProcessPoolExecutor(max_workers=workers) as pool:
+            with ProcessPoolExecutor(max_workers=workers, initializer=_one_thread) as pool:
                 futures = [
                     pool.submit(pair_metrics, ref, load().rgb, self.masks() if pe else None)
                     for load, _, pe in missing
@@ -147,6 +148,13 @@ class Evaluator:
         if id(test) not in self._maps:
             self._maps[id(test)] = evaluate_pair(self.ref().rgb, test.rgb).maps
         return self._maps[id(test)]
+
+
+def _one_thread() -> None:
+    """One OpenMP thread per pool worker: one worker per core already fills the cores, and
+    FLIP's threads on top of them only contend (paper report, metrics step: 2 workers x 1
+    thread 27.4 s, 4 workers x 2 threads 31.2 s; bench/NOTES.md)."""
+    os.environ["OMP_NUM_THREADS"] = "1"
 
 
 def pair_metrics(
