@@ -18,6 +18,9 @@ struct RenderSettings {
     int spp = 1;      // a perfect square k*k: stratum centres of a k x k grid, box filter
     int threads = 1;  // >= 1
     Engine engine = Engine::packet;
+    // false: the packet engine leaves id, depth and normal empty. A PPM or PNG shows none of
+    // them, and filling 6 MB of planes it never writes cost a PPM render ~10 % (bench/NOTES.md).
+    bool aovs = true;
 };
 
 // Precondition: settings were validated (sizes >= 1, spp a perfect square). With `rays`,

@@ -15,8 +15,15 @@
 #include "cli_args.h"
 #include "cpu_renderer.h"
 #include "file_kind.h"
+#ifdef RTDEMO_WITH_GL
 #include "gl_headless.h"
 #include "gl_viewer.h"
+#else
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#endif
 #include "image_io.h"
 #include "mistakes.h"
 #include "quirks.h"
@@ -31,6 +38,28 @@ constexpr int kExitScene = 3;
 constexpr int kExitOutput = 4;
 constexpr int kExitGl = 5;
 constexpr long long kMaxPixels = 64ll * 1024 * 1024;
+
+#ifndef RTDEMO_WITH_GL
+// rtdemo carries no OpenGL (CMakeLists.txt says why): the GL backend and the viewer run the
+// same command line as rtdemo-gl, installed beside it.
+char** g_argv = nullptr;
+
+class GlMissing : public std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+[[noreturn]] void exec_gl_sibling() {
+    std::string self(4096, '\0');
+    const ssize_t n = ::readlink("/proc/self/exe", self.data(), self.size() - 1);
+    if (n <= 0) throw GlMissing("cannot locate rtdemo-gl: /proc/self/exe unreadable");
+    self.resize(static_cast<std::size_t>(n));
+    const std::string sibling = self.substr(0, self.rfind('/') + 1) + "rtdemo-gl";
+    std::fflush(nullptr);
+    ::execv(sibling.c_str(), g_argv);
+    throw GlMissing("the GL backend and the viewer are in " + sibling +
+                    ", which cannot run: " + std::strerror(errno));
+}
+#endif
 
 const char* kTopHelp = R"(rtdemo - the course paper's Whitted ray tracer (CPU and GLSL)
 
@@ -280,6 +309,7 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
                          std::to_string(kMaxPixels) + " pixels)");
     settings.spp = a.spp;
     settings.engine = a.engine;
+    settings.aovs = !a.exr.empty();  // only the EXR carries them
     settings.threads =
         a.threads > 0 ? a.threads : std::max(1u, std::thread::hardware_concurrency());
     return settings;
@@ -313,12 +343,17 @@ int run_render(const std::vector<std::string>& args) {
 
     RenderedImage image;
     double seconds = 0;
-    GlTiming gl;
     RayCounts rays;
+#ifdef RTDEMO_WITH_GL
+    GlTiming gl;
     if (a.gl) {
         image = render_gl(scene, settings, a.frames, &gl);
         seconds = gl.frame_seconds;
-    } else {
+    } else
+#else
+    if (a.gl) exec_gl_sibling();  // after the checks above: a bad command fails here alike
+#endif
+    {
         for (int f = 0; f < a.frames; ++f) {
             const auto start = std::chrono::steady_clock::now();
             image = render_cpu(scene, settings, &rays);
@@ -344,13 +379,16 @@ int run_render(const std::vector<std::string>& args) {
         {"rtval.effects_off", effects.empty() ? "none" : effects},
         {"rtval.render_seconds", format_seconds(seconds)},
     };
+#ifdef RTDEMO_WITH_GL
     if (a.gl) {
         attributes["rtval.gl_renderer"] = gl.renderer;
         attributes["rtval.gl_context_seconds"] = format_seconds(gl.context_seconds);
         attributes["rtval.gl_compile_seconds"] = format_seconds(gl.compile_seconds);
         attributes["rtval.gl_first_frame_seconds"] = format_seconds(gl.first_frame_seconds);
         attributes["rtval.gl_frames"] = std::to_string(gl.frames);
-    } else {
+    } else
+#endif
+    {
         attributes["rtval.threads"] = std::to_string(settings.threads);
         attributes["rtval.rays_camera"] = std::to_string(rays.camera);
         attributes["rtval.rays_secondary"] = std::to_string(rays.secondary);
@@ -362,6 +400,7 @@ int run_render(const std::vector<std::string>& args) {
     if (!a.ppm.empty()) write_ppm(a.ppm, image, a.ppm_rounding);
     const double write_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - write_start).count();
+#ifdef RTDEMO_WITH_GL
     if (!a.quiet && a.gl)
         std::fprintf(stderr,
                      "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: gl on %s, compile %.3f s, "
@@ -370,7 +409,9 @@ int run_render(const std::vector<std::string>& args) {
                      settings.trace.quirks.present_list().c_str(), settings.spp,
                      gl.renderer.c_str(), gl.compile_seconds, gl.first_frame_seconds,
                      gl.frame_seconds, std::max(gl.frames - 1, 1));
-    else if (!a.quiet)
+    else
+#endif
+        if (!a.quiet)
         std::fprintf(stderr,
                      "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: %.3f s on %d threads, "
                      "%.2f M rays (%.1f M rays/s), write %.4f s\n",
@@ -406,6 +447,9 @@ int run_view(const std::vector<std::string>& args) {
     if (!screenshot.empty() && frames == 0)
         throw UsageError("--screenshot needs --frames N (press P in the window instead)");
     if (!screenshot.empty()) check_writable(screenshot);
+#ifndef RTDEMO_WITH_GL
+    exec_gl_sibling();
+#else
     const Scene scene = load_scene_file(a.scene_path);
     const RenderSettings settings = settings_for(a, scene);
     ViewerOptions options;
@@ -416,11 +460,15 @@ int run_view(const std::vector<std::string>& args) {
     options.screenshot = screenshot;
     run_viewer(scene, options);
     return 0;
+#endif
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+#ifndef RTDEMO_WITH_GL
+    g_argv = argv;
+#endif
     const std::vector<std::string> args(argv + 1, argv + argc);
     try {
         if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
@@ -456,9 +504,15 @@ int main(int argc, char** argv) {
     } catch (const OutputError& e) {
         std::fprintf(stderr, "rtdemo: error: %s\n", e.what());
         return kExitOutput;
+#ifdef RTDEMO_WITH_GL
     } catch (const GlError& e) {
         std::fprintf(stderr, "rtdemo: error: OpenGL: %s\n", e.what());
         return kExitGl;
+#else
+    } catch (const GlMissing& e) {
+        std::fprintf(stderr, "rtdemo: error: OpenGL: %s\n", e.what());
+        return kExitGl;
+#endif
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "rtdemo: error: out of memory\n");
         return 1;

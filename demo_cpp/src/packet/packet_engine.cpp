@@ -170,12 +170,13 @@ void fill_huge(std::vector<float>& v, std::size_t n, float value) {
     v.assign(n, value);
 }
 
-RenderedImage allocate_image(int width, int height) {
+RenderedImage allocate_image(int width, int height, bool aovs) {
     RenderedImage image;
     image.width = width;
     image.height = height;
     const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
     fill_huge(image.rgb, 3 * n, 0.0f);
+    if (!aovs) return image;
     fill_huge(image.id, n, -1.0f);
     fill_huge(image.depth, n, 0.0f);
     fill_huge(image.normal, 3 * n, 0.0f);
@@ -241,7 +242,7 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
                             RayCounts* rays) {
     const Kernels& kern = kernels_for(isa);
     const int width = settings.width, height = settings.height;
-    RenderedImage image = allocate_image(width, height);
+    RenderedImage image = allocate_image(width, height, settings.aovs);
     const SceneStore store(scene);
     const packet::SceneArrays& s = store.view;
     packet::Options opt{};
@@ -297,7 +298,7 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
             const float* cb = l0.cb;
             if (k == 1) {
                 kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
-                trace_tile(&aov);
+                trace_tile(settings.aovs ? &aov : nullptr);
             } else {
                 kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
                 kern.primary(s, opt, l0, aov);
@@ -323,6 +324,7 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
                     image.rgb[3 * i + 0] = cr[t] * inv_samples;
                     image.rgb[3 * i + 1] = cg[t] * inv_samples;
                     image.rgb[3 * i + 2] = cb[t] * inv_samples;
+                    if (!settings.aovs) continue;
                     image.id[i] = aov.id[t];
                     image.depth[i] = aov.depth[t];
                     image.normal[3 * i + 0] = aov.nx[t];
