@@ -69,7 +69,7 @@ fuzz: $(FUZZ_BIN)
 	$(FUZZ_BIN) -max_total_time=600 -print_final_stats=1 build/fuzz/corpus demo_cpp/fuzz/corpus
 
 bench-build: $(DEV_BUILD)/build.ninja
-	cmake --build $(DEV_BUILD) --target rtdemo seed_tracer sphere_test_peak
+	cmake --build $(DEV_BUILD) --target rtdemo rtdemo-gl seed_tracer sphere_test_peak
 
 bench: bench-build
 	$(PY) bench/run_all.py

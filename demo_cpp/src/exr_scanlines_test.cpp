@@ -75,7 +75,7 @@ TEST(ExrScanlines, OpenExrReadsBackEveryChannelBitForBitAndTheAttributes) {
 
     struct Expect {
         const char* name;
-        const std::vector<float>* plane;
+        const Plane* plane;
         int stride, offset;
     };
     const Expect expected[] = {{"R", &img.rgb, 3, 0},      {"G", &img.rgb, 3, 1},

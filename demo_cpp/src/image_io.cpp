@@ -66,7 +66,7 @@ std::vector<unsigned char> to_8bit(const RenderedImage& image, Encode encode) {
 // to_linear8 over a whole image, four values per SSE2 instruction (x86-64's baseline): the
 // same compares, product and truncation, so the same bytes (checked against to_linear8 for
 // every float, both conventions).
-std::vector<unsigned char> linear8_bytes(const std::vector<float>& v, PpmRounding rounding) {
+std::vector<unsigned char> linear8_bytes(const Plane& v, PpmRounding rounding) {
     std::vector<unsigned char> out(v.size());
     std::size_t i = 0;
     // Rounding adds one where the fraction x - trunc(x) is >= 0.5; truncation never does (the
@@ -165,10 +165,10 @@ void write_exr(const std::string& path, const RenderedImage& image,
         const std::size_t px = sizeof(float);
         const std::size_t w = static_cast<std::size_t>(image.width);
         Imf::FrameBuffer fb;
-        auto slice3 = [&](const std::vector<float>& v, int c) {
+        auto slice3 = [&](const Plane& v, int c) {
             return Imf::Slice(Imf::FLOAT, (char*)(v.data() + c), 3 * px, 3 * px * w);
         };
-        auto slice1 = [&](const std::vector<float>& v) {
+        auto slice1 = [&](const Plane& v) {
             return Imf::Slice(Imf::FLOAT, (char*)v.data(), px, px * w);
         };
         fb.insert("R", slice3(image.rgb, 0));

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -76,7 +77,7 @@ TEST(ImageIo, PpmBytesFollowBothConventionsForAwkwardValues) {
     }
     while (values.size() % 3) values.push_back(0.25f);
     RenderedImage img(static_cast<int>(values.size() / 3), 1);
-    img.rgb = values;
+    std::copy(values.begin(), values.end(), img.rgb.begin());
     for (PpmRounding rounding : {PpmRounding::truncate, PpmRounding::round}) {
         const fs::path path = fs::temp_directory_path() / "rtdemo_ppm_bytes_test.ppm";
         write_ppm(path.string(), img, rounding);
@@ -140,7 +141,8 @@ std::string write_and_read_ppm(const RenderedImage& img, PpmRounding rounding) {
 
 TEST(ImageIo, PpmHasHeaderAndLinearBytesTruncatedByDefault) {
     RenderedImage img(2, 1);
-    img.rgb = {0.5f, 0.0f, 1.0f, 2.0f, 0.25f, 0.0f};
+    const float values[] = {0.5f, 0.0f, 1.0f, 2.0f, 0.25f, 0.0f};
+    std::copy(std::begin(values), std::end(values), img.rgb.begin());
     const std::string header = "P6\n2 1\n255\n";
     const std::string truncated = write_and_read_ppm(img, PpmRounding::truncate);
     ASSERT_EQ(truncated.size(), header.size() + 6);

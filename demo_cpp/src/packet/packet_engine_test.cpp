@@ -51,8 +51,7 @@ std::string describe(const Case& c) {
 }
 
 // Bitwise: NaN where the scalar tracer has NaN (quirk Q3), with the same bits.
-::testing::AssertionResult same_bits(const std::vector<float>& a, const std::vector<float>& b,
-                                     const char* what) {
+::testing::AssertionResult same_bits(const Plane& a, const Plane& b, const char* what) {
     if (a.size() != b.size()) return ::testing::AssertionFailure() << what << ": sizes differ";
     for (std::size_t i = 0; i < a.size(); ++i)
         if (std::memcmp(&a[i], &b[i], sizeof(float)) != 0)
