@@ -1,14 +1,24 @@
 #include "exr_scanlines.h"
 
+// The compressed blocks follow the file format's description (not OpenEXR's code): the block's
+// bytes split into even and odd positions, each byte replaced by its difference to the one
+// before (+128), then zlib (ZIP) or signed-count run-length coding (RLE).
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/uio.h>
 #include <unistd.h>
+#include <zlib.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
+#include <climits>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <stdexcept>
+#include <system_error>
+#include <thread>
 #include <vector>
 
 #include "file_kind.h"
@@ -65,6 +75,22 @@ public:
             n -= static_cast<std::size_t>(done);
         }
     }
+    // Gathers the pieces in one call per IOV_MAX of them, resuming after a short write.
+    void writev(std::vector<iovec>& pieces) {
+        std::size_t i = 0;
+        while (i < pieces.size()) {
+            const int count = static_cast<int>(std::min<std::size_t>(pieces.size() - i, IOV_MAX));
+            ssize_t done = ::writev(fd_, &pieces[i], count);
+            if (done < 0 && errno == EINTR) continue;
+            if (done <= 0) fail("write failed");
+            while (i < pieces.size() && static_cast<std::size_t>(done) >= pieces[i].iov_len)
+                done -= static_cast<ssize_t>(pieces[i++].iov_len);
+            if (done > 0) {
+                pieces[i].iov_base = static_cast<char*>(pieces[i].iov_base) + done;
+                pieces[i].iov_len -= static_cast<std::size_t>(done);
+            }
+        }
+    }
     void close() {
         const int fd = fd_;
         fd_ = -1;
@@ -79,25 +105,103 @@ private:
     int fd_ = -1;
 };
 
+// The channels in name order (OpenEXR's strcmp order), each float32 with its source plane:
+// the values of pixel i are at data[stride * i + offset].
+struct Channel {
+    const char* name;
+    const float* data;
+    int stride, offset;
+};
+constexpr int kChannels = 8;
+
+// The uncompressed bytes of lines [y0, y1): for each line, each channel's row of floats.
+// Returns the end of what was written.
+char* put_lines(char* p, const Channel (&channels)[kChannels], int w, int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+        const std::size_t base = static_cast<std::size_t>(y) * w;
+        for (const Channel& c : channels) {
+            float* row = reinterpret_cast<float*>(p);
+            if (c.stride == 1) {
+                std::memcpy(row, c.data + base, static_cast<std::size_t>(w) * 4);
+            } else {
+                const float* src = c.data + 3 * base + c.offset;
+                for (int x = 0; x < w; ++x) row[x] = src[3 * x];
+            }
+            p += static_cast<std::size_t>(w) * 4;
+        }
+    }
+    return p;
+}
+
+// The filter both ZIP and RLE apply first: the bytes at even positions, then those at odd
+// positions (the first half gets (n + 1) / 2), each byte after the first then replaced by its
+// difference to the byte before it in that order, + 128 (mod 256).
+void reorder_and_predict(const unsigned char* in, std::size_t n, unsigned char* out) {
+    unsigned char* even = out;
+    unsigned char* odd = out + (n + 1) / 2;
+    std::size_t i = 0;
+    for (; i + 1 < n; i += 2) {
+        *even++ = in[i];
+        *odd++ = in[i + 1];
+    }
+    if (i < n) *even = in[i];
+    unsigned char prev = out[0];
+    for (std::size_t k = 1; k < n; ++k) {
+        const unsigned char t = out[k];
+        out[k] = static_cast<unsigned char>(t - prev + 128);
+        prev = t;
+    }
+}
+
+// Run-length codes in[0, n) into out: a count byte c >= 0 repeats the next byte c + 1 times
+// (runs of 3 to 128), c < 0 is followed by -c literal bytes (1 to 127). Returns the coded
+// size, or 0 when it would not be smaller than n (out holds n - 1 bytes).
+std::size_t rle_encode(const unsigned char* in, std::size_t n, unsigned char* out) {
+    const std::size_t cap = n - 1;
+    std::size_t o = 0, i = 0;
+    // The length of the run of equal bytes starting at j, at most 128.
+    auto run_at = [&](std::size_t j) {
+        std::size_t r = 1;
+        while (j + r < n && r < 128 && in[j + r] == in[j]) ++r;
+        return r;
+    };
+    while (i < n) {
+        const std::size_t run = run_at(i);
+        if (run >= 3) {
+            if (o + 2 > cap) return 0;
+            out[o++] = static_cast<unsigned char>(run - 1);
+            out[o++] = in[i];
+            i += run;
+            continue;
+        }
+        std::size_t j = i + run;  // literals up to the next run of 3, at most 127 of them
+        while (j < n && j - i < 127) {
+            if (j + 2 < n && in[j] == in[j + 1] && in[j] == in[j + 2]) break;
+            ++j;
+        }
+        j = std::min(j, i + 127);
+        const std::size_t count = j - i;
+        if (o + 1 + count > cap) return 0;
+        out[o++] = static_cast<unsigned char>(-static_cast<int>(count));
+        std::memcpy(out + o, in + i, count);
+        o += count;
+        i = j;
+    }
+    return o;
+}
+
 }  // namespace
 
 void write_exr_scanlines(const std::string& path, const RenderedImage& image,
-                         const std::map<std::string, std::string>& attributes) {
+                         const std::map<std::string, std::string>& attributes,
+                         ExrCompression compression) {
     const int w = image.width, h = image.height;
-    // Channels in name order (OpenEXR's strcmp order), each float32 with its source plane:
-    // the values of pixel i are at data[stride * i + offset].
-    struct Channel {
-        const char* name;
-        const float* data;
-        int stride, offset;
-    };
-    const Channel channels[] = {
+    const Channel channels[kChannels] = {
         {"B", image.rgb.data(), 3, 2},       {"G", image.rgb.data(), 3, 1},
         {"N.X", image.normal.data(), 3, 0},  {"N.Y", image.normal.data(), 3, 1},
         {"N.Z", image.normal.data(), 3, 2},  {"R", image.rgb.data(), 3, 0},
         {"depth", image.depth.data(), 1, 0}, {"id", image.id.data(), 1, 0},
     };
-    constexpr int kChannels = 8;
 
     std::vector<char> head = {0x76, 0x2f, 0x31, 0x01};  // magic number
     bool long_names = false;
@@ -115,7 +219,11 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
     v.push_back('\0');
     std::map<std::string, std::pair<const char*, std::vector<char>>> header;  // name order
     header["channels"] = {"chlist", v};
-    header["compression"] = {"compression", {0}};  // NO_COMPRESSION
+    // NO_COMPRESSION, RLE_COMPRESSION, ZIP_COMPRESSION (16 lines per block)
+    const char code = compression == ExrCompression::zip   ? 3
+                      : compression == ExrCompression::rle ? 1
+                                                           : 0;
+    header["compression"] = {"compression", {code}};
     v.clear();
     for (int x : {0, 0, w - 1, h - 1}) put_i32(v, x);
     header["dataWindow"] = {"box2i", v};
@@ -134,41 +242,109 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
     for (const auto& [name, typed] : header) put_attribute(head, name, typed.first, typed.second);
     head.push_back('\0');  // end of header
 
-    // The line offset table, then one block per line: y, byte count, each channel's row.
     const std::size_t row_bytes = static_cast<std::size_t>(w) * 4 * kChannels;
-    const std::uint64_t first = head.size() + static_cast<std::size_t>(h) * 8;
-    for (int y = 0; y < h; ++y) {
-        const std::uint64_t offset = first + static_cast<std::uint64_t>(y) * (8 + row_bytes);
-        put_bytes(head, &offset, 8);
-    }
     File file(path);
-    file.write(head.data(), head.size());
-
-    // Blocks of lines through one buffer of ~256 KB: a fresh 9.8 MB buffer would cost its
-    // page faults, and the kernel takes large writes as fast as small ones.
-    const int lines = static_cast<int>(std::max<std::size_t>(1, (256u << 10) / (8 + row_bytes)));
-    std::vector<char> buf(static_cast<std::size_t>(lines) * (8 + row_bytes));
-    for (int y0 = 0; y0 < h; y0 += lines) {
-        char* p = buf.data();
-        const int y1 = std::min(h, y0 + lines);
-        for (int y = y0; y < y1; ++y) {
-            const std::int32_t header_words[2] = {y, static_cast<std::int32_t>(row_bytes)};
-            std::memcpy(p, header_words, 8);
-            p += 8;
-            const std::size_t base = static_cast<std::size_t>(y) * w;
-            for (const Channel& c : channels) {
-                float* row = reinterpret_cast<float*>(p);
-                if (c.stride == 1) {
-                    std::memcpy(row, c.data + base, static_cast<std::size_t>(w) * 4);
-                } else {
-                    const float* src = c.data + 3 * base + c.offset;
-                    for (int x = 0; x < w; ++x) row[x] = src[3 * x];
-                }
-                p += static_cast<std::size_t>(w) * 4;
-            }
+    if (compression == ExrCompression::none) {
+        // The line offset table, then one block per line: y, byte count, each channel's row.
+        const std::uint64_t first = head.size() + static_cast<std::size_t>(h) * 8;
+        for (int y = 0; y < h; ++y) {
+            const std::uint64_t offset = first + static_cast<std::uint64_t>(y) * (8 + row_bytes);
+            put_bytes(head, &offset, 8);
         }
-        file.write(buf.data(), static_cast<std::size_t>(p - buf.data()));
+        file.write(head.data(), head.size());
+
+        // Blocks of lines through one buffer of ~256 KB: a fresh 9.8 MB buffer would cost its
+        // page faults, and the kernel takes large writes as fast as small ones.
+        const int lines =
+            static_cast<int>(std::max<std::size_t>(1, (256u << 10) / (8 + row_bytes)));
+        std::vector<char> buf(static_cast<std::size_t>(lines) * (8 + row_bytes));
+        for (int y0 = 0; y0 < h; y0 += lines) {
+            char* p = buf.data();
+            const int y1 = std::min(h, y0 + lines);
+            for (int y = y0; y < y1; ++y) {
+                const std::int32_t header_words[2] = {y, static_cast<std::int32_t>(row_bytes)};
+                std::memcpy(p, header_words, 8);
+                p = put_lines(p + 8, channels, w, y, y + 1);
+            }
+            file.write(buf.data(), static_cast<std::size_t>(p - buf.data()));
+        }
+        file.close();
+        return;
     }
+
+    // Compressed: every block is compressed into its own slot of one buffer (y, byte count,
+    // data; a slot holds the raw block, so a block that does not shrink is copied in raw), on
+    // every core, blocks handed out in turn. The sizes then give the line offset table, and the
+    // header, table and blocks go out in gathered writes. The buffer is not zeroed: only the
+    // pages the compressed blocks use are touched.
+    const int block_lines = compression == ExrCompression::zip ? 16 : 1;
+    const int blocks = (h + block_lines - 1) / block_lines;
+    const std::size_t slot = 8 + row_bytes * block_lines;
+    std::unique_ptr<char[]> out(new char[slot * static_cast<std::size_t>(blocks)]);
+    std::vector<std::size_t> sizes(static_cast<std::size_t>(blocks));  // data bytes per block
+    std::atomic<int> next{0};
+    std::atomic<bool> failed{false};
+    auto compress_blocks = [&] {
+        std::vector<unsigned char> raw(row_bytes * block_lines), filtered(raw.size());
+        for (int b; (b = next.fetch_add(1)) < blocks && !failed;) {
+            const int y0 = b * block_lines, y1 = std::min(h, y0 + block_lines);
+            const std::size_t n = row_bytes * static_cast<std::size_t>(y1 - y0);
+            put_lines(reinterpret_cast<char*>(raw.data()), channels, w, y0, y1);
+            reorder_and_predict(raw.data(), n, filtered.data());
+            char* dst = out.get() + slot * static_cast<std::size_t>(b);
+            unsigned char* data = reinterpret_cast<unsigned char*>(dst + 8);
+            std::size_t size = 0;
+            if (compression == ExrCompression::rle) {
+                size = rle_encode(filtered.data(), n, data);
+            } else {
+                uLongf len = static_cast<uLongf>(n - 1);  // room for less than the raw block
+                const int rc = compress2(data, &len, filtered.data(), static_cast<uLong>(n), 1);
+                if (rc == Z_OK) {
+                    size = len;
+                } else if (rc != Z_BUF_ERROR) {
+                    failed = true;
+                    return;
+                }
+            }
+            if (size == 0) {  // not smaller: the raw block, its size telling readers so
+                std::memcpy(data, raw.data(), n);
+                size = n;
+            }
+            const std::int32_t header_words[2] = {y0, static_cast<std::int32_t>(size)};
+            std::memcpy(dst, header_words, 8);
+            sizes[static_cast<std::size_t>(b)] = size;
+        }
+    };
+    auto work = [&] {  // nothing may escape a thread: a failure is reported after the join
+        try {
+            compress_blocks();
+        } catch (...) {
+            failed = true;
+        }
+    };
+    const int threads =
+        std::min(blocks, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    std::vector<std::thread> helpers;
+    helpers.reserve(static_cast<std::size_t>(threads));
+    try {
+        for (int t = 1; t < threads; ++t) helpers.emplace_back(work);
+    } catch (const std::system_error&) {  // no more threads: the ones there share the blocks
+    }
+    work();
+    for (std::thread& t : helpers) t.join();
+    if (failed) throw std::runtime_error(path + ": compressing the EXR blocks failed");
+
+    std::uint64_t offset = head.size() + static_cast<std::size_t>(blocks) * 8;
+    for (std::size_t size : sizes) {
+        put_bytes(head, &offset, 8);
+        offset += 8 + size;
+    }
+    std::vector<iovec> pieces;
+    pieces.reserve(static_cast<std::size_t>(blocks) + 1);
+    pieces.push_back({head.data(), head.size()});
+    for (int b = 0; b < blocks; ++b)
+        pieces.push_back({out.get() + slot * static_cast<std::size_t>(b), 8 + sizes[b]});
+    file.writev(pieces);
     file.close();
 }
 

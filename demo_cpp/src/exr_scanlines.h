@@ -1,7 +1,8 @@
-// The demo's uncompressed EXR written directly (OpenEXR 2.0 file layout, single-part scanline
-// file, one line per block): the same channels and attributes as the OpenEXR writer, without its
-// per-line slice machinery, in blocks of lines from one small reused buffer. Writing the 9.8 MB
-// frame cost more than tracing it through the library (bench/NOTES.md, issue 20).
+// The demo's EXR written directly (OpenEXR 2.0 file layout, single-part scanline file): the
+// same channels and attributes as the OpenEXR writer, without linking the library. Writing the
+// 9.8 MB frame through its per-line slice machinery cost more than tracing it (bench/NOTES.md,
+// issue 20), and loading its shared libraries cost every rtdemo process about 1 ms at start-up.
+// Uncompressed (one line per block), RLE (one line per block) or ZIP (zlib, 16 lines per block).
 #pragma once
 
 #include <map>
@@ -11,10 +12,15 @@
 
 namespace rt {
 
-// Writes `image` to `path` (created or replaced): float32 channels B, G, N.X, N.Y, N.Z, R,
-// depth, id (stored in name order, as OpenEXR does) and `attributes` as string attributes.
-// Throws std::runtime_error naming the path when the file cannot be written.
+enum class ExrCompression { none, rle, zip };
+
+// Writes `image` to `path` (created or replaced; only ever a regular file): float32 channels B,
+// G, N.X, N.Y, N.Z, R, depth, id (stored in name order, as OpenEXR does) and `attributes` as
+// string attributes. Compressed blocks are compressed on every core (zlib level 1 for ZIP);
+// a block that does not shrink is stored raw, as the format allows. Throws std::runtime_error
+// naming the path when the file cannot be written.
 void write_exr_scanlines(const std::string& path, const RenderedImage& image,
-                         const std::map<std::string, std::string>& attributes);
+                         const std::map<std::string, std::string>& attributes,
+                         ExrCompression compression = ExrCompression::none);
 
 }  // namespace rt

@@ -1,11 +1,5 @@
 #include "image_io.h"
 
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfOutputFile.h>
-#include <ImfStringAttribute.h>
-#include <ImfThreading.h>
 #include <emmintrin.h>
 #include <png.h>
 #include <unistd.h>
@@ -17,7 +11,6 @@
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
-#include <thread>
 #include <vector>
 
 #include "exr_scanlines.h"
@@ -138,52 +131,8 @@ void write_exr(const std::string& path, const RenderedImage& image,
                const std::map<std::string, std::string>& attributes, ExrCompression compression) {
     check_writable(path);
     AtomicFile file(path);
-    if (compression == ExrCompression::none) {  // the demo's default: written directly (issue 20)
-        try {
-            write_exr_scanlines(file.temp(), image, attributes);
-        } catch (const std::exception& e) {
-            throw OutputError(path + ": cannot write EXR: " + e.what());
-        }
-        file.commit();
-        return;
-    }
-    try {
-        Imf::Header header(image.width, image.height);
-        header.compression() = compression == ExrCompression::zip   ? Imf::ZIP_COMPRESSION
-                               : compression == ExrCompression::rle ? Imf::RLE_COMPRESSION
-                                                                    : Imf::NO_COMPRESSION;
-        if (compression == ExrCompression::zip) {
-            // Compress scanline blocks on every core; level 1: about the same size, far faster.
-            Imf::setGlobalThreadCount(
-                static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
-            header.zipCompressionLevel() = 1;
-        }
-        for (const auto& [key, value] : attributes) header.insert(key, Imf::StringAttribute(value));
-        const char* names[] = {"R", "G", "B", "id", "depth", "N.X", "N.Y", "N.Z"};
-        for (const char* name : names) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-
-        const std::size_t px = sizeof(float);
-        const std::size_t w = static_cast<std::size_t>(image.width);
-        Imf::FrameBuffer fb;
-        auto slice3 = [&](const Plane& v, int c) {
-            return Imf::Slice(Imf::FLOAT, (char*)(v.data() + c), 3 * px, 3 * px * w);
-        };
-        auto slice1 = [&](const Plane& v) {
-            return Imf::Slice(Imf::FLOAT, (char*)v.data(), px, px * w);
-        };
-        fb.insert("R", slice3(image.rgb, 0));
-        fb.insert("G", slice3(image.rgb, 1));
-        fb.insert("B", slice3(image.rgb, 2));
-        fb.insert("id", slice1(image.id));
-        fb.insert("depth", slice1(image.depth));
-        fb.insert("N.X", slice3(image.normal, 0));
-        fb.insert("N.Y", slice3(image.normal, 1));
-        fb.insert("N.Z", slice3(image.normal, 2));
-        {
-            Imf::OutputFile out(file.temp().c_str(), header);
-            out.setFrameBuffer(fb);
-            out.writePixels(image.height);
-        }
+    try {  // written directly, compressed or not (issue 20; no OpenEXR at start-up)
+        write_exr_scanlines(file.temp(), image, attributes, compression);
     } catch (const std::exception& e) {
         throw OutputError(path + ": cannot write EXR: " + e.what());
     }

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "exr_scanlines.h"
 #include "image.h"
 
 namespace rt {
@@ -19,13 +20,12 @@ public:
 // Throws OutputError when the file's directory does not exist or is not writable.
 void check_writable(const std::string& path);
 
-enum class ExrCompression { none, rle, zip };
 // "none" | "rle" | "zip"; throws std::invalid_argument naming the bad value.
 ExrCompression parse_exr_compression(const std::string& text);
 
 // Float32 EXR: R, G, B (linear, unclamped), id, depth, N.X, N.Y, N.Z; `attributes`
-// become string attributes of the header. Uncompressed by default: ZIP made writing the
-// file cost more than rendering it (bench/NOTES.md).
+// become string attributes of the header (written by exr_scanlines.h). Uncompressed by
+// default: ZIP made writing the file cost more than rendering it (bench/NOTES.md).
 void write_exr(const std::string& path, const RenderedImage& image,
                const std::map<std::string, std::string>& attributes,
                ExrCompression compression = ExrCompression::none);
