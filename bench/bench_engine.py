@@ -54,18 +54,24 @@ def run_once(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, 
 def alternate(
     cmds: dict[str, list[str]], rounds: int, envs: dict[str, dict[str, str]] | None = None
 ) -> dict[str, dict[str, Any]]:
-    """Runs every command once per round, the order rotated each round; wall times and stderr."""
+    """Runs every command once per round, the order rotated each round; wall times and stderr.
+    "{round}" in an argument becomes the round's number: such outputs are new files each round
+    (the previous round's are removed before the round starts, untimed), as rtval's render
+    cache writes them. Replacing an existing file costs its old pages (measured apart)."""
     import os
 
     names = list(cmds)
+    fresh = [a for c in cmds.values() for a in c if "{round}" in a]
     times: dict[str, list[float]] = {n: [] for n in names}
     cpus: dict[str, list[float]] = {n: [] for n in names}
     errs: dict[str, list[str]] = {n: [] for n in names}
     for r in range(rounds):
+        for a in fresh:
+            Path(a.replace("{round}", str(r - 1))).unlink(missing_ok=True)
         for k in range(len(names)):
             name = names[(r + k) % len(names)]
             env = {**os.environ, **(envs or {}).get(name, {})}
-            t, cpu, err = run_once(cmds[name], env)
+            t, cpu, err = run_once([a.replace("{round}", str(r)) for a in cmds[name]], env)
             times[name].append(t)
             cpus[name].append(cpu)
             errs[name].append(err)
@@ -129,20 +135,27 @@ def main() -> None:
     results: dict[str, Any] = {"rounds": args.rounds}
     with tempfile.TemporaryDirectory() as tmp:
         render = [rtdemo, "render", CLASSIC, "--mode", "classic"]
+        ppm_round = [*render, "--ppm-rounding", "round", "--ppm"]
         # 1. Whole processes against the plain program, and the empty process.
         whole = alternate(
             {
-                "seed_ppm": [seed, CLASSIC, f"{tmp}/seed.ppm", "classic"],
+                "seed_ppm": [seed, CLASSIC, f"{tmp}/seed-{{round}}.ppm", "classic"],
                 # Rounded as the plain program rounds (rtdemo truncates by default): the same
                 # bytes, so the same work; both conventions cost the same (image_io.cpp).
-                "packet_ppm": [*render, "--ppm", f"{tmp}/p.ppm", "--ppm-rounding", "round"],
-                "packet_exr": [*render, "-o", f"{tmp}/p.exr"],
+                "packet_ppm": [*ppm_round, f"{tmp}/p-{{round}}.ppm"],
+                "packet_exr": [*render, "-o", f"{tmp}/p-{{round}}.exr"],
                 "empty_process": [rtdemo, "--version"],
+                # The same outputs over the previous round's file: the floor of replacing it.
+                "packet_ppm_replace": [*ppm_round, f"{tmp}/replaced.ppm"],
+                "packet_exr_replace": [*render, "-o", f"{tmp}/replaced.exr"],
             },
             args.rounds,
         )
-        same_ppm = Path(f"{tmp}/seed.ppm").read_bytes() == Path(f"{tmp}/p.ppm").read_bytes()
-        rays = rays_from_header(f"{tmp}/p.exr")
+        last = args.rounds - 1
+        same_ppm = (
+            Path(f"{tmp}/seed-{last}.ppm").read_bytes() == Path(f"{tmp}/p-{last}.ppm").read_bytes()
+        )
+        rays = rays_from_header(f"{tmp}/p-{last}.exr")
         base = whole["seed_ppm"]["median_s"]
         write_ppm = statistics.median(summary(e)["write_s"] for e in whole["packet_ppm"]["stderr"])
         write_exr = statistics.median(summary(e)["write_s"] for e in whole["packet_exr"]["stderr"])
@@ -187,11 +200,19 @@ def main() -> None:
             "physical",
             "--spp",
             "16",
-            "-o",
-            f"{tmp}/ph.exr",
         ]
         physical = alternate(
-            {"packet": phys, "scalar_engine": [*phys, "--engine", "scalar"]}, args.physical_rounds
+            {
+                "packet": [*phys, "-o", f"{tmp}/ph-packet-{{round}}.exr"],
+                "scalar_engine": [
+                    *phys,
+                    "-o",
+                    f"{tmp}/ph-scalar-{{round}}.exr",
+                    "--engine",
+                    "scalar",
+                ],
+            },
+            args.physical_rounds,
         )
 
     exr_s, ppm_s, empty_s = (
@@ -204,6 +225,8 @@ def main() -> None:
         "packet_ppm": "rtdemo packet, PPM",
         "packet_exr": "rtdemo packet, EXR+AOVs",
         "empty_process": "empty rtdemo process",
+        "packet_ppm_replace": "rtdemo packet, PPM over an existing file",
+        "packet_exr_replace": "rtdemo packet, EXR over an existing file",
     }
     base_cpu = whole["seed_ppm"]["cpu_median_s"]
     rows = [
@@ -236,6 +259,12 @@ def main() -> None:
     print(
         f"  sum of floors: PPM {floor_ppm * 1e3:.1f} ms (at most {base / floor_ppm:.1f}x), EXR {floor_exr * 1e3:.1f} ms "
         f"(at most {base / floor_exr:.1f}x)"
+    )
+    replace_ppm = whole["packet_ppm_replace"]["median_s"] - ppm_s
+    replace_exr = whole["packet_exr_replace"]["median_s"] - exr_s
+    print(
+        f"  replacing an existing output instead of writing a new file adds {replace_ppm * 1e3:.1f} ms "
+        f"(PPM) and {replace_exr * 1e3:.1f} ms (EXR): the kernel frees the old file's pages"
     )
     print(
         f"  share of the frame outside tracing: PPM {100 * (1 - frame_in_process / ppm_s):.0f} %, "
@@ -275,6 +304,8 @@ def main() -> None:
                 "tracing_in_process": frame_in_process,
                 "write_ppm": write_ppm,
                 "write_exr": write_exr,
+                "replacing_ppm": replace_ppm,
+                "replacing_exr": replace_exr,
             },
             "outside_tracing_share": {
                 "ppm": 1 - frame_in_process / ppm_s,
