@@ -285,6 +285,9 @@ def build_report(
         found = ev.evaluate_all(
             [(imgs.loader(k), hashes[k], per_effect) for k, per_effect in pairs],
             workers=os.cpu_count() or 1,
+            keep_maps=frozenset(
+                hashes[k] for k in ([test_key] if test_image else []) + list(MAPPED)
+            ),
             done=lambda n: progress.update(
                 "metrics", n, len(pairs), time.perf_counter() - start, unit="pairs"
             ),
@@ -306,7 +309,7 @@ def build_report(
                     title,
                     imgs.loader(REFERENCE_KEY),
                     imgs.loader(k),
-                    hashes[REFERENCE_KEY] + hashes[k],
+                    hashes[k],
                     out / files[kind],
                 )
             maps_info.append({"key": k, "label": title, **files})

@@ -11,6 +11,7 @@ import json
 import os
 import shutil
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -88,7 +89,7 @@ class Evaluator:
         cache: RenderCache,
     ) -> None:
         self.ref, self.ref_hash, self.masks, self.cache = ref, ref_hash, masks, cache
-        self._maps: dict[int, Any] = {}
+        self._maps: dict[str, MapPair] = {}  # by the test image's hash
 
     def _path(self, test_hash: str, per_effect: bool) -> Path:
         return self.cache.derived(
@@ -110,7 +111,7 @@ class Evaluator:
         if stored is not None:
             return dict(json.loads(stored.read_text()))
         masks = self.masks() if per_effect else None
-        out = pair_metrics(self.ref().rgb, test().rgb, masks)
+        out, _ = pair_metrics(self.ref().rgb, test().rgb, masks)
         write_atomic(self._path(test_hash, per_effect), json.dumps(out))
         return out
 
@@ -120,9 +121,11 @@ class Evaluator:
         *,
         workers: int,
         done: Callable[[int], None] | None = None,
+        keep_maps: frozenset[str] = frozenset(),
     ) -> list[dict[str, Any]]:
         """`evaluate` for many (image, hash, per_effect), the missing ones in `workers`
-        processes (FLIP holds the GIL: threads would not overlap)."""
+        processes (FLIP holds the GIL: threads would not overlap). The FLIP and SSIM maps of
+        the images in `keep_maps` (hashes) come back from the workers for `maps`."""
         covered = {h for _, h, per_effect in pairs if per_effect}
         missing, seen = [], set()
         for load, h, pe in pairs:
@@ -135,19 +138,33 @@ class Evaluator:
             ref = self.ref().rgb
             with ProcessPoolExecutor(max_workers=workers, initializer=_one_thread) as pool:
                 futures = [
-                    pool.submit(pair_metrics, ref, load().rgb, self.masks() if pe else None)
-                    for load, _, pe in missing
+                    pool.submit(
+                        pair_metrics, ref, load().rgb, self.masks() if pe else None, h in keep_maps
+                    )
+                    for load, h, pe in missing
                 ]
                 for n, ((_, h, pe), f) in enumerate(zip(missing, futures, strict=True)):
-                    write_atomic(self._path(h, pe), json.dumps(f.result()))
+                    found, maps = f.result()
+                    if maps is not None:
+                        self._maps[h] = maps
+                    write_atomic(self._path(h, pe), json.dumps(found))
                     if done:
                         done(n + 1)
         return [self.evaluate(load, h, per_effect=pe) for load, h, pe in pairs]
 
-    def maps(self, test: Image) -> Any:
-        if id(test) not in self._maps:
-            self._maps[id(test)] = evaluate_pair(self.ref().rgb, test.rgb).maps
-        return self._maps[id(test)]
+    def maps(self, test: Callable[[], Image], test_hash: str) -> MapPair:
+        """The FLIP (LDR) and SSIM maps against the reference: kept from evaluate_all, or
+        computed here."""
+        if test_hash not in self._maps:
+            m = evaluate_pair(self.ref().rgb, test().rgb).maps
+            self._maps[test_hash] = MapPair(m.flip_ldr, m.ssim)
+        return self._maps[test_hash]
+
+
+@dataclass(frozen=True)
+class MapPair:
+    flip_ldr: np.ndarray
+    ssim: np.ndarray
 
 
 def _one_thread() -> None:
@@ -158,8 +175,8 @@ def _one_thread() -> None:
 
 
 def pair_metrics(
-    ref: np.ndarray, test: np.ndarray, masks: dict[str, np.ndarray] | None
-) -> dict[str, Any]:
+    ref: np.ndarray, test: np.ndarray, masks: dict[str, np.ndarray] | None, keep_maps: bool = False
+) -> tuple[dict[str, Any], MapPair | None]:
     """The report's numbers for one render against the reference: global, and per effect
     (with HDR FLIP) when masks are given. A plain function of arrays, so a process pool can
     run it. Pixels over 1/255 are counted (compare's default failing error is 0.01)."""
@@ -170,10 +187,12 @@ def pair_metrics(
         tolerances=Tolerances(fail=1.0 / 255.0),
         masks=masks,
     )
-    return {
+    found = {
         "global": _json_safe(ev.metrics.as_dict()),
         "per_effect": {k: _json_safe(e.metrics.as_dict()) for k, e in ev.per_effect.items()},
     }
+    # The difference maps' figures draw these; computing them again cost ~1 s of CPU each.
+    return found, MapPair(ev.maps.flip_ldr, ev.maps.ssim) if keep_maps else None
 
 
 def copy_file(src: Path, dst: Path) -> None:
@@ -223,7 +242,7 @@ def derived_map(
     title: str,
     ref: Callable[[], Image],
     test: Callable[[], Image],
-    pair: str,
+    test_hash: str,
     target: Path,
 ) -> None:
     def draw(p: Path) -> None:
@@ -231,7 +250,7 @@ def derived_map(
             figs.signed_difference(ref().rgb, test().rgb, p, f"signed difference: {title}")
         elif kind == "flip":
             figs.map_figure(
-                ev.maps(test()).flip_ldr,
+                ev.maps(test, test_hash).flip_ldr,
                 p,
                 title=f"FLIP (LDR, 67 ppd): {title}",
                 cmap="magma",
@@ -241,7 +260,7 @@ def derived_map(
             )
         else:
             figs.map_figure(
-                np.nan_to_num(ev.maps(test()).ssim, nan=1.0),
+                np.nan_to_num(ev.maps(test, test_hash).ssim, nan=1.0),
                 p,
                 title=f"SSIM map: {title}",
                 cmap="viridis",
@@ -250,4 +269,4 @@ def derived_map(
                 label="SSIM",
             )
 
-    derived_figure(cache, f"map-{kind}", pair + title, target, draw)
+    derived_figure(cache, f"map-{kind}", ev.ref_hash + test_hash + title, target, draw)
