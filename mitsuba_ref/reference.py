@@ -138,6 +138,12 @@ def render_reference(
             samples = _jit_batch(
                 mi, dr, mscene, sensor, integrator, width, height, seed, batch, settings.centre_rays
             )
+        elif settings.integrator == "path" and not settings.centre_rays:
+            # Mitsuba's own render loop (C++ threads over image blocks, box filter, positions
+            # uniform in the pixel): the same estimator as the loop below, at the scalar
+            # variant's own speed (paper 640x480, 1 spp: 0.15 s against 1.4 s in Python).
+            image = mi.render(mscene, sensor=sensor, integrator=integrator, spp=1, seed=seed)
+            samples = np.asarray(image, np.float64)[None, :, :, :3]
         else:
             samples = _scalar_pass(
                 mi, dr, mscene, sensor, integrator, width, height, seed, settings.centre_rays

@@ -309,6 +309,22 @@ def test_scalar_variant_agrees_with_llvm_on_whitted() -> None:
     assert (np.abs(np.clip(a.rgb, 0, 1) - np.clip(b.rgb, 0, 1)) <= 1 / 255).all(-1).mean() > 0.99
 
 
+def test_scalar_path_through_mitsubas_own_loop_estimates_the_llvm_image() -> None:
+    """The scalar variant's path renders go through mi.render; llvm's through our wavefront
+    loop: two estimators of one image, so their means agree within the noise, and each pass
+    (one sample per pixel) keeps its own variance."""
+    scene = load_scene(SCENES / "classic.json")
+    s = {"integrator": "path", "light": "point", "spp": 16, "size": (40, 30)}
+    a = render_reference(scene, ReferenceSettings(variant="llvm_ad_rgb", **s))  # type: ignore[arg-type]
+    b = render_reference(scene, ReferenceSettings(variant="scalar_rgb", **s))  # type: ignore[arg-type]
+    assert b.spp_done == 16 and b.variance is not None and float(b.variance.mean()) > 0
+    # Standard error of the difference of the two image means, from their variances.
+    n = a.rgb.size
+    se = float(np.sqrt((a.variance.mean() + b.variance.mean()) / 16 / n))  # type: ignore[union-attr]
+    assert abs(float(a.rgb.mean()) - float(b.rgb.mean())) < 5 * se
+    assert not np.array_equal(a.rgb, b.rgb)  # two estimators, not one image twice
+
+
 @pytest.mark.parametrize(
     "options,needle",
     [
