@@ -39,7 +39,7 @@ $(DEV_BUILD)/build.ninja: $(STAMP)
 	touch $@
 
 test-build: $(DEV_BUILD)/build.ninja
-	cmake --build $(DEV_BUILD) --target rtdemo_tests
+	cmake --build $(DEV_BUILD) --target rtdemo_tests rtdemo
 
 test-cpp: test-build
 	ctest --test-dir $(DEV_BUILD) --output-on-failure -j2
