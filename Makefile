@@ -7,7 +7,7 @@ SCENE     ?= paper
 SHELL     := /bin/bash
 
 FUZZ_BIN  := build/fuzz/scene_loader_fuzz
-# pip builds rtdemo only (build/cmake); the GoogleTest suite and the bench programs are
+# pip builds rtdemo and rtdemo-gl only (build/cmake); the GoogleTest suite and the bench programs are
 # built here by make test / make bench.
 DEV_BUILD := build/tests
 CPP_FORMATTED := $(shell find demo_cpp bench -type f \( -name '*.cpp' -o -name '*.h' \) | sort)

@@ -204,7 +204,7 @@ def render_reference(
         "rtval.render_seconds": f"{seconds:.4g}",
         "rtval.mitsuba_version": str(getattr(mi, "__version__", "?")),
     }
-    return ReferenceImage(mean, variance, aovs, header, done, seconds, exported.notes)
+    return ReferenceImage(mean, variance, aovs, header, done, seconds, list(exported.notes))
 
 
 # A batch renders one scene several times: Mitsuba builds the paper scene in ~0.4 s, so the

@@ -86,6 +86,20 @@ def test_rtdemo_environment_is_part_of_the_key(monkeypatch: pytest.MonkeyPatch) 
     assert render_key("rtdemo", [*args, "-q"], SCENES / "classic.json") != faulty
 
 
+def test_the_gl_build_beside_rtdemo_is_part_of_the_key(tmp_path: Path) -> None:
+    """--backend gl re-executes as rtdemo-gl: a change to that build alone re-renders."""
+    from compare.render.runner import rtdemo_path
+
+    shutil.copy(rtdemo_path(), tmp_path / "rtdemo")
+    args = ["render", "{scene}", "-o", "{out}", "--backend", "gl"]
+    alone = render_key("rtdemo", args, SCENES / "classic.json", str(tmp_path / "rtdemo"))
+    (tmp_path / "rtdemo-gl").write_bytes(b"one GL build")
+    first = render_key("rtdemo", args, SCENES / "classic.json", str(tmp_path / "rtdemo"))
+    (tmp_path / "rtdemo-gl").write_bytes(b"another GL build")
+    second = render_key("rtdemo", args, SCENES / "classic.json", str(tmp_path / "rtdemo"))
+    assert len({alone, first, second}) == 3
+
+
 def _store_many(args: tuple[str, int]) -> str:
     root, n = args
     cache = RenderCache(root)

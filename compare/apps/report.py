@@ -284,7 +284,7 @@ def build_report(
         start = time.perf_counter()
         found = ev.evaluate_all(
             [(imgs.loader(k), hashes[k], per_effect) for k, per_effect in pairs],
-            workers=os.cpu_count() or 1,
+            workers=len(os.sched_getaffinity(0)),  # the cores this process may use
             keep_maps=frozenset(
                 hashes[k] for k in ([test_key] if test_image else []) + list(MAPPED)
             ),

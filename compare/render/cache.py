@@ -47,12 +47,30 @@ def default_cache_dir() -> Path:
 
 
 @cache
+def _content_hash(path: str, mtime_ns: int, size: int) -> str:
+    """A file's sha256, hashed again only when its path, time or size changes."""
+    return sha256_file(Path(path))
+
+
+def _file_hash(path: Path) -> str:
+    st = path.stat()
+    return _content_hash(str(path.resolve()), st.st_mtime_ns, st.st_size)
+
+
 def renderer_identity(tool: str, executable: str | None = None) -> str:
     if tool == "rtdemo":
         binary = Path(executable or rtdemo_path())
         if not binary.is_file():
             raise ToolError(f"{binary}: no such rtdemo executable")
-        return sha256_file(binary)
+        # --backend gl runs rtdemo-gl beside it (the path /proc/self/exe gives rtdemo):
+        # a change to the GL build alone must not serve its old renders.
+        gl = binary.resolve().with_name("rtdemo-gl")
+        return _file_hash(binary) + (_file_hash(gl) if gl.is_file() else "")
+    return _mitsuba_identity()
+
+
+@cache
+def _mitsuba_identity() -> str:
     h = hashlib.sha256()
     # The renderer and the scene loader it reads with; report code changes must not re-render.
     for pkg in ("mitsuba_ref", "scene_model"):

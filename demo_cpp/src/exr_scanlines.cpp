@@ -196,6 +196,12 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
                          const std::map<std::string, std::string>& attributes,
                          ExrCompression compression) {
     const int w = image.width, h = image.height;
+    const std::size_t pixels = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+    if (image.rgb.size() != 3 * pixels || image.normal.size() != 3 * pixels ||
+        image.id.size() != pixels || image.depth.size() != pixels)
+        throw std::runtime_error(path +
+                                 ": the frame has no AOV planes to write (rendered "
+                                 "with RenderSettings::aovs off)");
     const Channel channels[kChannels] = {
         {"B", image.rgb.data(), 3, 2},       {"G", image.rgb.data(), 3, 1},
         {"N.X", image.normal.data(), 3, 0},  {"N.Y", image.normal.data(), 3, 1},
@@ -328,7 +334,7 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
     helpers.reserve(static_cast<std::size_t>(threads));
     try {
         for (int t = 1; t < threads; ++t) helpers.emplace_back(work);
-    } catch (const std::system_error&) {  // no more threads: the ones there share the blocks
+    } catch (...) {  // no more threads (or no memory for one): those there share the blocks
     }
     work();
     for (std::thread& t : helpers) t.join();

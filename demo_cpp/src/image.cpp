@@ -22,6 +22,7 @@ constexpr std::size_t kMapFrom = std::size_t{1} << 20;
 
 Plane::Plane(std::size_t n, float value) : size_(n) {
     if (n == 0) return;
+    if (n > (SIZE_MAX - 2 * kHugePage) / sizeof(float)) throw std::bad_alloc();
     const std::size_t bytes = n * sizeof(float);
     if (bytes >= kMapFrom) {
         // Mapped with a huge page of slack, then trimmed to start on a huge-page boundary, so

@@ -1,6 +1,7 @@
 // rtdemo: the paper's ray tracer as a command-line program.
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <iostream>
 #include <iterator>
@@ -54,6 +55,11 @@ class GlMissing : public std::runtime_error {
     if (n <= 0) throw GlMissing("cannot locate rtdemo-gl: /proc/self/exe unreadable");
     self.resize(static_cast<std::size_t>(n));
     const std::string sibling = self.substr(0, self.rfind('/') + 1) + "rtdemo-gl";
+    // A build without GL reached again through this variable was installed as rtdemo-gl:
+    // an error, not an endless chain of execs.
+    if (std::getenv("RTDEMO_GL_EXEC"))
+        throw GlMissing(sibling + " is a build without the GL backend (installed wrongly)");
+    ::setenv("RTDEMO_GL_EXEC", "1", 1);
     std::fflush(nullptr);
     ::execv(sibling.c_str(), g_argv);
     throw GlMissing("the GL backend and the viewer are in " + sibling +
@@ -69,7 +75,7 @@ usage:
   rtdemo --help | --version
 
 Exit codes: 0 ok, 2 bad arguments, 3 invalid scene file, 4 output not writable,
-5 no OpenGL context or shader failure.
+5 no OpenGL context, shader failure, or rtdemo-gl (the GL build beside rtdemo) missing.
 )";
 
 const char* kViewHelp = R"(usage: rtdemo view SCENE.json [options]
@@ -466,6 +472,9 @@ int run_view(const std::vector<std::string>& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    // Past a file-size limit a write fails (exit 4, the temporary file removed) instead of
+    // the process being killed with its temporary file left behind.
+    std::signal(SIGXFSZ, SIG_IGN);
 #ifndef RTDEMO_WITH_GL
     g_argv = argv;
 #endif

@@ -161,6 +161,31 @@ TEST(PacketEngine, RenderCpuTakesTheScalarTracerForAMistake) {
     }
 }
 
+// A PPM or PNG render asks for no AOVs: the colour is the same bits and the same rays, the
+// AOV planes stay empty (spp 1, where the camera rays give them, and spp 4, where a pass of
+// its own does).
+TEST(PacketEngine, WithoutAovsTheColourAndRaysAreTheSame) {
+    const Scene scene = load_scene_file(kScenes + "/classic.json");
+    for (int spp : {1, 4}) {
+        SCOPED_TRACE("spp " + std::to_string(spp));
+        RenderSettings settings;
+        settings.trace.quirks = quirks_for(Mode::classic);
+        settings.trace.max_depth = scene.max_depth;
+        settings.width = 80;
+        settings.height = 60;
+        settings.spp = spp;
+        settings.threads = 2;
+        RayCounts with_rays, without_rays;
+        const RenderedImage with = render_packet(scene, settings, best_isa(), &with_rays);
+        settings.aovs = false;
+        const RenderedImage without = render_packet(scene, settings, best_isa(), &without_rays);
+        EXPECT_TRUE(same_bits(with.rgb, without.rgb, "rgb"));
+        EXPECT_EQ(with_rays.total(), without_rays.total());
+        EXPECT_FALSE(with.id.empty());
+        EXPECT_TRUE(without.id.empty() && without.depth.empty() && without.normal.empty());
+    }
+}
+
 TEST(PacketEngine, EqualsScalarWithSamplesDepthsAndEffectsOff) {
     expect_same({"paper.json", Mode::physical, {}, 16});
     Case shallow{"classic.json", Mode::classic, {}};
