@@ -8,7 +8,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from compare.cli.common import positive_float, positive_int, size_type
+from compare.cli.common import positive_float, positive_int, seed_type, size_type
 
 
 def _export_options_args(p: argparse.ArgumentParser) -> None:
@@ -195,7 +195,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="whitted: the demo's physical transport (default); path: Mitsuba's path tracer",
     )
     p.add_argument("--spp", type=positive_int, default=1, help="samples per pixel (default 1)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=seed_type, default=0, help="random seed (default 0)")
     p.add_argument(
         "--variant",
         choices=("llvm_ad_rgb", "scalar_rgb"),

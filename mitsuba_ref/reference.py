@@ -133,7 +133,7 @@ def render_reference(
     stderr = float("nan")
     while done < passes:
         batch = min(batch_max, passes - done)
-        seed = settings.seed * 1_000_003 + done
+        seed = (settings.seed * 1_000_003 + done) % 2**32  # samplers take 32 bits
         if jit:
             samples = _jit_batch(
                 mi, dr, mscene, sensor, integrator, width, height, seed, batch, settings.centre_rays

@@ -300,6 +300,15 @@ def test_time_budget_stops_early_and_says_so() -> None:
     assert r.header["rtval.stopped_by"] == "time budget"
 
 
+def test_a_large_seed_renders() -> None:
+    """Pass seeds wrap to Mitsuba's 32 bits instead of overflowing (seed * 1 000 003)."""
+    scene = load_scene(SCENES / "classic.json")
+    s = {"integrator": "path", "light": "point", "spp": 2, "size": (8, 6)}
+    big = render_reference(scene, ReferenceSettings(seed=4_000_000_000, **s))  # type: ignore[arg-type]
+    small = render_reference(scene, ReferenceSettings(seed=1, **s))  # type: ignore[arg-type]
+    assert np.isfinite(big.rgb).all() and not np.array_equal(big.rgb, small.rgb)
+
+
 def test_scalar_variant_agrees_with_llvm_on_whitted() -> None:
     scene = load_scene(SCENES / "classic.json")
     s = {"integrator": "whitted", "light": "point", "centre_rays": True, "size": (24, 18)}
@@ -341,6 +350,8 @@ def test_scalar_path_through_mitsubas_own_loop_estimates_the_llvm_image() -> Non
     [
         (["--integrator", "path", "--no-shadows"], "whitted integrator only"),
         (["--spp", "0"], "positive integer"),
+        (["--seed", "-1"], "0..4294967295"),
+        (["--seed", "4294967296"], "0..4294967295"),
     ],
 )
 def test_bad_reference_options_are_clear(tmp_path: Path, options: list[str], needle: str) -> None:

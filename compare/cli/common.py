@@ -52,6 +52,19 @@ positive_int = _positive(int, "integer")
 positive_float = _positive(float, "number")
 
 
+def seed_type(text: str) -> int:
+    """An argparse type: a random seed, 0 <= seed < 2^32 (Mitsuba's samplers take 32 bits)."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected an integer 0..4294967295, got {text!r}"
+        ) from None
+    if not 0 <= v < 2**32:
+        raise argparse.ArgumentTypeError(f"expected an integer 0..4294967295, got {text!r}")
+    return v
+
+
 def stderr_progress(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
