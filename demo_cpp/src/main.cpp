@@ -419,7 +419,7 @@ int run_render(const std::vector<std::string>& args) {
 #endif
         if (!a.quiet)
         std::fprintf(stderr,
-                     "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: %.3f s on %d threads, "
+                     "rtdemo: %s %dx%d mode %s (quirks %s) spp %d: %.4f s on %d threads, "
                      "%.2f M rays (%.1f M rays/s), write %.4f s\n",
                      scene.name.c_str(), settings.width, settings.height, mode_name(a.mode),
                      settings.trace.quirks.present_list().c_str(), settings.spp, seconds,

@@ -90,6 +90,11 @@ struct Kernels {
     void (*primary)(const SceneArrays&, const Options&, const Level& cur, const Aov& aov);
     // Inner nodes of `cur` from the colours of `next`.
     void (*resolve)(const SceneArrays&, const Options&, Level& cur, const Level& next);
+    // A finished tw x th tile into the frame (row stride `width` pixels): rgb interleaved and
+    // scaled by `scale`; the AOVs too when `aov` is given.
+    void (*store_tile)(const float* cr, const float* cg, const float* cb, float scale,
+                       const Aov* aov, int tw, int th, int width, float* rgb, float* id,
+                       float* depth, float* normal);
 };
 
 const Kernels& kernels_scalar();

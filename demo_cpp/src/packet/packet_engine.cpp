@@ -303,20 +303,12 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
                     }
                 cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
             }
-            for (int iy = 0; iy < th; ++iy)
-                for (int ix = 0; ix < tw; ++ix) {
-                    const int t = iy * tw + ix;
-                    const std::size_t i = static_cast<std::size_t>(y0 + iy) * width + (x0 + ix);
-                    image.rgb[3 * i + 0] = cr[t] * inv_samples;
-                    image.rgb[3 * i + 1] = cg[t] * inv_samples;
-                    image.rgb[3 * i + 2] = cb[t] * inv_samples;
-                    if (!settings.aovs) continue;
-                    image.id[i] = aov.id[t];
-                    image.depth[i] = aov.depth[t];
-                    image.normal[3 * i + 0] = aov.nx[t];
-                    image.normal[3 * i + 1] = aov.ny[t];
-                    image.normal[3 * i + 2] = aov.nz[t];
-                }
+            const std::size_t first = static_cast<std::size_t>(y0) * width + x0;
+            const bool aovs = settings.aovs;
+            kern.store_tile(cr, cg, cb, inv_samples, aovs ? &aov : nullptr, tw, th, width,
+                            image.rgb.data() + 3 * first, aovs ? image.id.data() + first : nullptr,
+                            aovs ? image.depth.data() + first : nullptr,
+                            aovs ? image.normal.data() + 3 * first : nullptr);
         }
     };
     std::vector<std::thread> pool;
