@@ -200,7 +200,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--variant",
         choices=("llvm_ad_rgb", "scalar_rgb"),
         default="llvm_ad_rgb",
-        help="Mitsuba variant (default llvm_ad_rgb; scalar_rgb is one ray at a time)",
+        help="Mitsuba variant (default llvm_ad_rgb; scalar_rgb: path through Mitsuba's own "
+        "render loop, whitted and --centre-rays one ray at a time)",
     )
     p.add_argument(
         "--centre-rays",

@@ -33,36 +33,27 @@ def size_type(text: str) -> tuple[int, int]:
     return w, h
 
 
-def _positive(convert: Callable[[str], Any], kind: str) -> Callable[[str], Any]:
-    """An argparse type: a positive, finite number."""
+def _number(
+    convert: Callable[[str], Any], expected: str, ok: Callable[[Any], bool]
+) -> Callable[[str], Any]:
+    """An argparse type: a number `convert` reads and `ok` accepts; else "expected <expected>"."""
 
     def parse(text: str) -> Any:
         try:
             v = convert(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a positive {kind}, got {text!r}") from None
-        if not 0 < v < math.inf:
-            raise argparse.ArgumentTypeError(f"expected a positive {kind}, got {text!r}")
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+        if not ok(v):
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
         return v
 
     return parse
 
 
-positive_int = _positive(int, "integer")
-positive_float = _positive(float, "number")
-
-
-def seed_type(text: str) -> int:
-    """An argparse type: a random seed, 0 <= seed < 2^32 (Mitsuba's samplers take 32 bits)."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected an integer 0..4294967295, got {text!r}"
-        ) from None
-    if not 0 <= v < 2**32:
-        raise argparse.ArgumentTypeError(f"expected an integer 0..4294967295, got {text!r}")
-    return v
+positive_int = _number(int, "a positive integer", lambda v: v > 0)
+positive_float = _number(float, "a positive number", lambda v: 0 < v < math.inf)
+# Mitsuba's samplers take 32-bit seeds.
+seed_type = _number(int, "an integer 0..4294967295", lambda v: 0 <= v < 2**32)
 
 
 def stderr_progress(message: str) -> None:

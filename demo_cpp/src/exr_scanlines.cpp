@@ -179,7 +179,6 @@ std::size_t rle_encode(const unsigned char* in, std::size_t n, unsigned char* ou
             if (j + 2 < n && in[j] == in[j + 1] && in[j] == in[j + 2]) break;
             ++j;
         }
-        j = std::min(j, i + 127);
         const std::size_t count = j - i;
         if (o + 1 + count > cap) return 0;
         out[o++] = static_cast<unsigned char>(-static_cast<int>(count));
