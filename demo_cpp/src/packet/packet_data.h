@@ -44,17 +44,21 @@ struct CameraArrays {
 // A leaf's colour is known at shading; an inner node (a specular hit below the depth limit)
 // keeps its weights and children, packed in `inner`, and gets its colour in resolve(): colour =
 // (reflected * f + refracted * w) * surface colour, the scalar tracer's exact expression.
+// Diffuse hits and inner nodes are packed in the order of their rays (a compress per vector);
+// `dmask` and `smask` keep each vector's lanes that went to either, so the packed colours come
+// back by the inverse expand instead of a scatter by ray index.
 // Capacities: counts rounded up by one vector, so kernels read and write whole vectors.
 struct Level {
     int count = 0;
     float *ox, *oy, *oz, *dx, *dy, *dz;
     int* skip;            // sphere the ray cannot hit again, or -1
     float *cr, *cg, *cb;  // the node's colour
+    int *dmask, *smask;   // per vector: lanes queued as diffuse hits, lanes that are inner nodes
     int inner = 0;        // inner nodes, packed:
-    int* node;            //   the ray index
     float *f, *w;         //   Fresnel weight of the reflected child, weight of the refracted one
     int* sph;             //   the sphere hit
     int *crefl, *crefr;   //   children's indices in the next level, or -1
+    float *ir, *ig, *ib;  //   colour (resolve)
 };
 
 // Hits waiting for shading within one shade() call, packed by kind (diffuse, specular), so
@@ -62,7 +66,8 @@ struct Level {
 struct HitQueue {
     int count = 0;
     float *px, *py, *pz, *nx, *ny, *nz, *dx, *dy, *dz;
-    int *sph, *node, *inside;
+    int *sph, *inside;
+    float *cr, *cg, *cb;  // a diffuse hit's colour
 };
 
 // What the camera ray saw (the AOVs), per ray of level 0; null when not wanted.

@@ -110,8 +110,8 @@ struct SceneStore {
 
 // One bounce's queue, owning its storage; grows between bounces, never inside a kernel.
 struct LevelStore {
-    std::vector<float> f[11];  // ox oy oz dx dy dz cr cg cb f w
-    std::vector<int> i[5];     // skip node sph crefl crefr
+    std::vector<float> f[14];  // ox oy oz dx dy dz cr cg cb f w ir ig ib
+    std::vector<int> i[6];     // skip sph crefl crefr dmask smask (the masks: one per vector)
     Level view;
 
     void reserve(int n) {
@@ -123,14 +123,16 @@ struct LevelStore {
         view.dx = f[3].data(), view.dy = f[4].data(), view.dz = f[5].data();
         view.cr = f[6].data(), view.cg = f[7].data(), view.cb = f[8].data();
         view.f = f[9].data(), view.w = f[10].data();
-        view.skip = i[0].data(), view.node = i[1].data(), view.sph = i[2].data();
-        view.crefl = i[3].data(), view.crefr = i[4].data();
+        view.ir = f[11].data(), view.ig = f[12].data(), view.ib = f[13].data();
+        view.skip = i[0].data(), view.sph = i[1].data();
+        view.crefl = i[2].data(), view.crefr = i[3].data();
+        view.dmask = i[4].data(), view.smask = i[5].data();
     }
 };
 
 struct QueueStore {
-    std::vector<float> f[9];  // px py pz nx ny nz dx dy dz
-    std::vector<int> i[3];    // sph node inside
+    std::vector<float> f[12];  // px py pz nx ny nz dx dy dz cr cg cb
+    std::vector<int> i[2];     // sph inside
     packet::HitQueue view;
 
     void reserve(int n) {
@@ -141,7 +143,8 @@ struct QueueStore {
         view.px = f[0].data(), view.py = f[1].data(), view.pz = f[2].data();
         view.nx = f[3].data(), view.ny = f[4].data(), view.nz = f[5].data();
         view.dx = f[6].data(), view.dy = f[7].data(), view.dz = f[8].data();
-        view.sph = i[0].data(), view.node = i[1].data(), view.inside = i[2].data();
+        view.cr = f[9].data(), view.cg = f[10].data(), view.cb = f[11].data();
+        view.sph = i[0].data(), view.inside = i[1].data();
     }
 };
 

@@ -78,6 +78,10 @@ inline void scatter(float* base, VI idx, VF v, VM m) {
 }
 // The lanes of m take p[0], p[1], ... in order (the inverse of compress_store); others 0.
 inline VF expand_load(const float* p, VM m) { return {m ? *p : 0.0f}; }
+// The same, the other lanes keeping `src`.
+inline VF expand_merge(VF src, VM m, const float* p) { return m ? VF{*p} : src; }
+// The mask whose bits() are b.
+inline VM from_bits(unsigned b) { return b != 0; }
 
 // The robust test of intersect_robust in double, per lane: the first root in (0, inf) as a
 // float, +inf where there is none.
@@ -198,6 +202,12 @@ inline VF expand_load(const float* p, VM m) {
     const __m256i perm =
         _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.expand[bits(m)]));
     return {_mm256_and_ps(_mm256_permutevar8x32_ps(_mm256_loadu_ps(p), perm), m.v)};
+}
+inline VF expand_merge(VF src, VM m, const float* p) { return sel(m, expand_load(p, m), src); }
+inline VM from_bits(unsigned b) {
+    const __m256i lane = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    return {_mm256_castsi256_ps(
+        _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(b)), lane), lane))};
 }
 inline void scatter(float* base, VI idx, VF v, VM m) {
     alignas(32) float val[8];
@@ -332,6 +342,10 @@ inline void scatter(float* base, VI idx, VF v, VM m) {
     _mm512_mask_i32scatter_ps(base, m, idx.v, v.v, 4);
 }
 inline VF expand_load(const float* p, VM m) { return {_mm512_maskz_expandloadu_ps(m, p)}; }
+inline VF expand_merge(VF src, VM m, const float* p) {
+    return {_mm512_mask_expandloadu_ps(src.v, m, p)};
+}
+inline VM from_bits(unsigned b) { return static_cast<VM>(b); }
 
 inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy, __m512d dz,
                       double r2) {
