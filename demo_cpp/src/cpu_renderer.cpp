@@ -16,10 +16,19 @@ int strata_per_axis(int spp) {
     return k * k == spp ? k : 0;
 }
 
-RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, RayCounts* rays) {
+bool renders_in_bands(const RenderSettings& settings) {
     // The packet engine implements no named mistakes: a run with any takes the scalar tracer.
-    const bool packet = settings.engine == Engine::packet && !settings.trace.mistakes.any();
-    if (packet) return render_packet(scene, settings, isa_from_environment(), rays);
+    return settings.engine == Engine::packet && !settings.trace.mistakes.any();
+}
+
+void render_cpu(const Scene& scene, const RenderSettings& settings, BandSink& sink,
+                RayCounts* rays) {
+    render_packet(scene, settings, isa_from_environment(), sink, rays);
+}
+
+RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, RayCounts* rays) {
+    if (renders_in_bands(settings))
+        return render_packet(scene, settings, isa_from_environment(), rays);
     RenderedImage image(settings.width, settings.height);
     const CameraRays shared_camera(scene.camera, settings.width, settings.height);
     const Tracer shared_tracer(scene, settings.trace);

@@ -1,6 +1,7 @@
 // Renders a scene with the CPU tracer on a pool of threads (rows handed out one at a time).
 #pragma once
 
+#include "band_sink.h"
 #include "image.h"
 #include "scene.h"
 #include "tracer.h"
@@ -27,6 +28,12 @@ struct RenderSettings {
 // also reports how many rays of each kind were traced.
 RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings,
                          RayCounts* rays = nullptr);
+
+// Whether the frame can be rendered into a BandSink: the packet engine, no named mistakes.
+bool renders_in_bands(const RenderSettings& settings);
+// The frame handed to `sink` band by band (band_sink.h). Precondition: renders_in_bands.
+void render_cpu(const Scene& scene, const RenderSettings& settings, BandSink& sink,
+                RayCounts* rays = nullptr);
 
 // k with k*k == spp, or 0 when spp is not a perfect square >= 1.
 int strata_per_axis(int spp);

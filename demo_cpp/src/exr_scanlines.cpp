@@ -10,6 +10,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cerrno>
 #include <climits>
@@ -113,10 +114,23 @@ struct Channel {
     int stride, offset;
 };
 constexpr int kChannels = 8;
+using Channels = std::array<Channel, kChannels>;
+
+// The planes as RenderedImage has them (rgb and normal interleaved).
+Channels channels_of(const float* rgb, const float* id, const float* depth, const float* normal) {
+    return {{{"B", rgb, 3, 2},
+             {"G", rgb, 3, 1},
+             {"N.X", normal, 3, 0},
+             {"N.Y", normal, 3, 1},
+             {"N.Z", normal, 3, 2},
+             {"R", rgb, 3, 0},
+             {"depth", depth, 1, 0},
+             {"id", id, 1, 0}}};
+}
 
 // The uncompressed bytes of lines [y0, y1): for each line, each channel's row of floats.
 // Returns the end of what was written.
-char* put_lines(char* p, const Channel (&channels)[kChannels], int w, int y0, int y1) {
+char* put_lines(char* p, const Channels& channels, int w, int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
         const std::size_t base = static_cast<std::size_t>(y) * w;
         for (const Channel& c : channels) {
@@ -191,30 +205,15 @@ std::size_t rle_encode(const unsigned char* in, std::size_t n, unsigned char* ou
 
 }  // namespace
 
-void write_exr_scanlines(const std::string& path, const RenderedImage& image,
-                         const std::map<std::string, std::string>& attributes,
-                         ExrCompression compression) {
-    const int w = image.width, h = image.height;
-    const std::size_t pixels = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
-    if (image.rgb.size() != 3 * pixels || image.normal.size() != 3 * pixels ||
-        image.id.size() != pixels || image.depth.size() != pixels)
-        throw std::runtime_error(path +
-                                 ": the frame has no AOV planes to write (rendered "
-                                 "with RenderSettings::aovs off)");
-    const Channel channels[kChannels] = {
-        {"B", image.rgb.data(), 3, 2},       {"G", image.rgb.data(), 3, 1},
-        {"N.X", image.normal.data(), 3, 0},  {"N.Y", image.normal.data(), 3, 1},
-        {"N.Z", image.normal.data(), 3, 2},  {"R", image.rgb.data(), 3, 0},
-        {"depth", image.depth.data(), 1, 0}, {"id", image.id.data(), 1, 0},
-    };
-
+std::vector<char> exr_header(int w, int h, const std::map<std::string, std::string>& attributes,
+                             ExrCompression compression) {
     std::vector<char> head = {0x76, 0x2f, 0x31, 0x01};  // magic number
     bool long_names = false;
     for (const auto& [key, value] : attributes) long_names |= key.size() > 31;
     put_i32(head, 2 | (long_names ? 0x400 : 0));  // version 2, single-part scanline
 
     std::vector<char> v;
-    for (const Channel& c : channels) {
+    for (const Channel& c : channels_of(nullptr, nullptr, nullptr, nullptr)) {
         put_str0(v, c.name);
         put_i32(v, 2);                // FLOAT
         put_bytes(v, "\0\0\0\0", 4);  // pLinear, reserved
@@ -247,6 +246,38 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
     for (const auto& [name, typed] : header) put_attribute(head, name, typed.first, typed.second);
     head.push_back('\0');  // end of header
 
+    return head;
+}
+
+std::size_t exr_line_block_bytes(int w) { return 8 + static_cast<std::size_t>(w) * 4 * kChannels; }
+
+char* exr_line_blocks(char* out, int y0, int rows, int w, const float* rgb, const float* id,
+                      const float* depth, const float* normal) {
+    const Channels channels = channels_of(rgb, id, depth, normal);
+    const std::int32_t row_bytes = static_cast<std::int32_t>(exr_line_block_bytes(w) - 8);
+    for (int r = 0; r < rows; ++r) {
+        const std::int32_t header_words[2] = {y0 + r, row_bytes};
+        std::memcpy(out, header_words, 8);
+        out = put_lines(out + 8, channels, w, r, r + 1);
+    }
+    return out;
+}
+
+void write_exr_scanlines(const std::string& path, const RenderedImage& image,
+                         const std::map<std::string, std::string>& attributes,
+                         ExrCompression compression) {
+    const int w = image.width, h = image.height;
+    const std::size_t pixels = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+    if (image.rgb.size() != 3 * pixels || image.normal.size() != 3 * pixels ||
+        image.id.size() != pixels || image.depth.size() != pixels)
+        throw std::runtime_error(path +
+                                 ": the frame has no AOV planes to write (rendered "
+                                 "with RenderSettings::aovs off)");
+    const Channels channels =
+        channels_of(image.rgb.data(), image.id.data(), image.depth.data(), image.normal.data());
+
+    std::vector<char> head = exr_header(w, h, attributes, compression);
+
     const std::size_t row_bytes = static_cast<std::size_t>(w) * 4 * kChannels;
     File file(path);
     if (compression == ExrCompression::none) {
@@ -264,14 +295,12 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
             static_cast<int>(std::max<std::size_t>(1, (256u << 10) / (8 + row_bytes)));
         std::vector<char> buf(static_cast<std::size_t>(lines) * (8 + row_bytes));
         for (int y0 = 0; y0 < h; y0 += lines) {
-            char* p = buf.data();
-            const int y1 = std::min(h, y0 + lines);
-            for (int y = y0; y < y1; ++y) {
-                const std::int32_t header_words[2] = {y, static_cast<std::int32_t>(row_bytes)};
-                std::memcpy(p, header_words, 8);
-                p = put_lines(p + 8, channels, w, y, y + 1);
-            }
-            file.write(buf.data(), static_cast<std::size_t>(p - buf.data()));
+            const std::size_t first = static_cast<std::size_t>(y0) * w;
+            const char* end =
+                exr_line_blocks(buf.data(), y0, std::min(h, y0 + lines) - y0, w,
+                                image.rgb.data() + 3 * first, image.id.data() + first,
+                                image.depth.data() + first, image.normal.data() + 3 * first);
+            file.write(buf.data(), static_cast<std::size_t>(end - buf.data()));
         }
         file.close();
         return;

@@ -5,14 +5,27 @@
 // Uncompressed (one line per block), RLE (one line per block) or ZIP (zlib, 16 lines per block).
 #pragma once
 
+#include <cstddef>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "image.h"
 
 namespace rt {
 
 enum class ExrCompression { none, rle, zip };
+
+// The header of such a file (magic number to the end-of-header byte): `attributes` as string
+// attributes, the channels above, no line offset table.
+std::vector<char> exr_header(int w, int h, const std::map<std::string, std::string>& attributes,
+                             ExrCompression compression);
+// Uncompressed: the bytes of one line's block (y, byte count, each channel's row).
+std::size_t exr_line_block_bytes(int w);
+// Writes the blocks of lines [y0, y0 + rows) to `out` from planes as RenderedImage has them,
+// holding just these rows (row stride w); returns the end of what was written.
+char* exr_line_blocks(char* out, int y0, int rows, int w, const float* rgb, const float* id,
+                      const float* depth, const float* normal);
 
 // Writes `image` to `path` (created or replaced; only ever a regular file): float32 channels B,
 // G, N.X, N.Y, N.Z, R, depth, id (stored in name order, as OpenEXR does) and `attributes` as

@@ -15,36 +15,12 @@
 
 #include "exr_scanlines.h"
 #include "file_kind.h"
+#include "output_file.h"
 
 namespace rt {
 namespace fs = std::filesystem;
 
 namespace {
-
-// A temporary sibling of `path`, renamed onto it by commit(); removed if never committed.
-class AtomicFile {
-public:
-    explicit AtomicFile(std::string path)
-        : path_(std::move(path)), temp_(path_ + ".tmp" + std::to_string(::getpid())) {}
-    ~AtomicFile() {
-        if (!committed_) {
-            std::error_code ec;
-            fs::remove(temp_, ec);
-        }
-    }
-    const std::string& temp() const { return temp_; }
-    void commit() {
-        check_writable(path_);  // again: the target may have changed while we wrote
-        std::error_code ec;
-        fs::rename(temp_, path_, ec);
-        if (ec) throw OutputError(path_ + ": cannot write: " + ec.message());
-        committed_ = true;
-    }
-
-private:
-    std::string path_, temp_;
-    bool committed_ = false;
-};
 
 // NaN -> 0. Compares, not fmin/fmax: those were libm calls per channel (bench/NOTES.md).
 float clamp01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
@@ -56,17 +32,18 @@ std::vector<unsigned char> to_8bit(const RenderedImage& image, Encode encode) {
     return out;
 }
 
-// to_linear8 over a whole image, four values per SSE2 instruction (x86-64's baseline): the
-// same compares, product and truncation, so the same bytes (checked against to_linear8 for
-// every float, both conventions).
-std::vector<unsigned char> linear8_bytes(const Plane& v, PpmRounding rounding) {
-    std::vector<unsigned char> out(v.size());
+}  // namespace
+
+// to_linear8 four values per SSE2 instruction (x86-64's baseline): the same compares, product
+// and truncation, so the same bytes (checked against to_linear8 for every float, both
+// conventions).
+void linear8_encode(const float* v, std::size_t n, PpmRounding rounding, unsigned char* out) {
     std::size_t i = 0;
     // Rounding adds one where the fraction x - trunc(x) is >= 0.5; truncation never does (the
     // fraction is below 1), so one loop serves both conventions.
     const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f), scale = _mm_set1_ps(255.0f),
                  step = _mm_set1_ps(rounding == PpmRounding::round ? 0.5f : 1.0f);
-    for (; i + 4 <= v.size(); i += 4) {
+    for (; i + 4 <= n; i += 4) {
         // maxps(x, 0) is x > 0 ? x : 0 (NaN -> 0); minps(x, 1) is x < 1 ? x : 1: clamp01.
         const __m128 x = _mm_mul_ps(_mm_min_ps(_mm_max_ps(_mm_loadu_ps(&v[i]), zero), one), scale);
         const __m128i t = _mm_cvttps_epi32(x);
@@ -76,11 +53,8 @@ std::vector<unsigned char> linear8_bytes(const Plane& v, PpmRounding rounding) {
         const int word = _mm_cvtsi128_si32(packed);
         std::memcpy(&out[i], &word, 4);
     }
-    for (; i < v.size(); ++i) out[i] = to_linear8(v[i], rounding);
-    return out;
+    for (; i < n; ++i) out[i] = to_linear8(v[i], rounding);
 }
-
-}  // namespace
 
 unsigned char to_srgb8(float linear) {
     const float v = clamp01(linear);
@@ -177,7 +151,8 @@ void write_png_bytes(const std::string& path, int width, int height,
 void write_ppm(const std::string& path, const RenderedImage& image, PpmRounding rounding) {
     check_writable(path);
     AtomicFile file(path);
-    const std::vector<unsigned char> bytes = linear8_bytes(image.rgb, rounding);
+    std::vector<unsigned char> bytes(image.rgb.size());
+    linear8_encode(image.rgb.data(), bytes.size(), rounding, bytes.data());
     std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(file.temp().c_str(), "wb"), &std::fclose);
     if (!fp) throw OutputError(path + ": cannot open for writing");
     std::fprintf(fp.get(), "P6\n%d %d\n255\n", image.width, image.height);

@@ -2,6 +2,7 @@
 // directory and renames on success, so a failed write never leaves a partial file.
 #pragma once
 
+#include <cstddef>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -44,6 +45,9 @@ PpmRounding parse_ppm_rounding(const std::string& text);
 // as the paper's program writes it). NaN -> 0.
 void write_ppm(const std::string& path, const RenderedImage& image,
                PpmRounding rounding = PpmRounding::truncate);
+
+// to_linear8 of n values, vectorised (the same bytes).
+void linear8_encode(const float* v, std::size_t n, PpmRounding rounding, unsigned char* out);
 
 // Display encodings, exposed for tests and the GL backend's screenshots.
 unsigned char to_srgb8(float linear);

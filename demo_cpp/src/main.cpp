@@ -6,6 +6,7 @@
 #include <iostream>
 #include <iterator>
 #include <map>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -29,6 +30,7 @@
 #include "mistakes.h"
 #include "quirks.h"
 #include "scene_loader.h"
+#include "streamed_outputs.h"
 
 namespace {
 
@@ -109,6 +111,10 @@ outputs (at least one):
                          paper's program family writes it) or round (nearest level); both
                          clamp to [0,1] first and write NaN as 0
   --exr-compression C    none (default: fastest, ~10 MB at 640x480), rle or zip (~4 MB)
+  With one output, a PPM or an uncompressed EXR, the CPU tracer writes each band of rows to
+  the file as soon as it is traced (no frame is kept); the time in the header and on the
+  summary line then includes that writing. The EXR header holds rtval.padding (spaces) to
+  keep its size known before the time and ray counts are.
 
 algorithm:
   --mode MODE            paper (default): the paper's program, quirks Q1-Q10 all present
@@ -338,37 +344,10 @@ void check_distinct_outputs(const RenderArgs& a) {
     }
 }
 
-int run_render(const std::vector<std::string>& args) {
-    const RenderArgs a = parse_render_args(args);
-    check_distinct_outputs(a);
-    for (const std::string* out : {&a.exr, &a.png, &a.ppm})
-        if (!out->empty()) check_writable(*out);
-
-    const Scene scene = load_scene_file(a.scene_path);
-    const RenderSettings settings = settings_for(a, scene);
-
-    RenderedImage image;
-    double seconds = 0;
-    RayCounts rays;
-#ifdef RTDEMO_WITH_GL
-    GlTiming gl;
-    if (a.gl) {
-        image = render_gl(scene, settings, a.frames, &gl);
-        seconds = gl.frame_seconds;
-    } else
-#else
-    if (a.gl) exec_gl_sibling();  // after the checks above: a bad command fails here alike
-#endif
-    {
-        for (int f = 0; f < a.frames; ++f) {
-            const auto start = std::chrono::steady_clock::now();
-            image = render_cpu(scene, settings, &rays);
-            const double s =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            seconds = f == 0 ? s : std::min(seconds, s);
-        }
-    }
-
+// The EXR header's attributes of a CPU or GL render (the GL timings are added by the GL build).
+std::map<std::string, std::string> render_attributes(const RenderArgs& a, const Scene& scene,
+                                                     const RenderSettings& settings, double seconds,
+                                                     const RayCounts& rays) {
     std::string effects;
     if (!a.shadows) effects += "no-shadows ";
     if (!a.reflection) effects += "no-reflection ";
@@ -385,6 +364,73 @@ int run_render(const std::vector<std::string>& args) {
         {"rtval.effects_off", effects.empty() ? "none" : effects},
         {"rtval.render_seconds", format_seconds(seconds)},
     };
+    if (!a.gl) {
+        attributes["rtval.threads"] = std::to_string(settings.threads);
+        attributes["rtval.rays_camera"] = std::to_string(rays.camera);
+        attributes["rtval.rays_secondary"] = std::to_string(rays.secondary);
+        attributes["rtval.rays_shadow"] = std::to_string(rays.shadow);
+    }
+    return attributes;
+}
+
+// One CPU frame with one output, a PPM or an uncompressed EXR: written band by band while it
+// renders (streamed_outputs.h).
+bool streams_output(const RenderArgs& a, const RenderSettings& settings) {
+    if (a.gl || a.frames != 1 || !renders_in_bands(settings) || !a.png.empty()) return false;
+    if (!a.ppm.empty()) return a.exr.empty();
+    return a.compression == ExrCompression::none;
+}
+
+int run_render(const std::vector<std::string>& args) {
+    const RenderArgs a = parse_render_args(args);
+    check_distinct_outputs(a);
+    for (const std::string* out : {&a.exr, &a.png, &a.ppm})
+        if (!out->empty()) check_writable(*out);
+
+    const Scene scene = load_scene_file(a.scene_path);
+    const RenderSettings settings = settings_for(a, scene);
+
+    RenderedImage image;
+    double seconds = 0;
+    RayCounts rays;
+    std::unique_ptr<PpmStream> ppm_stream;
+    std::unique_ptr<ExrStream> exr_stream;
+#ifdef RTDEMO_WITH_GL
+    GlTiming gl;
+    if (a.gl) {
+        image = render_gl(scene, settings, a.frames, &gl);
+        seconds = gl.frame_seconds;
+    } else
+#else
+    if (a.gl) exec_gl_sibling();  // after the checks above: a bad command fails here alike
+#endif
+        if (streams_output(a, settings)) {
+        BandSink* sink = nullptr;
+        if (!a.ppm.empty()) {
+            ppm_stream =
+                std::make_unique<PpmStream>(a.ppm, settings.width, settings.height, a.ppm_rounding);
+            sink = ppm_stream.get();
+        } else {
+            exr_stream = std::make_unique<ExrStream>(
+                a.exr, settings.width, settings.height,
+                render_attributes(a, scene, settings, 0.0, RayCounts{}));
+            sink = exr_stream.get();
+        }
+        const auto start = std::chrono::steady_clock::now();
+        render_cpu(scene, settings, *sink, &rays);
+        seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    } else {
+        for (int f = 0; f < a.frames; ++f) {
+            const auto start = std::chrono::steady_clock::now();
+            image = render_cpu(scene, settings, &rays);
+            const double s =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            seconds = f == 0 ? s : std::min(seconds, s);
+        }
+    }
+
+    std::map<std::string, std::string> attributes =
+        render_attributes(a, scene, settings, seconds, rays);
 #ifdef RTDEMO_WITH_GL
     if (a.gl) {
         attributes["rtval.gl_renderer"] = gl.renderer;
@@ -392,18 +438,18 @@ int run_render(const std::vector<std::string>& args) {
         attributes["rtval.gl_compile_seconds"] = format_seconds(gl.compile_seconds);
         attributes["rtval.gl_first_frame_seconds"] = format_seconds(gl.first_frame_seconds);
         attributes["rtval.gl_frames"] = std::to_string(gl.frames);
-    } else
-#endif
-    {
-        attributes["rtval.threads"] = std::to_string(settings.threads);
-        attributes["rtval.rays_camera"] = std::to_string(rays.camera);
-        attributes["rtval.rays_secondary"] = std::to_string(rays.secondary);
-        attributes["rtval.rays_shadow"] = std::to_string(rays.shadow);
     }
+#endif
     const auto write_start = std::chrono::steady_clock::now();
-    if (!a.exr.empty()) write_exr(a.exr, image, attributes, a.compression);
-    if (!a.png.empty()) write_png(a.png, image);
-    if (!a.ppm.empty()) write_ppm(a.ppm, image, a.ppm_rounding);
+    if (exr_stream) {
+        exr_stream->finish(attributes);
+    } else if (ppm_stream) {
+        ppm_stream->finish();
+    } else {
+        if (!a.exr.empty()) write_exr(a.exr, image, attributes, a.compression);
+        if (!a.png.empty()) write_png(a.png, image);
+        if (!a.ppm.empty()) write_ppm(a.ppm, image, a.ppm_rounding);
+    }
     const double write_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - write_start).count();
 #ifdef RTDEMO_WITH_GL

@@ -19,8 +19,9 @@ namespace {
 using packet::Kernels;
 using packet::Level;
 
-// Small tiles handed out dynamically: both threads stay busy to the end of the frame, and a
-// tile's queues (a few hundred rays per bounce) stay in the first-level cache.
+// Small tiles, traced band by band (kTileH full rows, handed out dynamically: both threads stay
+// busy to the end of the frame): a tile's queues (a few hundred rays per bounce) stay in the
+// first-level cache.
 constexpr int kTileW = 32;
 constexpr int kTileH = 8;
 
@@ -155,6 +156,7 @@ struct alignas(64) Worker {
     QueueStore diffuse, specular;
     std::vector<float> aov[5];  // id depth nx ny nz, per tile pixel
     std::vector<float> sum[3];
+    std::vector<float> band[4];  // rgb id depth normal of one band, for a BandSink
     packet::Counts counts;
 };
 
@@ -227,11 +229,21 @@ Isa isa_from_environment() {
     return isa;
 }
 
-RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
-                            RayCounts* rays) {
+namespace {
+
+// Where a band's pixels go: the frame's planes at its rows, or a worker's band buffer that is
+// then handed to a BandSink. Row stride: the frame's width.
+struct BandTarget {
+    float *rgb, *id, *depth, *normal;
+};
+
+// The frame in bands of kTileH full rows, handed out dynamically; each band is traced tile by
+// tile into `target(worker, y0)`, then `done(worker, y0, rows)` is called (from the workers).
+template <class Target, class Done>
+void render_bands(const Scene& scene, const RenderSettings& settings, Isa isa, RayCounts* rays,
+                  Target target, Done done) {
     const Kernels& kern = kernels_for(isa);
     const int width = settings.width, height = settings.height;
-    RenderedImage image = allocate_image(width, height, settings.aovs);
     const SceneStore store(scene);
     const packet::SceneArrays& s = store.view;
     packet::Options opt{};
@@ -246,12 +258,12 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
     const float inv_samples = 1.0f / static_cast<float>(k * k);
     // Pixel centres: a run with --mistake half_pixel_offset renders with the scalar tracer.
     const float centre = 0.5f;
-    const int tiles_x = (width + kTileW - 1) / kTileW, tiles_y = (height + kTileH - 1) / kTileH;
-    const int tiles = tiles_x * tiles_y;
+    const int bands = (height + kTileH - 1) / kTileH;
     const int lanes = kern.lanes;
     const int tile_cap = kTileW * kTileH + lanes;
+    const bool aovs = settings.aovs;
 
-    alignas(64) std::atomic<int> next_tile{0};
+    alignas(64) std::atomic<int> next_band{0};
     std::vector<Worker> workers(static_cast<std::size_t>(settings.threads));
     auto work = [&](Worker& wk) {
         wk.levels.resize(static_cast<std::size_t>(opt.max_depth) + 2);
@@ -277,41 +289,43 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
             for (int d = last; d >= 0; --d)
                 kern.resolve(s, opt, wk.levels[d].view, wk.levels[d + 1].view);
         };
-        for (int tile = next_tile++; tile < tiles; tile = next_tile++) {
-            const int x0 = (tile % tiles_x) * kTileW, y0 = (tile / tiles_x) * kTileH;
-            const int tw = std::min(kTileW, width - x0), th = std::min(kTileH, height - y0);
-            const int n = tw * th;
-            Level& l0 = wk.levels[0].view;
-            const float* cr = l0.cr;
-            const float* cg = l0.cg;
-            const float* cb = l0.cb;
-            if (k == 1) {
-                kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
-                trace_tile(settings.aovs ? &aov : nullptr);
-            } else {
-                kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
-                kern.primary(s, opt, l0, aov);
-                wk.counts.camera += static_cast<std::uint64_t>(n);
-                for (auto& v : wk.sum) std::fill(v.begin(), v.begin() + n, 0.0f);
-                for (int sy = 0; sy < k; ++sy)
-                    for (int sx = 0; sx < k; ++sx) {
-                        const float off_x = (sx + centre) / k, off_y = (sy + centre) / k;
-                        kern.camera(cam, x0, y0, tw, th, off_x, off_y, l0);
-                        trace_tile(nullptr);
-                        for (int i = 0; i < n; ++i) {
-                            wk.sum[0][i] += l0.cr[i];
-                            wk.sum[1][i] += l0.cg[i];
-                            wk.sum[2][i] += l0.cb[i];
+        for (int band = next_band++; band < bands; band = next_band++) {
+            const int y0 = band * kTileH, th = std::min(kTileH, height - y0);
+            const BandTarget out = target(wk, y0);
+            for (int x0 = 0; x0 < width; x0 += kTileW) {
+                const int tw = std::min(kTileW, width - x0);
+                const int n = tw * th;
+                Level& l0 = wk.levels[0].view;
+                const float* cr = l0.cr;
+                const float* cg = l0.cg;
+                const float* cb = l0.cb;
+                if (k == 1) {
+                    kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
+                    trace_tile(aovs ? &aov : nullptr);
+                } else {
+                    kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
+                    kern.primary(s, opt, l0, aov);
+                    wk.counts.camera += static_cast<std::uint64_t>(n);
+                    for (auto& v : wk.sum) std::fill(v.begin(), v.begin() + n, 0.0f);
+                    for (int sy = 0; sy < k; ++sy)
+                        for (int sx = 0; sx < k; ++sx) {
+                            const float off_x = (sx + centre) / k, off_y = (sy + centre) / k;
+                            kern.camera(cam, x0, y0, tw, th, off_x, off_y, l0);
+                            trace_tile(nullptr);
+                            for (int i = 0; i < n; ++i) {
+                                wk.sum[0][i] += l0.cr[i];
+                                wk.sum[1][i] += l0.cg[i];
+                                wk.sum[2][i] += l0.cb[i];
+                            }
                         }
-                    }
-                cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
+                    cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
+                }
+                kern.store_tile(cr, cg, cb, inv_samples, aovs ? &aov : nullptr, tw, th, width,
+                                out.rgb + 3 * x0, aovs ? out.id + x0 : nullptr,
+                                aovs ? out.depth + x0 : nullptr,
+                                aovs ? out.normal + 3 * x0 : nullptr);
             }
-            const std::size_t first = static_cast<std::size_t>(y0) * width + x0;
-            const bool aovs = settings.aovs;
-            kern.store_tile(cr, cg, cb, inv_samples, aovs ? &aov : nullptr, tw, th, width,
-                            image.rgb.data() + 3 * first, aovs ? image.id.data() + first : nullptr,
-                            aovs ? image.depth.data() + first : nullptr,
-                            aovs ? image.normal.data() + 3 * first : nullptr);
+            done(wk, y0, th);
         }
     };
     std::vector<std::thread> pool;
@@ -323,7 +337,47 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
         for (const Worker& w : workers)
             *rays += RayCounts{w.counts.camera, w.counts.secondary, w.counts.shadow};
     }
+}
+
+}  // namespace
+
+RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
+                            RayCounts* rays) {
+    RenderedImage image = allocate_image(settings.width, settings.height, settings.aovs);
+    const std::size_t width = static_cast<std::size_t>(settings.width);
+    const bool aovs = settings.aovs;
+    auto rows_of_image = [&](Worker&, int y0) {
+        const std::size_t first = static_cast<std::size_t>(y0) * width;
+        return BandTarget{image.rgb.data() + 3 * first, aovs ? image.id.data() + first : nullptr,
+                          aovs ? image.depth.data() + first : nullptr,
+                          aovs ? image.normal.data() + 3 * first : nullptr};
+    };
+    render_bands(scene, settings, isa, rays, rows_of_image, [](Worker&, int, int) {});
     return image;
+}
+
+void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa, BandSink& sink,
+                   RayCounts* rays) {
+    const std::size_t band = static_cast<std::size_t>(settings.width) * kTileH;
+    const bool aovs = settings.aovs;
+    // Each worker's own band buffers, reused band after band: they stay in its cache.
+    auto own_band = [&](Worker& wk, int) {
+        if (wk.band[0].empty()) {
+            wk.band[0].resize(3 * band);
+            if (aovs) {
+                wk.band[1].resize(band);
+                wk.band[2].resize(band);
+                wk.band[3].resize(3 * band);
+            }
+        }
+        return BandTarget{wk.band[0].data(), aovs ? wk.band[1].data() : nullptr,
+                          aovs ? wk.band[2].data() : nullptr, aovs ? wk.band[3].data() : nullptr};
+    };
+    auto hand_over = [&](Worker& wk, int y0, int rows) {
+        sink.band(y0, rows, settings.width, wk.band[0].data(), aovs ? wk.band[1].data() : nullptr,
+                  aovs ? wk.band[2].data() : nullptr, aovs ? wk.band[3].data() : nullptr);
+    };
+    render_bands(scene, settings, isa, rays, own_band, hand_over);
 }
 
 }  // namespace rt

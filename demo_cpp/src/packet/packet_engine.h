@@ -6,6 +6,7 @@
 
 #include <string>
 
+#include "band_sink.h"
 #include "cpu_renderer.h"
 #include "image.h"
 #include "scene.h"
@@ -27,5 +28,9 @@ Isa isa_from_environment();
 // this CPU.
 RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
                             RayCounts* rays = nullptr);
+// The same frame handed to `sink` band by band as the threads finish them (band_sink.h)
+// instead of kept; the same preconditions.
+void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa, BandSink& sink,
+                   RayCounts* rays = nullptr);
 
 }  // namespace rt

@@ -1,0 +1,25 @@
+// An output written under a temporary name beside its target and renamed onto it when
+// finished, so that a failed write never leaves a partial file.
+#pragma once
+
+#include <string>
+
+namespace rt {
+
+class AtomicFile {
+public:
+    explicit AtomicFile(std::string path);
+    ~AtomicFile();  // removes the temporary file unless committed
+    AtomicFile(const AtomicFile&) = delete;
+    AtomicFile& operator=(const AtomicFile&) = delete;
+    const std::string& path() const { return path_; }
+    const std::string& temp() const { return temp_; }
+    // Renames the temporary onto the target; throws OutputError (image_io.h) naming the path.
+    void commit();
+
+private:
+    std::string path_, temp_;
+    bool committed_ = false;
+};
+
+}  // namespace rt

@@ -1,0 +1,139 @@
+#include "streamed_outputs.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <vector>
+
+#include "exr_scanlines.h"
+
+namespace rt {
+
+BandFile::BandFile(const std::string& path) : file_(path) {
+    check_writable(path);
+    // The temporary name is ours: never follow a link planted there.
+    fd_ = ::open(file_.temp().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0666);
+    if (fd_ < 0) throw OutputError(path + ": cannot open for writing: " + std::strerror(errno));
+}
+
+BandFile::~BandFile() {
+    if (fd_ >= 0) ::close(fd_);
+}
+
+void BandFile::write_at(const void* data, std::size_t n, std::size_t offset) noexcept {
+    const char* p = static_cast<const char*>(data);
+    while (n > 0 && error_.load(std::memory_order_relaxed) == 0) {
+        const ssize_t done = ::pwrite(fd_, p, n, static_cast<off_t>(offset));
+        if (done < 0 && errno == EINTR) continue;
+        if (done <= 0) {
+            fail(done < 0 ? errno : EIO);
+            return;
+        }
+        p += done;
+        offset += static_cast<std::size_t>(done);
+        n -= static_cast<std::size_t>(done);
+    }
+}
+
+void BandFile::fail(int error) noexcept {
+    int expected = 0;
+    error_.compare_exchange_strong(expected, error);
+}
+
+void BandFile::finish() {
+    const int fd = fd_;
+    fd_ = -1;
+    const bool closed = ::close(fd) == 0;
+    if (error_ != 0 || !closed)
+        throw OutputError(file_.path() +
+                          ": write failed: " + std::strerror(error_ != 0 ? error_.load() : errno));
+    file_.commit();
+}
+
+namespace {
+
+// Each render thread's scratch for encoding its band, kept across bands.
+std::vector<char>& thread_scratch(std::size_t n) {
+    thread_local std::vector<char> scratch;
+    if (scratch.size() < n) scratch.resize(n);
+    return scratch;
+}
+
+}  // namespace
+
+PpmStream::PpmStream(const std::string& path, int width, int height, PpmRounding rounding)
+    : file_(path), rounding_(rounding) {
+    char head[64];
+    const int n = std::snprintf(head, sizeof head, "P6\n%d %d\n255\n", width, height);
+    header_ = static_cast<std::size_t>(n);
+    file_.write_at(head, header_, 0);
+}
+
+void PpmStream::band(int y0, int rows, int width, const float* rgb, const float*, const float*,
+                     const float*) noexcept {
+    const std::size_t row = 3 * static_cast<std::size_t>(width);
+    const std::size_t n = row * static_cast<std::size_t>(rows);
+    try {
+        std::vector<char>& bytes = thread_scratch(n);
+        linear8_encode(rgb, n, rounding_, reinterpret_cast<unsigned char*>(bytes.data()));
+        file_.write_at(bytes.data(), n, header_ + row * static_cast<std::size_t>(y0));
+    } catch (...) {  // no memory for the scratch: that band is a failed write
+        file_.fail(ENOMEM);
+    }
+}
+
+namespace {
+
+std::map<std::string, std::string> padded(std::map<std::string, std::string> attributes,
+                                          std::size_t spaces) {
+    attributes["rtval.padding"] = std::string(spaces, ' ');
+    return attributes;
+}
+
+}  // namespace
+
+ExrStream::ExrStream(const std::string& path, int width, int height,
+                     const std::map<std::string, std::string>& provisional)
+    : file_(path), width_(width), height_(height) {
+    header_room_ =
+        exr_header(width, height, padded(provisional, 0), ExrCompression::none).size() + kSlack;
+}
+
+void ExrStream::band(int y0, int rows, int width, const float* rgb, const float* id,
+                     const float* depth, const float* normal) noexcept {
+    const std::size_t block = exr_line_block_bytes(width);
+    const std::size_t first = header_room_ + 8 * static_cast<std::size_t>(height_);
+    try {
+        std::vector<char>& bytes = thread_scratch(block * static_cast<std::size_t>(rows));
+        const char* end = exr_line_blocks(bytes.data(), y0, rows, width, rgb, id, depth, normal);
+        file_.write_at(bytes.data(), static_cast<std::size_t>(end - bytes.data()),
+                       first + block * static_cast<std::size_t>(y0));
+    } catch (...) {
+        file_.fail(ENOMEM);
+    }
+}
+
+void ExrStream::finish(const std::map<std::string, std::string>& attributes) {
+    const std::size_t bare =
+        exr_header(width_, height_, padded(attributes, 0), ExrCompression::none).size();
+    if (bare > header_room_)
+        throw OutputError("EXR header: the final attributes need " + std::to_string(bare) +
+                          " bytes, " + std::to_string(header_room_) + " were kept");
+    std::vector<char> head =
+        exr_header(width_, height_, padded(attributes, header_room_ - bare), ExrCompression::none);
+    const std::size_t block = exr_line_block_bytes(width_);
+    const std::uint64_t first = header_room_ + 8 * static_cast<std::uint64_t>(height_);
+    for (int y = 0; y < height_; ++y) {
+        const std::uint64_t offset = first + static_cast<std::uint64_t>(y) * block;
+        const char* b = reinterpret_cast<const char*>(&offset);
+        head.insert(head.end(), b, b + 8);
+    }
+    file_.write_at(head.data(), head.size(), 0);
+    file_.finish();
+}
+
+}  // namespace rt

@@ -1,0 +1,71 @@
+// Outputs written band by band while the frame renders (BandSink): rtdemo render with a PPM or
+// an uncompressed EXR as its only output. Each band goes to its place in the file at once
+// (pwrite) from the thread that traced it, so no frame is kept, no frame-sized memory is
+// zero-filled by the kernel, and the encoding runs on every render thread (issue 20). The
+// files are byte for byte what write_ppm and write_exr write, but for the EXR's padding
+// attribute (below). Like every writer, a stream writes a temporary file and finish() renames
+// it onto the target; one never finished leaves nothing behind.
+#pragma once
+
+#include <atomic>
+#include <map>
+#include <string>
+
+#include "band_sink.h"
+#include "image_io.h"
+#include "output_file.h"
+
+namespace rt {
+
+// The temporary file both streams write at offsets; the first failed write is kept.
+class BandFile {
+public:
+    explicit BandFile(const std::string& path);  // throws OutputError naming the path
+    ~BandFile();
+    BandFile(const BandFile&) = delete;
+    BandFile& operator=(const BandFile&) = delete;
+    void write_at(const void* data, std::size_t n, std::size_t offset) noexcept;
+    void fail(int error) noexcept;  // a failure other than a write (kept unless one was)
+    // Throws OutputError naming the path if any write failed; else closes and renames.
+    void finish();
+
+private:
+    AtomicFile file_;
+    int fd_ = -1;
+    std::atomic<int> error_{0};  // errno of the first failure
+};
+
+class PpmStream final : public BandSink {
+public:
+    PpmStream(const std::string& path, int width, int height, PpmRounding rounding);
+    void band(int y0, int rows, int width, const float* rgb, const float* id, const float* depth,
+              const float* normal) noexcept override;
+    void finish() { file_.finish(); }
+
+private:
+    BandFile file_;
+    std::size_t header_ = 0;
+    PpmRounding rounding_;
+};
+
+// The header comes last, when the attributes that are only known after rendering (its time,
+// the ray counts) are: `provisional` is the header's map with every such value present (any
+// value), and room is kept for values up to kSlack bytes longer in all. The attribute
+// "rtval.padding" (spaces) fills what the final values leave of that room.
+class ExrStream final : public BandSink {
+public:
+    static constexpr std::size_t kSlack = 256;
+    ExrStream(const std::string& path, int width, int height,
+              const std::map<std::string, std::string>& provisional);
+    void band(int y0, int rows, int width, const float* rgb, const float* id, const float* depth,
+              const float* normal) noexcept override;
+    // Writes the header with `attributes` and the line offset table, then renames the file.
+    void finish(const std::map<std::string, std::string>& attributes);
+
+private:
+    BandFile file_;
+    int width_, height_;
+    std::size_t header_room_ = 0;
+};
+
+}  // namespace rt

@@ -1,0 +1,201 @@
+// The streamed outputs against the writers of whole frames: the same PPM bytes, and an EXR that
+// OpenEXR reads back bit for bit with the final attributes, whatever order and threads the
+// bands arrive in; a stream never finished leaves no file.
+#include "streamed_outputs.h"
+
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfStringAttribute.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cpu_renderer.h"
+#include "image_io.h"
+#include "scene_loader.h"
+
+namespace rt {
+namespace {
+namespace fs = std::filesystem;
+
+RenderedImage ramp_image(int w, int h) {
+    RenderedImage img(w, h);
+    for (std::size_t i = 0; i < img.rgb.size(); ++i)
+        img.rgb[i] = 0.0013f * static_cast<float>(i % 997) - 0.2f;
+    for (std::size_t i = 0; i < img.normal.size(); ++i)
+        img.normal[i] = -0.5f + 1e-4f * static_cast<float>(i);
+    for (std::size_t i = 0; i < img.id.size(); ++i) {
+        img.id[i] = static_cast<float>(static_cast<int>(i % 7) - 1);
+        img.depth[i] = 0.25f * static_cast<float>(i);
+    }
+    img.rgb[0] = std::numeric_limits<float>::quiet_NaN();
+    img.rgb[4] = std::numeric_limits<float>::infinity();
+    return img;
+}
+
+// Hands `img` to `sink` in bands of `rows` rows, last band first, from two threads.
+void feed(const RenderedImage& img, int rows, BandSink& sink) {
+    const std::size_t w = static_cast<std::size_t>(img.width);
+    std::vector<int> starts;
+    for (int y = 0; y < img.height; y += rows) starts.push_back(y);
+    std::reverse(starts.begin(), starts.end());
+    auto part = [&](std::size_t from) {
+        for (std::size_t i = from; i < starts.size(); i += 2) {
+            const int y0 = starts[i];
+            const std::size_t first = static_cast<std::size_t>(y0) * w;
+            sink.band(y0, std::min(rows, img.height - y0), img.width, img.rgb.data() + 3 * first,
+                      img.id.data() + first, img.depth.data() + first,
+                      img.normal.data() + 3 * first);
+        }
+    };
+    std::thread other(part, 1);
+    part(0);
+    other.join();
+}
+
+std::string bytes_of(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+fs::path temp_path(const std::string& name) { return fs::temp_directory_path() / name; }
+
+TEST(StreamedOutputs, PpmIsWritePpmsFileInBothRoundings) {
+    const RenderedImage img = ramp_image(37, 21);
+    for (PpmRounding rounding : {PpmRounding::truncate, PpmRounding::round}) {
+        const fs::path whole = temp_path("rtdemo_stream_whole.ppm");
+        const fs::path streamed = temp_path("rtdemo_stream_bands.ppm");
+        write_ppm(whole.string(), img, rounding);
+        PpmStream stream(streamed.string(), img.width, img.height, rounding);
+        feed(img, 8, stream);
+        stream.finish();
+        EXPECT_EQ(bytes_of(streamed), bytes_of(whole));
+        fs::remove(whole);
+        fs::remove(streamed);
+    }
+}
+
+std::vector<float> channel(Imf::InputFile& in, const char* name, int w, int h) {
+    std::vector<float> out(static_cast<std::size_t>(w) * h);
+    Imf::FrameBuffer fb;
+    fb.insert(name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(out.data()), sizeof(float),
+                               sizeof(float) * static_cast<std::size_t>(w)));
+    in.setFrameBuffer(fb);
+    in.readPixels(0, h - 1);
+    return out;
+}
+
+bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+TEST(StreamedOutputs, ExrReadsBackBitForBitWithTheFinalAttributes) {
+    const int w = 37, h = 21;
+    const RenderedImage img = ramp_image(w, h);
+    const fs::path path = temp_path("rtdemo_stream.exr");
+    ExrStream stream(path.string(), w, h, {{"rtval.render_seconds", "0"}, {"rtval.scene", "s"}});
+    feed(img, 5, stream);
+    const std::map<std::string, std::string> final_attributes = {
+        {"rtval.render_seconds", "0.012345678"}, {"rtval.scene", "s"}, {"rtval.rays", "1578329"}};
+    stream.finish(final_attributes);
+
+    Imf::InputFile in(path.c_str());
+    for (const auto& [key, value] : final_attributes)
+        EXPECT_EQ(in.header().typedAttribute<Imf::StringAttribute>(key).value(), value) << key;
+    const std::string padding =
+        in.header().typedAttribute<Imf::StringAttribute>("rtval.padding").value();
+    EXPECT_EQ(padding.find_first_not_of(' '), std::string::npos);
+    const struct {
+        const char* name;
+        const Plane* plane;
+        int stride, offset;
+    } channels[] = {{"R", &img.rgb, 3, 0},       {"G", &img.rgb, 3, 1},
+                    {"B", &img.rgb, 3, 2},       {"id", &img.id, 1, 0},
+                    {"depth", &img.depth, 1, 0}, {"N.X", &img.normal, 3, 0},
+                    {"N.Y", &img.normal, 3, 1},  {"N.Z", &img.normal, 3, 2}};
+    for (const auto& c : channels) {
+        const std::vector<float> got = channel(in, c.name, w, h);
+        for (std::size_t i = 0; i < got.size(); ++i)
+            ASSERT_TRUE(same_bits(got[i], (*c.plane)[c.stride * i + c.offset]))
+                << c.name << " pixel " << i;
+    }
+    fs::remove(path);
+}
+
+TEST(StreamedOutputs, AHeaderOutgrowingItsRoomIsAnErrorAndLeavesNoFile) {
+    const fs::path path = temp_path("rtdemo_stream_long.exr");
+    fs::remove(path);
+    {
+        ExrStream stream(path.string(), 4, 4, {{"rtval.note", "x"}});
+        feed(ramp_image(4, 4), 8, stream);
+        EXPECT_THROW(stream.finish({{"rtval.note", std::string(ExrStream::kSlack + 2, 'x')}}),
+                     OutputError);
+    }
+    EXPECT_FALSE(fs::exists(path));
+    for (const auto& entry : fs::directory_iterator(fs::temp_directory_path()))
+        EXPECT_EQ(entry.path().filename().string().rfind("rtdemo_stream_long.exr.tmp", 0),
+                  std::string::npos);
+}
+
+TEST(StreamedOutputs, AnUnfinishedStreamLeavesNoFileAndABadPathIsNamed) {
+    const fs::path path = temp_path("rtdemo_stream_unfinished.ppm");
+    fs::remove(path);
+    {
+        PpmStream stream(path.string(), 4, 4, PpmRounding::truncate);
+        feed(ramp_image(4, 4), 2, stream);
+    }
+    EXPECT_FALSE(fs::exists(path));
+    try {
+        PpmStream stream("/nonexistent-dir/x.ppm", 4, 4, PpmRounding::truncate);
+        ADD_FAILURE() << "no error";
+    } catch (const OutputError& e) {
+        EXPECT_NE(std::string(e.what()).find("/nonexistent-dir/x.ppm"), std::string::npos);
+    }
+}
+
+// The packet engine into a stream: the bytes write_ppm writes from the frame it returns, at a
+// size whose last band and tiles are partial, with and without AOVs.
+TEST(StreamedOutputs, ThePacketEnginesBandsMakeTheSameFiles) {
+    const Scene scene = load_scene_file(RTVAL_SCENES_DIR "/classic.json");
+    RenderSettings settings;
+    settings.width = 67;
+    settings.height = 37;
+    settings.threads = 2;
+    settings.aovs = false;
+    const fs::path whole = temp_path("rtdemo_engine_whole.ppm");
+    const fs::path streamed = temp_path("rtdemo_engine_bands.ppm");
+    write_ppm(whole.string(), render_cpu(scene, settings));
+    ASSERT_TRUE(renders_in_bands(settings));
+    PpmStream stream(streamed.string(), settings.width, settings.height, PpmRounding::truncate);
+    RayCounts streamed_rays, whole_rays;
+    render_cpu(scene, settings, stream, &streamed_rays);
+    stream.finish();
+    EXPECT_EQ(bytes_of(streamed), bytes_of(whole));
+    render_cpu(scene, settings, &whole_rays);
+    EXPECT_EQ(streamed_rays.total(), whole_rays.total());
+
+    settings.aovs = true;
+    const RenderedImage frame = render_cpu(scene, settings);
+    const fs::path exr = temp_path("rtdemo_engine_bands.exr");
+    ExrStream exr_stream(exr.string(), settings.width, settings.height, {});
+    render_cpu(scene, settings, exr_stream);
+    exr_stream.finish({});
+    Imf::InputFile in(exr.c_str());
+    const std::vector<float> depth = channel(in, "depth", settings.width, settings.height);
+    const std::vector<float> red = channel(in, "R", settings.width, settings.height);
+    for (std::size_t i = 0; i < depth.size(); ++i) {
+        ASSERT_TRUE(same_bits(depth[i], frame.depth[i])) << i;
+        ASSERT_TRUE(same_bits(red[i], frame.rgb[3 * i])) << i;
+    }
+    for (const fs::path& p : {whole, streamed, exr}) fs::remove(p);
+}
+
+}  // namespace
+}  // namespace rt
