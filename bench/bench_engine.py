@@ -6,9 +6,11 @@
 - physical mode at 16 spp, whole process with the EXR: the packet engine against the previous
   engine (`--engine scalar`, the one-ray-at-a-time tracer) (target >= 5x);
 - the floors of the classic frame, each measured: an empty rtdemo process (`--version`), the
-  write alone (timed inside rtdemo around the writer), tracing alone (fastest of several frames
-  in one process), and what each technique brings: instruction sets (RTDEMO_ISA), threads,
-  packet against scalar engine.
+  write alone (timed inside rtdemo around the writer, in processes that keep the whole frame:
+  `--keep-frame`; by default a single PPM or EXR output is written band by band during the
+  frame), tracing alone (fastest of several frames in one process), and what each technique
+  brings: instruction sets (RTDEMO_ISA), threads, packet against scalar engine, streaming the
+  output against keeping the frame.
 
 The machine's two cores are shared with other work: every comparison alternates its commands
 round by round (the order rotated each round), reports medians and the spread, and the ratio
@@ -145,6 +147,9 @@ def main() -> None:
                 "packet_ppm": [*ppm_round, f"{tmp}/p-{{round}}.ppm"],
                 "packet_exr": [*render, "-o", f"{tmp}/p-{{round}}.exr"],
                 "empty_process": [rtdemo, "--version"],
+                # The whole frame traced first, then written: the writers' time alone.
+                "packet_ppm_kept": [*ppm_round, f"{tmp}/k-{{round}}.ppm", "--keep-frame"],
+                "packet_exr_kept": [*render, "-o", f"{tmp}/k-{{round}}.exr", "--keep-frame"],
                 # The same outputs over the previous round's file: the floor of replacing it.
                 "packet_ppm_replace": [*ppm_round, f"{tmp}/replaced.ppm"],
                 "packet_exr_replace": [*render, "-o", f"{tmp}/replaced.exr"],
@@ -157,11 +162,19 @@ def main() -> None:
         )
         rays = rays_from_header(f"{tmp}/p-{last}.exr")
         base = whole["seed_ppm"]["median_s"]
-        write_ppm = statistics.median(summary(e)["write_s"] for e in whole["packet_ppm"]["stderr"])
-        write_exr = statistics.median(summary(e)["write_s"] for e in whole["packet_exr"]["stderr"])
-        frame_in_process = statistics.median(
-            summary(e)["frame_s"] for e in whole["packet_exr"]["stderr"]
+        same_ppm = same_ppm and (
+            Path(f"{tmp}/k-{last}.ppm").read_bytes() == Path(f"{tmp}/p-{last}.ppm").read_bytes()
         )
+
+        def median_of(row: str, key: str) -> float:
+            return statistics.median(summary(e)[key] for e in whole[row]["stderr"])
+
+        write_ppm = median_of("packet_ppm_kept", "write_s")
+        write_exr = median_of("packet_exr_kept", "write_s")
+        # Tracing in a fresh process (the kept EXR's frame), and the streamed frames, which
+        # include writing their file.
+        frame_in_process = median_of("packet_exr_kept", "frame_s")
+        streamed_frames = {k: median_of(f"packet_{k}", "frame_s") for k in ("ppm", "exr")}
 
         # 2. Tracing alone (fastest of 10 frames in one process) per engine, ISA and thread count.
         variants = {
@@ -225,6 +238,8 @@ def main() -> None:
         "packet_ppm": "rtdemo packet, PPM",
         "packet_exr": "rtdemo packet, EXR+AOVs",
         "empty_process": "empty rtdemo process",
+        "packet_ppm_kept": "rtdemo packet, PPM, frame kept then written",
+        "packet_exr_kept": "rtdemo packet, EXR+AOVs, frame kept then written",
         "packet_ppm_replace": "rtdemo packet, PPM over an existing file",
         "packet_exr_replace": "rtdemo packet, EXR over an existing file",
     }
@@ -254,7 +269,11 @@ def main() -> None:
     print(
         f"\nfloors (medians): empty process {empty_s * 1e3:.1f} ms, tracing alone {trace_s[best] * 1e3:.1f} ms "
         f"(in the PPM/EXR process: {frame_in_process * 1e3:.1f} ms), PPM write {write_ppm * 1e3:.1f} ms, "
-        f"EXR write {write_exr * 1e3:.1f} ms"
+        f"EXR write {write_exr * 1e3:.1f} ms (the writers alone, frame kept)"
+    )
+    print(
+        f"  streamed, the frame including its writing takes {streamed_frames['ppm'] * 1e3:.1f} ms "
+        f"(PPM) and {streamed_frames['exr'] * 1e3:.1f} ms (EXR) in the process"
     )
     print(
         f"  sum of floors: PPM {floor_ppm * 1e3:.1f} ms (at most {base / floor_ppm:.1f}x), EXR {floor_exr * 1e3:.1f} ms "
@@ -267,7 +286,7 @@ def main() -> None:
         f"(PPM) and {replace_exr * 1e3:.1f} ms (EXR): the kernel frees the old file's pages"
     )
     print(
-        f"  share of the frame outside tracing: PPM {100 * (1 - frame_in_process / ppm_s):.0f} %, "
+        f"  share of the process outside tracing: PPM {100 * (1 - frame_in_process / ppm_s):.0f} %, "
         f"EXR {100 * (1 - frame_in_process / exr_s):.0f} %"
     )
     print(
@@ -302,6 +321,8 @@ def main() -> None:
                 "empty_process": empty_s,
                 "tracing_alone": trace_s[best],
                 "tracing_in_process": frame_in_process,
+                "streamed_frame_ppm": streamed_frames["ppm"],
+                "streamed_frame_exr": streamed_frames["exr"],
                 "write_ppm": write_ppm,
                 "write_exr": write_exr,
                 "replacing_ppm": replace_ppm,

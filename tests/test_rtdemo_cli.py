@@ -118,6 +118,35 @@ def test_ppm_rounding_option(rtdemo: str, tmp_path: Path) -> None:
     assert not (tmp_path / "bad.ppm").exists()
 
 
+def test_a_single_output_streamed_is_the_kept_frames_file(rtdemo: str, tmp_path: Path) -> None:
+    # One PPM or one uncompressed EXR is written band by band as it renders; --keep-frame
+    # writes the whole frame afterwards. The same PPM bytes, the same EXR pixels and header
+    # but for the time and the padding that keeps the header's size known (spaces only).
+    args = ("--mode", "classic", "--width", "83", "--height", "45")
+    for name in ("streamed", "kept"):
+        extra = ("--keep-frame",) if name == "kept" else ()
+        for out in (f"{name}.ppm", f"{name}.exr"):
+            option = "--ppm" if out.endswith(".ppm") else "-o"
+            proc = run([rtdemo, "render", CLASSIC, option, str(tmp_path / out), *args, *extra])
+            assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "streamed.ppm").read_bytes() == (tmp_path / "kept.ppm").read_bytes()
+    streamed, kept = read_image(tmp_path / "streamed.exr"), read_image(tmp_path / "kept.exr")
+    np.testing.assert_array_equal(streamed.rgb, kept.rgb)
+    for name in kept.aovs:
+        np.testing.assert_array_equal(streamed.aovs[name], kept.aovs[name])
+    padding = streamed.header.pop("rtval.padding")
+    assert padding.strip() == "" and "rtval.padding" not in kept.header
+    for h in (streamed.header, kept.header):
+        h.pop("rtval.render_seconds")
+    assert streamed.header == kept.header
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "kept.exr",
+        "kept.ppm",
+        "streamed.exr",
+        "streamed.ppm",
+    ]
+
+
 def test_threads_do_not_change_the_image(rtdemo: str, tmp_path: Path) -> None:
     a, b = (
         render_demo(rtdemo, CLASSIC, tmp_path / f"{t}.exr", "--threads", t, size=(96, 72))

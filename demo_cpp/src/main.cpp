@@ -112,8 +112,8 @@ outputs (at least one):
                          clamp to [0,1] first and write NaN as 0
   --exr-compression C    none (default: fastest, ~10 MB at 640x480), rle or zip (~4 MB)
   With one output, a PPM or an uncompressed EXR, the CPU tracer writes each band of rows to
-  the file as soon as it is traced (no frame is kept); the time in the header and on the
-  summary line then includes that writing. The EXR header holds rtval.padding (spaces) to
+  the file as soon as it is traced (no frame is kept; --keep-frame turns this off); the time
+  in the header and on the summary line then includes that writing. The EXR header holds rtval.padding (spaces) to
   keep its size known before the time and ray counts are.
 
 algorithm:
@@ -149,6 +149,8 @@ image:
   --frames N             render N frames and time them (default 1); cpu: the header's
                          render_seconds is the fastest frame (tracing alone, for benchmarks);
                          gl: the header keeps compile time and median frame time apart
+  --keep-frame           trace the whole frame, then write the outputs (no streaming: the
+                         summary's write time is then the writers' alone, for benchmarks)
   -q, --quiet            no summary line on stderr
 
 mistakes (--mistake; the catalogue of compare/judge/mistakes.json):
@@ -188,6 +190,7 @@ struct RenderArgs {
     bool gl = false;
     Engine engine = Engine::packet;
     bool shadows = true, reflection = true, refraction = true, quiet = false;
+    bool keep_frame = false;
 };
 
 // `view` shares these options but has no file outputs (output_required = false).
@@ -271,6 +274,8 @@ RenderArgs parse_render_args(const std::vector<std::string>& args, bool output_r
             out.frames = parse_int_arg(a, value(i), 1, 10000);
         else if (a == "-q" || a == "--quiet")
             out.quiet = true;
+        else if (a == "--keep-frame")
+            out.keep_frame = true;
         else if (!a.empty() && a[0] == '-')
             throw UsageError("unknown option '" + a + "' (see rtdemo render --help)");
         else if (out.scene_path.empty())
@@ -376,7 +381,8 @@ std::map<std::string, std::string> render_attributes(const RenderArgs& a, const 
 // One CPU frame with one output, a PPM or an uncompressed EXR: written band by band while it
 // renders (streamed_outputs.h).
 bool streams_output(const RenderArgs& a, const RenderSettings& settings) {
-    if (a.gl || a.frames != 1 || !renders_in_bands(settings) || !a.png.empty()) return false;
+    if (a.gl || a.keep_frame || a.frames != 1 || !renders_in_bands(settings) || !a.png.empty())
+        return false;
     if (!a.ppm.empty()) return a.exr.empty();
     return a.compression == ExrCompression::none;
 }
