@@ -4,6 +4,8 @@
 #include <atomic>
 #include <cstdint>
 #include <cstdlib>
+#include <memory>
+#include <new>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -109,43 +111,63 @@ struct SceneStore {
     }
 };
 
+// `arrays` arrays of `cap` entries each in one block, allocated uninitialised and grown without
+// keeping their contents: every queue is refilled from scratch at each bounce, and only the
+// pages a bounce writes are ever touched. (Zero-filled vectors of the worst case's size touched
+// all of it: about 400 page faults per thread and frame, bench/NOTES.md.)
+template <class T>
+class Block {
+public:
+    // Room for n entries per array; returns whether the arrays moved (their contents are lost).
+    bool reserve(std::size_t n, int arrays) {
+        if (n <= cap_) return false;
+        cap_ = (n * 3 / 2 + 15) / 16 * 16;  // each array starts on a 64-byte boundary
+        data_.reset(new (std::align_val_t{64}) T[cap_ * static_cast<std::size_t>(arrays)]);
+        return true;
+    }
+    T* array(int k) { return data_.get() + cap_ * static_cast<std::size_t>(k); }
+
+private:
+    struct Free {
+        void operator()(T* p) const { ::operator delete[](p, std::align_val_t{64}); }
+    };
+    std::unique_ptr<T[], Free> data_;
+    std::size_t cap_ = 0;
+};
+
 // One bounce's queue, owning its storage; grows between bounces, never inside a kernel.
 struct LevelStore {
-    std::vector<float> f[14];  // ox oy oz dx dy dz cr cg cb f w ir ig ib
-    std::vector<int> i[6];     // skip sph crefl crefr dmask smask (the masks: one per vector)
+    Block<float> f;  // ox oy oz dx dy dz cr cg cb f w ir ig ib
+    Block<int> i;    // skip sph crefl crefr dmask smask (the masks: one per vector)
     Level view;
 
     void reserve(int n) {
-        if (n <= static_cast<int>(f[0].size())) return;
-        const std::size_t cap = static_cast<std::size_t>(n) * 3 / 2;
-        for (auto& v : f) v.resize(cap);
-        for (auto& v : i) v.resize(cap);
-        view.ox = f[0].data(), view.oy = f[1].data(), view.oz = f[2].data();
-        view.dx = f[3].data(), view.dy = f[4].data(), view.dz = f[5].data();
-        view.cr = f[6].data(), view.cg = f[7].data(), view.cb = f[8].data();
-        view.f = f[9].data(), view.w = f[10].data();
-        view.ir = f[11].data(), view.ig = f[12].data(), view.ib = f[13].data();
-        view.skip = i[0].data(), view.sph = i[1].data();
-        view.crefl = i[2].data(), view.crefr = i[3].data();
-        view.dmask = i[4].data(), view.smask = i[5].data();
+        const std::size_t want = static_cast<std::size_t>(n);
+        if (!(f.reserve(want, 14) | i.reserve(want, 6))) return;
+        view.ox = f.array(0), view.oy = f.array(1), view.oz = f.array(2);
+        view.dx = f.array(3), view.dy = f.array(4), view.dz = f.array(5);
+        view.cr = f.array(6), view.cg = f.array(7), view.cb = f.array(8);
+        view.f = f.array(9), view.w = f.array(10);
+        view.ir = f.array(11), view.ig = f.array(12), view.ib = f.array(13);
+        view.skip = i.array(0), view.sph = i.array(1);
+        view.crefl = i.array(2), view.crefr = i.array(3);
+        view.dmask = i.array(4), view.smask = i.array(5);
     }
 };
 
 struct QueueStore {
-    std::vector<float> f[12];  // px py pz nx ny nz dx dy dz cr cg cb
-    std::vector<int> i[2];     // sph inside
+    Block<float> f;  // px py pz nx ny nz dx dy dz cr cg cb
+    Block<int> i;    // sph inside
     packet::HitQueue view;
 
     void reserve(int n) {
-        if (n <= static_cast<int>(f[0].size())) return;
-        const std::size_t cap = static_cast<std::size_t>(n) * 3 / 2;
-        for (auto& v : f) v.resize(cap);
-        for (auto& v : i) v.resize(cap);
-        view.px = f[0].data(), view.py = f[1].data(), view.pz = f[2].data();
-        view.nx = f[3].data(), view.ny = f[4].data(), view.nz = f[5].data();
-        view.dx = f[6].data(), view.dy = f[7].data(), view.dz = f[8].data();
-        view.cr = f[9].data(), view.cg = f[10].data(), view.cb = f[11].data();
-        view.sph = i[0].data(), view.inside = i[1].data();
+        const std::size_t want = static_cast<std::size_t>(n);
+        if (!(f.reserve(want, 12) | i.reserve(want, 2))) return;
+        view.px = f.array(0), view.py = f.array(1), view.pz = f.array(2);
+        view.nx = f.array(3), view.ny = f.array(4), view.nz = f.array(5);
+        view.dx = f.array(6), view.dy = f.array(7), view.dz = f.array(8);
+        view.cr = f.array(9), view.cg = f.array(10), view.cb = f.array(11);
+        view.sph = i.array(0), view.inside = i.array(1);
     }
 };
 
