@@ -196,7 +196,10 @@ inline void compress_store(int* dst, VM m, VI v) {
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst), _mm256_permutevar8x32_epi32(v.v, perm));
 }
 inline void rank_store(int* dst, VM m, int base) {
-    for (unsigned b = bits(m); b; b &= b - 1) dst[__builtin_ctz(b)] = base++;
+    const __m256i rank =
+        _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompress.expand[bits(m)]));
+    _mm256_maskstore_epi32(dst, _mm256_castps_si256(m.v),
+                           _mm256_add_epi32(rank, _mm256_set1_epi32(base)));
 }
 inline VF expand_load(const float* p, VM m) {
     const __m256i perm =
