@@ -121,8 +121,9 @@ public:
     // Room for n entries per array; returns whether the arrays moved (their contents are lost).
     bool reserve(std::size_t n, int arrays) {
         if (n <= cap_) return false;
-        cap_ = (n * 3 / 2 + 15) / 16 * 16;  // each array starts on a 64-byte boundary
-        data_.reset(new (std::align_val_t{64}) T[cap_ * static_cast<std::size_t>(arrays)]);
+        const std::size_t cap = (n * 3 / 2 + 15) / 16 * 16;  // arrays start 64 bytes apart
+        data_.reset(new (std::align_val_t{64}) T[cap * static_cast<std::size_t>(arrays)]);
+        cap_ = cap;
         return true;
     }
     T* array(int k) { return data_.get() + cap_ * static_cast<std::size_t>(k); }
