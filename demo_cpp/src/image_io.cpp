@@ -25,6 +25,17 @@ namespace {
 // NaN -> 0. Compares, not fmin/fmax: those were libm calls per channel (bench/NOTES.md).
 float clamp01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
 
+// The temporary file as a stdio stream (created new: AtomicFile::create).
+FILE* open_for_writing(AtomicFile& file) {
+    const int fd = file.create();
+    FILE* fp = ::fdopen(fd, "wb");
+    if (!fp) {
+        ::close(fd);
+        throw OutputError(file.path() + ": cannot open for writing");
+    }
+    return fp;
+}
+
 template <class Encode>
 std::vector<unsigned char> to_8bit(const RenderedImage& image, Encode encode) {
     std::vector<unsigned char> out(image.rgb.size());
@@ -121,8 +132,7 @@ void write_png_bytes(const std::string& path, int width, int height,
                      const std::vector<unsigned char>& bytes) {
     check_writable(path);
     AtomicFile file(path);
-    std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(file.temp().c_str(), "wb"), &std::fclose);
-    if (!fp) throw OutputError(path + ": cannot open for writing");
+    std::unique_ptr<FILE, int (*)(FILE*)> fp(open_for_writing(file), &std::fclose);
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
     png_infop info = png ? png_create_info_struct(png) : nullptr;
     if (!png || !info) {
@@ -153,8 +163,7 @@ void write_ppm(const std::string& path, const RenderedImage& image, PpmRounding 
     AtomicFile file(path);
     std::vector<unsigned char> bytes(image.rgb.size());
     linear8_encode(image.rgb.data(), bytes.size(), rounding, bytes.data());
-    std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(file.temp().c_str(), "wb"), &std::fclose);
-    if (!fp) throw OutputError(path + ": cannot open for writing");
+    std::unique_ptr<FILE, int (*)(FILE*)> fp(open_for_writing(file), &std::fclose);
     std::fprintf(fp.get(), "P6\n%d %d\n255\n", image.width, image.height);
     std::fwrite(bytes.data(), 1, bytes.size(), fp.get());
     if (std::fflush(fp.get()) != 0 || std::ferror(fp.get()))

@@ -1,7 +1,10 @@
 #include "output_file.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <system_error>
 #include <utility>
@@ -18,6 +21,15 @@ AtomicFile::~AtomicFile() {
         std::error_code ec;
         std::filesystem::remove(temp_, ec);
     }
+}
+
+int AtomicFile::create() {
+    const int fd =
+        ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
+    if (fd < 0)
+        throw OutputError(path_ + ": cannot create the temporary file " + temp_ + ": " +
+                          std::strerror(errno));
+    return fd;
 }
 
 void AtomicFile::commit() {

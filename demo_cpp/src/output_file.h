@@ -14,6 +14,9 @@ public:
     AtomicFile& operator=(const AtomicFile&) = delete;
     const std::string& path() const { return path_; }
     const std::string& temp() const { return temp_; }
+    // Creates the temporary file for writing: a new regular file, never anything already at its
+    // name (a FIFO planted there would block the writer). Throws OutputError naming the path.
+    int create();
     // Renames the temporary onto the target; throws OutputError (image_io.h) naming the path.
     void commit();
 

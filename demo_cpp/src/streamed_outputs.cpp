@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
+#include <string>
 #include <vector>
 
 #include "exr_scanlines.h"
@@ -15,8 +17,16 @@ namespace rt {
 
 BandFile::BandFile(const std::string& path) : file_(path) {
     check_writable(path);
-    // The temporary name is ours: never follow a link planted there.
-    fd_ = ::open(file_.temp().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0666);
+    // A file without a name in the target's folder, named only by finish(): a render that is
+    // interrupted or killed leaves nothing behind. Where the file system has no unnamed files,
+    // the temporary name from the start (then a killed render can leave that file).
+    std::string dir = std::filesystem::path(path).parent_path().string();
+    if (dir.empty()) dir = ".";
+    fd_ = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+    if (fd_ < 0 && (errno == EOPNOTSUPP || errno == EISDIR || errno == EINVAL)) {
+        fd_ = file_.create();
+        named_ = true;
+    }
     if (fd_ < 0) throw OutputError(path + ": cannot open for writing: " + std::strerror(errno));
 }
 
@@ -45,12 +55,20 @@ void BandFile::fail(int error) noexcept {
 }
 
 void BandFile::finish() {
+    if (error_ != 0)
+        throw OutputError(file_.path() + ": write failed: " + std::strerror(error_.load()));
+    if (!named_) {  // the unnamed file gets the temporary name (nothing may be there)
+        const std::string self = "/proc/self/fd/" + std::to_string(fd_);
+        if (::linkat(AT_FDCWD, self.c_str(), AT_FDCWD, file_.temp().c_str(), AT_SYMLINK_FOLLOW) !=
+            0)
+            throw OutputError(file_.path() + ": cannot name the written file " + file_.temp() +
+                              ": " + std::strerror(errno));
+        named_ = true;
+    }
     const int fd = fd_;
     fd_ = -1;
-    const bool closed = ::close(fd) == 0;
-    if (error_ != 0 || !closed)
-        throw OutputError(file_.path() +
-                          ": write failed: " + std::strerror(error_ != 0 ? error_.load() : errno));
+    if (::close(fd) != 0)
+        throw OutputError(file_.path() + ": write failed: " + std::strerror(errno));
     file_.commit();
 }
 

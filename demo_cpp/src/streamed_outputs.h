@@ -3,8 +3,8 @@
 // (pwrite) from the thread that traced it, so no frame is kept, no frame-sized memory is
 // zero-filled by the kernel, and the encoding runs on every render thread (issue 20). The
 // files are byte for byte what write_ppm and write_exr write, but for the EXR's padding
-// attribute (below). Like every writer, a stream writes a temporary file and finish() renames
-// it onto the target; one never finished leaves nothing behind.
+// attribute (below). A stream writes a file without a name (O_TMPFILE) that finish() names and
+// renames onto the target: one never finished, or a process killed, leaves nothing behind.
 #pragma once
 
 #include <atomic>
@@ -32,6 +32,7 @@ public:
 private:
     AtomicFile file_;
     int fd_ = -1;
+    bool named_ = false;         // the file has its temporary name (else it has none yet)
     std::atomic<int> error_{0};  // errno of the first failure
 };
 

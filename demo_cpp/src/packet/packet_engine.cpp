@@ -21,9 +21,8 @@ namespace {
 using packet::Kernels;
 using packet::Level;
 
-// Small tiles, traced band by band (kTileH full rows, handed out dynamically: both threads stay
-// busy to the end of the frame): a tile's queues (a few hundred rays per bounce) stay in the
-// first-level cache.
+// Small tiles handed out dynamically: both threads stay busy to the end of the frame, and a
+// tile's queues (a few hundred rays per bounce) stay in the first-level cache.
 constexpr int kTileW = 32;
 constexpr int kTileH = 8;
 
@@ -179,7 +178,6 @@ struct alignas(64) Worker {
     QueueStore diffuse, specular;
     std::vector<float> aov[5];  // id depth nx ny nz, per tile pixel
     std::vector<float> sum[3];
-    std::vector<float> band[4];  // rgb id depth normal of one band, for a BandSink
     packet::Counts counts;
 };
 
@@ -254,17 +252,18 @@ Isa isa_from_environment() {
 
 namespace {
 
-// Where a band's pixels go: the frame's planes at its rows, or a worker's band buffer that is
-// then handed to a BandSink. Row stride: the frame's width.
+// Where a band's pixels go (a band: kTileH full rows): the frame's planes at its rows, or a
+// buffer that is then handed to a BandSink. Row stride: the frame's width.
 struct BandTarget {
     float *rgb, *id, *depth, *normal;
 };
 
-// The frame in bands of kTileH full rows, handed out dynamically; each band is traced tile by
-// tile into `target(worker, y0)`, then `done(worker, y0, rows)` is called (from the workers).
+// The frame's tiles handed out dynamically, band after band. Before each tile of band b,
+// `target(b)` says where the band's rows go; the thread that finishes a band's last tile calls
+// `band_done(b)` (the other threads' stores to it are visible then).
 template <class Target, class Done>
-void render_bands(const Scene& scene, const RenderSettings& settings, Isa isa, RayCounts* rays,
-                  Target target, Done done) {
+void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, RayCounts* rays,
+                  Target target, Done band_done) {
     const Kernels& kern = kernels_for(isa);
     const int width = settings.width, height = settings.height;
     const SceneStore store(scene);
@@ -281,12 +280,16 @@ void render_bands(const Scene& scene, const RenderSettings& settings, Isa isa, R
     const float inv_samples = 1.0f / static_cast<float>(k * k);
     // Pixel centres: a run with --mistake half_pixel_offset renders with the scalar tracer.
     const float centre = 0.5f;
+    const int tiles_x = (width + kTileW - 1) / kTileW;
     const int bands = (height + kTileH - 1) / kTileH;
+    const int tiles = tiles_x * bands;
+    std::unique_ptr<std::atomic<int>[]> tiles_left(new std::atomic<int>[bands]);
+    for (int b = 0; b < bands; ++b) tiles_left[b] = tiles_x;
     const int lanes = kern.lanes;
     const int tile_cap = kTileW * kTileH + lanes;
     const bool aovs = settings.aovs;
 
-    alignas(64) std::atomic<int> next_band{0};
+    alignas(64) std::atomic<int> next_tile{0};
     std::vector<Worker> workers(static_cast<std::size_t>(settings.threads));
     auto work = [&](Worker& wk) {
         wk.levels.resize(static_cast<std::size_t>(opt.max_depth) + 2);
@@ -312,43 +315,41 @@ void render_bands(const Scene& scene, const RenderSettings& settings, Isa isa, R
             for (int d = last; d >= 0; --d)
                 kern.resolve(s, opt, wk.levels[d].view, wk.levels[d + 1].view);
         };
-        for (int band = next_band++; band < bands; band = next_band++) {
-            const int y0 = band * kTileH, th = std::min(kTileH, height - y0);
-            const BandTarget out = target(wk, y0);
-            for (int x0 = 0; x0 < width; x0 += kTileW) {
-                const int tw = std::min(kTileW, width - x0);
-                const int n = tw * th;
-                Level& l0 = wk.levels[0].view;
-                const float* cr = l0.cr;
-                const float* cg = l0.cg;
-                const float* cb = l0.cb;
-                if (k == 1) {
-                    kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
-                    trace_tile(aovs ? &aov : nullptr);
-                } else {
-                    kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
-                    kern.primary(s, opt, l0, aov);
-                    wk.counts.camera += static_cast<std::uint64_t>(n);
-                    for (auto& v : wk.sum) std::fill(v.begin(), v.begin() + n, 0.0f);
-                    for (int sy = 0; sy < k; ++sy)
-                        for (int sx = 0; sx < k; ++sx) {
-                            const float off_x = (sx + centre) / k, off_y = (sy + centre) / k;
-                            kern.camera(cam, x0, y0, tw, th, off_x, off_y, l0);
-                            trace_tile(nullptr);
-                            for (int i = 0; i < n; ++i) {
-                                wk.sum[0][i] += l0.cr[i];
-                                wk.sum[1][i] += l0.cg[i];
-                                wk.sum[2][i] += l0.cb[i];
-                            }
+        for (int tile = next_tile++; tile < tiles; tile = next_tile++) {
+            const int band = tile / tiles_x;
+            const int x0 = (tile % tiles_x) * kTileW, y0 = band * kTileH;
+            const int tw = std::min(kTileW, width - x0), th = std::min(kTileH, height - y0);
+            const int n = tw * th;
+            const BandTarget out = target(band);
+            Level& l0 = wk.levels[0].view;
+            const float* cr = l0.cr;
+            const float* cg = l0.cg;
+            const float* cb = l0.cb;
+            if (k == 1) {
+                kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
+                trace_tile(aovs ? &aov : nullptr);
+            } else {
+                kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
+                kern.primary(s, opt, l0, aov);
+                wk.counts.camera += static_cast<std::uint64_t>(n);
+                for (auto& v : wk.sum) std::fill(v.begin(), v.begin() + n, 0.0f);
+                for (int sy = 0; sy < k; ++sy)
+                    for (int sx = 0; sx < k; ++sx) {
+                        const float off_x = (sx + centre) / k, off_y = (sy + centre) / k;
+                        kern.camera(cam, x0, y0, tw, th, off_x, off_y, l0);
+                        trace_tile(nullptr);
+                        for (int i = 0; i < n; ++i) {
+                            wk.sum[0][i] += l0.cr[i];
+                            wk.sum[1][i] += l0.cg[i];
+                            wk.sum[2][i] += l0.cb[i];
                         }
-                    cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
-                }
-                kern.store_tile(cr, cg, cb, inv_samples, aovs ? &aov : nullptr, tw, th, width,
-                                out.rgb + 3 * x0, aovs ? out.id + x0 : nullptr,
-                                aovs ? out.depth + x0 : nullptr,
-                                aovs ? out.normal + 3 * x0 : nullptr);
+                    }
+                cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
             }
-            done(wk, y0, th);
+            kern.store_tile(cr, cg, cb, inv_samples, aovs ? &aov : nullptr, tw, th, width,
+                            out.rgb + 3 * x0, aovs ? out.id + x0 : nullptr,
+                            aovs ? out.depth + x0 : nullptr, aovs ? out.normal + 3 * x0 : nullptr);
+            if (tiles_left[band].fetch_sub(1) == 1) band_done(band);
         }
     };
     std::vector<std::thread> pool;
@@ -369,38 +370,67 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
     RenderedImage image = allocate_image(settings.width, settings.height, settings.aovs);
     const std::size_t width = static_cast<std::size_t>(settings.width);
     const bool aovs = settings.aovs;
-    auto rows_of_image = [&](Worker&, int y0) {
-        const std::size_t first = static_cast<std::size_t>(y0) * width;
+    auto rows_of_image = [&](int band) {
+        const std::size_t first = static_cast<std::size_t>(band) * kTileH * width;
         return BandTarget{image.rgb.data() + 3 * first, aovs ? image.id.data() + first : nullptr,
                           aovs ? image.depth.data() + first : nullptr,
                           aovs ? image.normal.data() + 3 * first : nullptr};
     };
-    render_bands(scene, settings, isa, rays, rows_of_image, [](Worker&, int, int) {});
+    render_tiles(scene, settings, isa, rays, rows_of_image, [](int) {});
     return image;
 }
 
+namespace {
+
+// Band buffers for a BandSink, reused in turn: band b is traced into slot b % count once band
+// b - count has been handed over. Tiles are handed out in order, so that band's tiles are all
+// being traced already (no thread waits for a band that waits itself); with two slots per
+// thread and two more, a thread waits only when another one stalls on a whole band's worth.
+class BandSlots {
+public:
+    BandSlots(int threads, std::size_t band_pixels, bool aovs)
+        : count_(2 * threads + 2),
+          pixels_(band_pixels),
+          aovs_(aovs),
+          next_band_(new std::atomic<int>[static_cast<std::size_t>(count_)]),
+          // Uninitialised: every pixel of a band is stored by its tiles before it is handed over.
+          planes_(new float[(aovs ? 8 : 3) * pixels_ * static_cast<std::size_t>(count_)]) {
+        for (int i = 0; i < count_; ++i) next_band_[i] = i;
+    }
+    // Band b's buffers, once its slot is free.
+    BandTarget acquire(int b) {
+        const int slot = b % count_;
+        for (int spins = 0; next_band_[slot].load(std::memory_order_acquire) != b; ++spins)
+            if (spins > 64) std::this_thread::yield();
+        float* p = planes_.get() + (aovs_ ? 8 : 3) * pixels_ * static_cast<std::size_t>(slot);
+        if (!aovs_) return {p, nullptr, nullptr, nullptr};
+        return {p, p + 3 * pixels_, p + 4 * pixels_, p + 5 * pixels_};
+    }
+    // Band b handed over: its slot goes to band b + count.
+    void release(int b) { next_band_[b % count_].store(b + count_, std::memory_order_release); }
+
+private:
+    int count_;
+    std::size_t pixels_;
+    bool aovs_;
+    std::unique_ptr<std::atomic<int>[]> next_band_;
+    std::unique_ptr<float[]> planes_;  // per slot: rgb, then id, depth, normal with AOVs
+};
+
+}  // namespace
+
 void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa, BandSink& sink,
                    RayCounts* rays) {
-    const std::size_t band = static_cast<std::size_t>(settings.width) * kTileH;
-    const bool aovs = settings.aovs;
-    // Each worker's own band buffers, reused band after band: they stay in its cache.
-    auto own_band = [&](Worker& wk, int) {
-        if (wk.band[0].empty()) {
-            wk.band[0].resize(3 * band);
-            if (aovs) {
-                wk.band[1].resize(band);
-                wk.band[2].resize(band);
-                wk.band[3].resize(3 * band);
-            }
-        }
-        return BandTarget{wk.band[0].data(), aovs ? wk.band[1].data() : nullptr,
-                          aovs ? wk.band[2].data() : nullptr, aovs ? wk.band[3].data() : nullptr};
+    const int width = settings.width, height = settings.height;
+    BandSlots slots(settings.threads, static_cast<std::size_t>(width) * kTileH, settings.aovs);
+    auto slot_of = [&](int band) { return slots.acquire(band); };
+    auto hand_over = [&](int band) {
+        const BandTarget b = slots.acquire(band);  // its own slot: no wait
+        const int y0 = band * kTileH;
+        sink.band(y0, std::min(kTileH, height - y0), width, b.rgb, b.id, b.depth, b.normal);
+        slots.release(band);
     };
-    auto hand_over = [&](Worker& wk, int y0, int rows) {
-        sink.band(y0, rows, settings.width, wk.band[0].data(), aovs ? wk.band[1].data() : nullptr,
-                  aovs ? wk.band[2].data() : nullptr, aovs ? wk.band[3].data() : nullptr);
-    };
-    render_bands(scene, settings, isa, rays, own_band, hand_over);
+    render_tiles(scene, settings, isa, rays, slot_of, hand_over);
 }
 
 }  // namespace rt
