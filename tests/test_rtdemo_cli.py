@@ -119,25 +119,32 @@ def test_ppm_rounding_option(rtdemo: str, tmp_path: Path) -> None:
 
 
 def test_a_single_output_streamed_is_the_kept_frames_file(rtdemo: str, tmp_path: Path) -> None:
-    # One PPM or one uncompressed EXR is written band by band as it renders; --keep-frame
-    # writes the whole frame afterwards. The same PPM bytes, the same EXR pixels and header
-    # but for the time and the padding that keeps the header's size known (spaces only).
-    args = ("--mode", "classic", "--width", "83", "--height", "45")
+    # One PPM or one uncompressed EXR is written band by band as it renders (the summary line
+    # says so); --keep-frame writes the whole frame afterwards. The same PPM bytes, the same EXR
+    # pixels and header but for the time; the padding that keeps the streamed header's size
+    # known is spaces and is not part of the header read_image gives. Full size, 2 threads:
+    # bands from both threads at once.
+    args = ("--mode", "classic", "--threads", "2")
     for name in ("streamed", "kept"):
         extra = ("--keep-frame",) if name == "kept" else ()
         for out in (f"{name}.ppm", f"{name}.exr"):
             option = "--ppm" if out.endswith(".ppm") else "-o"
             proc = run([rtdemo, "render", CLASSIC, option, str(tmp_path / out), *args, *extra])
             assert proc.returncode == 0, proc.stderr
+            assert ("(streamed during the frame)" in proc.stderr) == (name == "streamed")
     assert (tmp_path / "streamed.ppm").read_bytes() == (tmp_path / "kept.ppm").read_bytes()
     streamed, kept = read_image(tmp_path / "streamed.exr"), read_image(tmp_path / "kept.exr")
     np.testing.assert_array_equal(streamed.rgb, kept.rgb)
+    assert set(streamed.aovs) == set(kept.aovs) == {"id", "depth", "N.X", "N.Y", "N.Z"}
     for name in kept.aovs:
         np.testing.assert_array_equal(streamed.aovs[name], kept.aovs[name])
-    padding = streamed.header.pop("rtval.padding")
-    assert padding.strip() == "" and "rtval.padding" not in kept.header
+    raw = (tmp_path / "streamed.exr").read_bytes()
+    at = raw.index(b"rtval.padding\0string\0") + len(b"rtval.padding\0string\0")
+    size = int.from_bytes(raw[at : at + 4], "little")
+    assert size > 0 and raw[at + 4 : at + 4 + size] == b" " * size
+    assert "rtval.padding" not in streamed.header
     for h in (streamed.header, kept.header):
-        h.pop("rtval.render_seconds")
+        assert float(h.pop("rtval.render_seconds")) > 0
     assert streamed.header == kept.header
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "kept.exr",

@@ -158,7 +158,11 @@ def _read_exr(path: Path) -> Image:
 
     try:
         with OpenEXR.File(str(path), separate_channels=True) as f:
-            header = {k: v for k, v in f.header().items() if isinstance(v, str)}
+            # rtval.padding: the spaces rtdemo's streamed EXR keeps its header's size with,
+            # no information, so not carried into EXRs written from this image.
+            header = {
+                k: v for k, v in f.header().items() if isinstance(v, str) and k != "rtval.padding"
+            }
             channels = {name: np.asarray(c.pixels) for name, c in f.channels().items()}
     except Exception as e:  # the binding raises bare RuntimeError / OSError
         raise ImageError(f"{path}: cannot read EXR: {e}") from None

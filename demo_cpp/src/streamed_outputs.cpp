@@ -93,6 +93,7 @@ PpmStream::PpmStream(const std::string& path, int width, int height, PpmRounding
 
 void PpmStream::band(int y0, int rows, int width, const float* rgb, const float*, const float*,
                      const float*) noexcept {
+    const BandFile::Busy busy(file_);
     const std::size_t row = 3 * static_cast<std::size_t>(width);
     const std::size_t n = row * static_cast<std::size_t>(rows);
     try {
@@ -123,6 +124,7 @@ ExrStream::ExrStream(const std::string& path, int width, int height,
 
 void ExrStream::band(int y0, int rows, int width, const float* rgb, const float* id,
                      const float* depth, const float* normal) noexcept {
+    const BandFile::Busy busy(file_);
     const std::size_t block = exr_line_block_bytes(width);
     const std::size_t first = header_room_ + 8 * static_cast<std::size_t>(height_);
     try {
@@ -139,8 +141,9 @@ void ExrStream::finish(const std::map<std::string, std::string>& attributes) {
     const std::size_t bare =
         exr_header(width_, height_, padded(attributes, 0), ExrCompression::none).size();
     if (bare > header_room_)
-        throw OutputError("EXR header: the final attributes need " + std::to_string(bare) +
-                          " bytes, " + std::to_string(header_room_) + " were kept");
+        throw OutputError(file_.path() + ": the EXR header's final attributes need " +
+                          std::to_string(bare) + " bytes, " + std::to_string(header_room_) +
+                          " were kept");
     std::vector<char> head =
         exr_header(width_, height_, padded(attributes, header_room_ - bare), ExrCompression::none);
     const std::size_t block = exr_line_block_bytes(width_);

@@ -8,6 +8,8 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
+#include <cstdint>
 #include <map>
 #include <string>
 
@@ -26,6 +28,23 @@ public:
     BandFile& operator=(const BandFile&) = delete;
     void write_at(const void* data, std::size_t n, std::size_t offset) noexcept;
     void fail(int error) noexcept;  // a failure other than a write (kept unless one was)
+    const std::string& path() const { return file_.path(); }
+    // Times a band's encoding and writing (construct at the start of BandSink::band).
+    class Busy {
+    public:
+        explicit Busy(BandFile& file) : file_(file), start_(std::chrono::steady_clock::now()) {}
+        ~Busy() {
+            file_.busy_ns_ += std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                  std::chrono::steady_clock::now() - start_)
+                                  .count();
+        }
+
+    private:
+        BandFile& file_;
+        std::chrono::steady_clock::time_point start_;
+    };
+    // The render threads' time in encoding and writing bands, summed over the threads.
+    double busy_seconds() const { return static_cast<double>(busy_ns_.load()) * 1e-9; }
     // Throws OutputError naming the path if any write failed; else closes and renames.
     void finish();
 
@@ -34,6 +53,7 @@ private:
     int fd_ = -1;
     bool named_ = false;         // the file has its temporary name (else it has none yet)
     std::atomic<int> error_{0};  // errno of the first failure
+    std::atomic<std::int64_t> busy_ns_{0};
 };
 
 class PpmStream final : public BandSink {
@@ -42,6 +62,7 @@ public:
     void band(int y0, int rows, int width, const float* rgb, const float* id, const float* depth,
               const float* normal) noexcept override;
     void finish() { file_.finish(); }
+    double write_seconds() const { return file_.busy_seconds(); }  // summed over the threads
 
 private:
     BandFile file_;
@@ -62,6 +83,7 @@ public:
               const float* normal) noexcept override;
     // Writes the header with `attributes` and the line offset table, then renames the file.
     void finish(const std::map<std::string, std::string>& attributes);
+    double write_seconds() const { return file_.busy_seconds(); }  // summed over the threads
 
 private:
     BandFile file_;
