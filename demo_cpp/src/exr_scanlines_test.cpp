@@ -20,27 +20,14 @@
 #include <string>
 #include <vector>
 
+#include "exr_test_support.h"
+
 namespace rt {
 namespace {
 namespace fs = std::filesystem;
-
-RenderedImage sample_image(int w, int h) {
-    RenderedImage img(w, h);
-    // Distinct values per channel and pixel, and the awkward ones the demo can produce.
-    for (std::size_t i = 0; i < img.rgb.size(); ++i)
-        img.rgb[i] = 0.001f * static_cast<float>(i) - 3.0f;
-    for (std::size_t i = 0; i < img.normal.size(); ++i)
-        img.normal[i] = -0.5f + 1e-4f * static_cast<float>(i);
-    for (std::size_t i = 0; i < img.id.size(); ++i) {
-        img.id[i] = static_cast<float>(static_cast<int>(i % 7) - 1);
-        img.depth[i] = 0.25f * static_cast<float>(i);
-    }
-    img.rgb[0] = std::numeric_limits<float>::quiet_NaN();
-    img.rgb[4] = std::numeric_limits<float>::infinity();
-    img.rgb[5] = -0.0f;
-    img.normal[2] = 1e-42f;  // denormal
-    return img;
-}
+using test::expect_pixels;
+using test::read_channel;
+using test::sample_image;
 
 float random_float(std::mt19937& rng) {
     const std::uint32_t bits = static_cast<std::uint32_t>(rng());
@@ -85,37 +72,6 @@ RenderedImage random_image(int w, int h) {
     for (auto* plane : {&img.rgb, &img.normal, &img.id, &img.depth})
         for (float& v : *plane) v = random_float(rng);
     return img;
-}
-
-std::vector<float> read_channel(Imf::InputFile& in, const char* name, int w, int h) {
-    std::vector<float> out(static_cast<std::size_t>(w) * h);
-    Imf::FrameBuffer fb;
-    fb.insert(name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(out.data()), sizeof(float),
-                               sizeof(float) * static_cast<std::size_t>(w)));
-    in.setFrameBuffer(fb);
-    in.readPixels(0, h - 1);
-    return out;
-}
-
-// Every channel of the file read back by OpenEXR, compared with the image bit for bit.
-void expect_pixels(Imf::InputFile& in, const RenderedImage& img) {
-    struct Expect {
-        const char* name;
-        const Plane* plane;
-        int stride, offset;
-    };
-    const Expect expected[] = {{"R", &img.rgb, 3, 0},      {"G", &img.rgb, 3, 1},
-                               {"B", &img.rgb, 3, 2},      {"N.X", &img.normal, 3, 0},
-                               {"N.Y", &img.normal, 3, 1}, {"N.Z", &img.normal, 3, 2},
-                               {"id", &img.id, 1, 0},      {"depth", &img.depth, 1, 0}};
-    for (const Expect& e : expected) {
-        const std::vector<float> got = read_channel(in, e.name, img.width, img.height);
-        for (std::size_t i = 0; i < got.size(); ++i) {
-            const float want = (*e.plane)[e.stride * i + e.offset];
-            ASSERT_EQ(std::memcmp(&got[i], &want, sizeof(float)), 0)
-                << e.name << "[" << i << "]: " << got[i] << " != " << want;
-        }
-    }
 }
 
 struct CompressionCase {

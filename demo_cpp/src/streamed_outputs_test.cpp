@@ -21,27 +21,15 @@
 #include <vector>
 
 #include "cpu_renderer.h"
+#include "exr_test_support.h"
 #include "image_io.h"
 #include "scene_loader.h"
 
 namespace rt {
 namespace {
 namespace fs = std::filesystem;
-
-RenderedImage ramp_image(int w, int h) {
-    RenderedImage img(w, h);
-    for (std::size_t i = 0; i < img.rgb.size(); ++i)
-        img.rgb[i] = 0.0013f * static_cast<float>(i % 997) - 0.2f;
-    for (std::size_t i = 0; i < img.normal.size(); ++i)
-        img.normal[i] = -0.5f + 1e-4f * static_cast<float>(i);
-    for (std::size_t i = 0; i < img.id.size(); ++i) {
-        img.id[i] = static_cast<float>(static_cast<int>(i % 7) - 1);
-        img.depth[i] = 0.25f * static_cast<float>(i);
-    }
-    img.rgb[0] = std::numeric_limits<float>::quiet_NaN();
-    img.rgb[4] = std::numeric_limits<float>::infinity();
-    return img;
-}
+using test::expect_pixels;
+using test::sample_image;
 
 // Hands `img` to `sink` in bands of `rows` rows, last band first, from two threads.
 void feed(const RenderedImage& img, int rows, BandSink& sink) {
@@ -74,7 +62,7 @@ fs::path temp_path(const std::string& name) {
 }
 
 TEST(StreamedOutputs, PpmIsWritePpmsFileInBothRoundings) {
-    const RenderedImage img = ramp_image(37, 21);
+    const RenderedImage img = sample_image(37, 21);
     for (PpmRounding rounding : {PpmRounding::truncate, PpmRounding::round}) {
         const fs::path whole = temp_path("rtdemo_stream_whole.ppm");
         const fs::path streamed = temp_path("rtdemo_stream_bands.ppm");
@@ -88,39 +76,9 @@ TEST(StreamedOutputs, PpmIsWritePpmsFileInBothRoundings) {
     }
 }
 
-std::vector<float> channel(Imf::InputFile& in, const char* name, int w, int h) {
-    std::vector<float> out(static_cast<std::size_t>(w) * h);
-    Imf::FrameBuffer fb;
-    fb.insert(name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(out.data()), sizeof(float),
-                               sizeof(float) * static_cast<std::size_t>(w)));
-    in.setFrameBuffer(fb);
-    in.readPixels(0, h - 1);
-    return out;
-}
-
-bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
-
-// Every channel of the file, bit for bit against the frame's planes.
-void expect_channels(Imf::InputFile& in, const RenderedImage& img) {
-    const struct {
-        const char* name;
-        const Plane* plane;
-        int stride, offset;
-    } channels[] = {{"R", &img.rgb, 3, 0},       {"G", &img.rgb, 3, 1},
-                    {"B", &img.rgb, 3, 2},       {"id", &img.id, 1, 0},
-                    {"depth", &img.depth, 1, 0}, {"N.X", &img.normal, 3, 0},
-                    {"N.Y", &img.normal, 3, 1},  {"N.Z", &img.normal, 3, 2}};
-    for (const auto& c : channels) {
-        const std::vector<float> got = channel(in, c.name, img.width, img.height);
-        for (std::size_t i = 0; i < got.size(); ++i)
-            ASSERT_TRUE(same_bits(got[i], (*c.plane)[c.stride * i + c.offset]))
-                << c.name << " pixel " << i;
-    }
-}
-
 TEST(StreamedOutputs, ExrReadsBackBitForBitWithTheFinalAttributes) {
     const int w = 37, h = 21;
-    const RenderedImage img = ramp_image(w, h);
+    const RenderedImage img = sample_image(w, h);
     const fs::path path = temp_path("rtdemo_stream.exr");
     ExrStream stream(path.string(), w, h, {{"rtval.render_seconds", "0"}, {"rtval.scene", "s"}});
     feed(img, 5, stream);
@@ -134,7 +92,7 @@ TEST(StreamedOutputs, ExrReadsBackBitForBitWithTheFinalAttributes) {
     const std::string padding =
         in.header().typedAttribute<Imf::StringAttribute>("rtval.padding").value();
     EXPECT_EQ(padding.find_first_not_of(' '), std::string::npos);
-    expect_channels(in, img);
+    expect_pixels(in, img);
     fs::remove(path);
 }
 
@@ -151,7 +109,7 @@ TEST(StreamedOutputs, TheHeaderRoomHoldsTheLongestFinalValues) {
     for (const char* key : {"rtval.rays_camera", "rtval.rays_secondary", "rtval.rays_shadow"})
         final_attributes[key] = "18446744073709551615";
     ExrStream stream(path.string(), 4, 4, provisional);
-    feed(ramp_image(4, 4), 8, stream);
+    feed(sample_image(4, 4), 8, stream);
     stream.finish(final_attributes);
     Imf::InputFile in(path.c_str());
     EXPECT_EQ(in.header().typedAttribute<Imf::StringAttribute>("rtval.rays_shadow").value(),
@@ -164,7 +122,7 @@ TEST(StreamedOutputs, AHeaderOutgrowingItsRoomIsAnErrorAndLeavesNoFile) {
     fs::remove(path);
     {
         ExrStream stream(path.string(), 4, 4, {{"rtval.note", "x"}});
-        feed(ramp_image(4, 4), 8, stream);
+        feed(sample_image(4, 4), 8, stream);
         EXPECT_THROW(stream.finish({{"rtval.note", std::string(ExrStream::kSlack + 2, 'x')}}),
                      OutputError);
     }
@@ -179,7 +137,7 @@ TEST(StreamedOutputs, AnUnfinishedStreamLeavesNoFileAndABadPathIsNamed) {
     fs::remove(path);
     {
         PpmStream stream(path.string(), 4, 4, PpmRounding::truncate);
-        feed(ramp_image(4, 4), 2, stream);
+        feed(sample_image(4, 4), 2, stream);
     }
     EXPECT_FALSE(fs::exists(path));
     try {
@@ -218,7 +176,7 @@ TEST(StreamedOutputs, ThePacketEnginesBandsMakeTheSameFiles) {
     render_cpu(scene, settings, exr_stream);
     exr_stream.finish({});
     Imf::InputFile in(exr.c_str());
-    expect_channels(in, frame);
+    expect_pixels(in, frame);
     for (const fs::path& p : {whole, streamed, exr}) fs::remove(p);
 }
 
