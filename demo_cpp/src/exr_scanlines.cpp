@@ -265,7 +265,7 @@ char* exr_line_blocks(char* out, int y0, int rows, int w, const float* rgb, cons
 
 void write_exr_scanlines(const std::string& path, const RenderedImage& image,
                          const std::map<std::string, std::string>& attributes,
-                         ExrCompression compression) {
+                         ExrCompression compression, int threads) {
     const int w = image.width, h = image.height;
     const std::size_t pixels = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
     if (image.rgb.size() != 3 * pixels || image.normal.size() != 3 * pixels ||
@@ -356,8 +356,8 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
             failed = true;
         }
     };
-    const int threads =
-        std::min(blocks, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    threads = std::min(blocks, threads);
     std::vector<std::thread> helpers;
     helpers.reserve(static_cast<std::size_t>(threads));
     try {

@@ -29,11 +29,11 @@ char* exr_line_blocks(char* out, int y0, int rows, int w, const float* rgb, cons
 
 // Writes `image` to `path` (created or replaced; only ever a regular file): float32 channels B,
 // G, N.X, N.Y, N.Z, R, depth, id (stored in name order, as OpenEXR does) and `attributes` as
-// string attributes. Compressed blocks are compressed on every core (zlib level 1 for ZIP);
-// a block that does not shrink is stored raw, as the format allows. Throws std::runtime_error
-// naming the path when the file cannot be written.
+// string attributes. Compressed blocks are compressed on `threads` threads (0: every core;
+// zlib level 1 for ZIP); a block that does not shrink is stored raw, as the format allows.
+// Throws std::runtime_error naming the path when the file cannot be written.
 void write_exr_scanlines(const std::string& path, const RenderedImage& image,
                          const std::map<std::string, std::string>& attributes,
-                         ExrCompression compression = ExrCompression::none);
+                         ExrCompression compression = ExrCompression::none, int threads = 0);
 
 }  // namespace rt

@@ -10,11 +10,14 @@
 #include <ImfStringAttribute.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <random>
 #include <string>
@@ -149,6 +152,23 @@ TEST_P(ExrScanlinesCompression, BlocksThatDoNotShrinkAreStoredRaw) {
     }
     fs::remove(path);
     fs::remove(path.string() + ".none");
+}
+
+// The compressed file does not depend on how many threads compressed its blocks.
+TEST(ExrScanlines, OneThreadOrManyWriteTheSameBytes) {
+    const RenderedImage img = mixed_image(37, 21);
+    std::string bytes[2];
+    for (int threads : {1, 3}) {
+        const fs::path path = fs::temp_directory_path() /
+                              ("rtdemo_exr_threads_" + std::to_string(::getpid()) + ".exr");
+        write_exr_scanlines(path.string(), img, {}, ExrCompression::zip, threads);
+        std::ifstream in(path, std::ios::binary);
+        bytes[threads == 1 ? 0 : 1].assign(std::istreambuf_iterator<char>(in),
+                                           std::istreambuf_iterator<char>());
+        fs::remove(path);
+    }
+    EXPECT_FALSE(bytes[0].empty());
+    EXPECT_EQ(bytes[0], bytes[1]);
 }
 
 TEST(ExrScanlines, UnwritablePathNamesTheFile) {

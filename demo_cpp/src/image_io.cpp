@@ -113,11 +113,12 @@ ExrCompression parse_exr_compression(const std::string& text) {
 }
 
 void write_exr(const std::string& path, const RenderedImage& image,
-               const std::map<std::string, std::string>& attributes, ExrCompression compression) {
+               const std::map<std::string, std::string>& attributes, ExrCompression compression,
+               int threads) {
     check_writable(path);
     AtomicFile file(path);
     try {  // written directly, compressed or not (issue 20; no OpenEXR at start-up)
-        write_exr_scanlines(file.temp(), image, attributes, compression);
+        write_exr_scanlines(file.temp(), image, attributes, compression, threads);
     } catch (const std::exception& e) {
         throw OutputError(path + ": cannot write EXR: " + e.what());
     }

@@ -140,7 +140,8 @@ algorithm:
 
 image:
   --width W, --height H  override the camera's size, 1-16384 each (at most 64 Mpixels)
-  --threads N            CPU worker threads (default: all cores)
+  --threads N            CPU worker threads, tracing and compressing the EXR (default: all
+                         cores)
   --engine packet|scalar cpu: rays in SIMD lanes (default; AVX-512, AVX2 or one lane, as the
                          CPU allows; RTDEMO_ISA=scalar|avx2|avx512 forces one) or the
                          one-ray-at-a-time reference tracer; both give the same image
@@ -458,7 +459,7 @@ int run_render(const std::vector<std::string>& args) {
     } else if (ppm_stream) {
         ppm_stream->finish();
     } else {
-        if (!a.exr.empty()) write_exr(a.exr, image, attributes, a.compression);
+        if (!a.exr.empty()) write_exr(a.exr, image, attributes, a.compression, settings.threads);
         if (!a.png.empty()) write_png(a.png, image);
         if (!a.ppm.empty()) write_ppm(a.ppm, image, a.ppm_rounding);
     }
