@@ -409,11 +409,11 @@ int run_render(const std::vector<std::string>& args) {
     if (a.gl) {
         image = render_gl(scene, settings, a.frames, &gl);
         seconds = gl.frame_seconds;
-    } else
+    }
 #else
     if (a.gl) exec_gl_sibling();  // after the checks above: a bad command fails here alike
 #endif
-        if (streams_output(a, settings)) {
+    if (streams_output(a, settings)) {
         BandSink* sink = nullptr;
         if (!a.ppm.empty()) {
             ppm_stream =
@@ -432,7 +432,7 @@ int run_render(const std::vector<std::string>& args) {
         streamed_write = (ppm_stream ? ppm_stream->write_seconds() : exr_stream->write_seconds()) /
                          settings.threads;
         seconds = std::max(0.0, seconds - streamed_write);
-    } else {
+    } else if (!a.gl) {
         for (int f = 0; f < a.frames; ++f) {
             const auto start = std::chrono::steady_clock::now();
             image = render_cpu(scene, settings, &rays);

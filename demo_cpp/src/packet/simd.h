@@ -47,7 +47,6 @@ inline VI iload(const int* p) { return {*p}; }
 inline void istore(int* p, VI a) { *p = a.v; }
 inline VI igather(const int* base, VI i) { return {base[i.v]}; }
 inline VI iota() { return {0}; }
-inline VI iadd(VI a, VI b) { return {a.v + b.v}; }
 inline VI iand(VI a, VI b) { return {a.v & b.v}; }
 inline VM ieq(VI a, VI b) { return a.v == b.v; }
 inline VM igt(VI a, VI b) { return a.v > b.v; }
@@ -71,10 +70,6 @@ inline void compress_store(int* dst, VM m, VI v) {
 // dst[lane] = base + (set lanes of m below lane), for each set lane.
 inline void rank_store(int* dst, VM m, int base) {
     if (m) *dst = base;
-}
-// base[idx[lane]] = v[lane] for the lanes of m (indices distinct).
-inline void scatter(float* base, VI idx, VF v, VM m) {
-    if (m) base[idx.v] = v.v;
 }
 // The lanes of m take p[0], p[1], ... in order (the inverse of compress_store); others 0.
 inline VF expand_load(const float* p, VM m) { return {m ? *p : 0.0f}; }
@@ -151,7 +146,6 @@ inline VI iload(const int* p) { return {_mm256_loadu_si256(reinterpret_cast<cons
 inline void istore(int* p, VI a) { _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), a.v); }
 inline VI igather(const int* base, VI i) { return {_mm256_i32gather_epi32(base, i.v, 4)}; }
 inline VI iota() { return {_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)}; }
-inline VI iadd(VI a, VI b) { return {_mm256_add_epi32(a.v, b.v)}; }
 inline VI iand(VI a, VI b) { return {_mm256_and_si256(a.v, b.v)}; }
 inline VM ieq(VI a, VI b) { return {_mm256_castsi256_ps(_mm256_cmpeq_epi32(a.v, b.v))}; }
 inline VM igt(VI a, VI b) { return {_mm256_castsi256_ps(_mm256_cmpgt_epi32(a.v, b.v))}; }
@@ -211,13 +205,6 @@ inline VM from_bits(unsigned b) {
     const __m256i lane = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
     return {_mm256_castsi256_ps(
         _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(b)), lane), lane))};
-}
-inline void scatter(float* base, VI idx, VF v, VM m) {
-    alignas(32) float val[8];
-    alignas(32) int at[8];
-    _mm256_store_ps(val, v.v);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(at), idx.v);
-    for (unsigned b = bits(m); b; b &= b - 1) base[at[__builtin_ctz(b)]] = val[__builtin_ctz(b)];
 }
 
 // Four lanes of intersect_robust in double (see the scalar version above for the steps).
@@ -316,7 +303,6 @@ inline VI igather(const int* base, VI i) { return {_mm512_i32gather_epi32(i.v, b
 inline VI iota() {
     return {_mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)};
 }
-inline VI iadd(VI a, VI b) { return {_mm512_add_epi32(a.v, b.v)}; }
 inline VI iand(VI a, VI b) { return {_mm512_and_si512(a.v, b.v)}; }
 inline VM ieq(VI a, VI b) { return _mm512_cmpeq_epi32_mask(a.v, b.v); }
 inline VM igt(VI a, VI b) { return _mm512_cmpgt_epi32_mask(a.v, b.v); }
@@ -340,9 +326,6 @@ inline void compress_store(int* dst, VM m, VI v) {
 inline void rank_store(int* dst, VM m, int base) {
     _mm512_mask_storeu_epi32(
         dst, m, _mm512_maskz_expand_epi32(m, _mm512_add_epi32(iota().v, _mm512_set1_epi32(base))));
-}
-inline void scatter(float* base, VI idx, VF v, VM m) {
-    _mm512_mask_i32scatter_ps(base, m, idx.v, v.v, 4);
 }
 inline VF expand_load(const float* p, VM m) { return {_mm512_maskz_expandloadu_ps(m, p)}; }
 inline VF expand_merge(VF src, VM m, const float* p) {
