@@ -159,13 +159,18 @@ void write_png_bytes(const std::string& path, int width, int height,
     file.commit();
 }
 
+std::string ppm_header(int width, int height) {
+    return "P6\n" + std::to_string(width) + " " + std::to_string(height) + "\n255\n";
+}
+
 void write_ppm(const std::string& path, const RenderedImage& image, PpmRounding rounding) {
     check_writable(path);
     AtomicFile file(path);
     std::vector<unsigned char> bytes(image.rgb.size());
     linear8_encode(image.rgb.data(), bytes.size(), rounding, bytes.data());
     std::unique_ptr<FILE, int (*)(FILE*)> fp(open_for_writing(file), &std::fclose);
-    std::fprintf(fp.get(), "P6\n%d %d\n255\n", image.width, image.height);
+    const std::string header = ppm_header(image.width, image.height);
+    std::fwrite(header.data(), 1, header.size(), fp.get());
     std::fwrite(bytes.data(), 1, bytes.size(), fp.get());
     if (std::fflush(fp.get()) != 0 || std::ferror(fp.get()))
         throw OutputError(path + ": write failed");

@@ -42,6 +42,8 @@ enum class PpmRounding { truncate, round };
 // "truncate" | "round"; throws std::invalid_argument naming the bad value.
 PpmRounding parse_ppm_rounding(const std::string& text);
 
+// A binary PPM's header ("P6", size, 255), the bytes before its pixels.
+std::string ppm_header(int width, int height);
 // The paper's own format: binary P6, linear, clamped, 8-bit (x * 255, truncated by default
 // as the paper's program writes it). NaN -> 0.
 void write_ppm(const std::string& path, const RenderedImage& image,

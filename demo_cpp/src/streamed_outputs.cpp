@@ -5,7 +5,6 @@
 
 #include <cerrno>
 #include <cstdint>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <string>
@@ -85,10 +84,9 @@ std::vector<char>& thread_scratch(std::size_t n) {
 
 PpmStream::PpmStream(const std::string& path, int width, int height, PpmRounding rounding)
     : file_(path), rounding_(rounding) {
-    char head[64];
-    const int n = std::snprintf(head, sizeof head, "P6\n%d %d\n255\n", width, height);
-    header_ = static_cast<std::size_t>(n);
-    file_.write_at(head, header_, 0);
+    const std::string head = ppm_header(width, height);
+    header_ = head.size();
+    file_.write_at(head.data(), header_, 0);
 }
 
 void PpmStream::band(int y0, int rows, int width, const float* rgb, const float*, const float*,
