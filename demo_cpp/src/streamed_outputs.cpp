@@ -33,6 +33,15 @@ BandFile::~BandFile() {
     if (fd_ >= 0) ::close(fd_);
 }
 
+void BandFile::allocate(std::size_t size) {
+    int r;
+    while ((r = ::fallocate(fd_, 0, 0, static_cast<off_t>(size))) != 0 && errno == EINTR) {
+    }
+    if (r != 0 && errno != EOPNOTSUPP && errno != ENOSYS)
+        throw OutputError(file_.path() + ": cannot write " + std::to_string(size) +
+                          " bytes: " + std::strerror(errno));
+}
+
 void BandFile::write_at(const void* data, std::size_t n, std::size_t offset) noexcept {
     const char* p = static_cast<const char*>(data);
     while (n > 0 && error_.load(std::memory_order_relaxed) == 0) {
@@ -86,6 +95,8 @@ PpmStream::PpmStream(const std::string& path, int width, int height, PpmRounding
     : file_(path), rounding_(rounding) {
     const std::string head = ppm_header(width, height);
     header_ = head.size();
+    file_.allocate(header_ +
+                   3 * static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
     file_.write_at(head.data(), header_, 0);
 }
 
@@ -118,6 +129,8 @@ ExrStream::ExrStream(const std::string& path, int width, int height,
     : file_(path), width_(width), height_(height) {
     header_room_ =
         exr_header(width, height, padded(provisional, 0), ExrCompression::none).size() + kSlack;
+    file_.allocate(header_room_ +
+                   (8 + exr_line_block_bytes(width)) * static_cast<std::size_t>(height));
 }
 
 void ExrStream::band(int y0, int rows, int width, const float* rgb, const float* id,

@@ -46,13 +46,14 @@ struct CameraArrays {
 // (reflected * f + refracted * w) * surface colour, the scalar tracer's exact expression.
 // Diffuse hits and inner nodes are packed in the order of their rays (a compress per vector);
 // `dmask` and `smask` keep each vector's lanes that went to either, so the packed colours come
-// back by the inverse expand instead of a scatter by ray index.
+// back by the inverse expand instead of a scatter by ray index, both in one pass (resolve).
 // Capacities: counts rounded up by one vector, so kernels read and write whole vectors.
 struct Level {
     int count = 0;
     float *ox, *oy, *oz, *dx, *dy, *dz;
     int* skip;            // sphere the ray cannot hit again, or -1
     float *cr, *cg, *cb;  // the node's colour
+    float *dr, *dg, *db;  // diffuse hits' colours, packed (resolve() writes them to cr, cg, cb)
     int *dmask, *smask;   // per vector: lanes queued as diffuse hits, lanes that are inner nodes
     int inner = 0;        // inner nodes, packed:
     float *f, *w;         //   Fresnel weight of the reflected child, weight of the refracted one
@@ -67,7 +68,6 @@ struct HitQueue {
     int count = 0;
     float *px, *py, *pz, *nx, *ny, *nz, *dx, *dy, *dz;
     int *sph, *inside;
-    float *cr, *cg, *cb;  // a diffuse hit's colour
 };
 
 // What the camera ray saw (the AOVs), per ray of level 0; null when not wanted.
@@ -93,7 +93,7 @@ struct Kernels {
                   HitQueue& diffuse, HitQueue& specular, Counts&, const Aov* aov);
     // Only the AOVs of `cur` (the pixel-centre rays when spp > 1).
     void (*primary)(const SceneArrays&, const Options&, const Level& cur, const Aov& aov);
-    // Inner nodes of `cur` from the colours of `next`.
+    // Inner nodes of `cur` from the colours of `next`; then every node's colour in its place.
     void (*resolve)(const SceneArrays&, const Options&, Level& cur, const Level& next);
     // A finished tw x th tile into the frame (row stride `width` pixels): rgb interleaved and
     // scaled by `scale`; the AOVs too when `aov` is given.

@@ -137,18 +137,19 @@ private:
 
 // One bounce's queue, owning its storage; grows between bounces, never inside a kernel.
 struct LevelStore {
-    Block<float> f;  // ox oy oz dx dy dz cr cg cb f w ir ig ib
+    Block<float> f;  // ox oy oz dx dy dz cr cg cb f w ir ig ib dr dg db
     Block<int> i;    // skip sph crefl crefr dmask smask (the masks: one per vector)
     Level view;
 
     void reserve(int n) {
         const std::size_t want = static_cast<std::size_t>(n);
-        if (!(f.reserve(want, 14) | i.reserve(want, 6))) return;
+        if (!(f.reserve(want, 17) | i.reserve(want, 6))) return;
         view.ox = f.array(0), view.oy = f.array(1), view.oz = f.array(2);
         view.dx = f.array(3), view.dy = f.array(4), view.dz = f.array(5);
         view.cr = f.array(6), view.cg = f.array(7), view.cb = f.array(8);
         view.f = f.array(9), view.w = f.array(10);
         view.ir = f.array(11), view.ig = f.array(12), view.ib = f.array(13);
+        view.dr = f.array(14), view.dg = f.array(15), view.db = f.array(16);
         view.skip = i.array(0), view.sph = i.array(1);
         view.crefl = i.array(2), view.crefr = i.array(3);
         view.dmask = i.array(4), view.smask = i.array(5);
@@ -156,17 +157,16 @@ struct LevelStore {
 };
 
 struct QueueStore {
-    Block<float> f;  // px py pz nx ny nz dx dy dz cr cg cb
+    Block<float> f;  // px py pz nx ny nz dx dy dz
     Block<int> i;    // sph inside
     packet::HitQueue view;
 
     void reserve(int n) {
         const std::size_t want = static_cast<std::size_t>(n);
-        if (!(f.reserve(want, 12) | i.reserve(want, 2))) return;
+        if (!(f.reserve(want, 9) | i.reserve(want, 2))) return;
         view.px = f.array(0), view.py = f.array(1), view.pz = f.array(2);
         view.nx = f.array(3), view.ny = f.array(4), view.nz = f.array(5);
         view.dx = f.array(6), view.dy = f.array(7), view.dz = f.array(8);
-        view.cr = f.array(9), view.cg = f.array(10), view.cb = f.array(11);
         view.sph = i.array(0), view.inside = i.array(1);
     }
 };

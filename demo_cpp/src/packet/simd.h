@@ -51,6 +51,7 @@ inline VI iand(VI a, VI b) { return {a.v & b.v}; }
 inline VM ieq(VI a, VI b) { return a.v == b.v; }
 inline VM igt(VI a, VI b) { return a.v > b.v; }
 inline VI isel(VM m, VI a, VI b) { return m ? a : b; }
+inline VF itof(VI a) { return {static_cast<float>(a.v)}; }  // exact below 2^24
 
 inline VM mand(VM a, VM b) { return a && b; }
 inline VM mor(VM a, VM b) { return a || b; }
@@ -153,6 +154,7 @@ inline VI isel(VM m, VI a, VI b) {
     return {_mm256_castps_si256(
         _mm256_blendv_ps(_mm256_castsi256_ps(b.v), _mm256_castsi256_ps(a.v), m.v))};
 }
+inline VF itof(VI a) { return {_mm256_cvtepi32_ps(a.v)}; }
 
 inline VM mand(VM a, VM b) { return {_mm256_and_ps(a.v, b.v)}; }
 inline VM mor(VM a, VM b) { return {_mm256_or_ps(a.v, b.v)}; }
@@ -307,6 +309,7 @@ inline VI iand(VI a, VI b) { return {_mm512_and_si512(a.v, b.v)}; }
 inline VM ieq(VI a, VI b) { return _mm512_cmpeq_epi32_mask(a.v, b.v); }
 inline VM igt(VI a, VI b) { return _mm512_cmpgt_epi32_mask(a.v, b.v); }
 inline VI isel(VM m, VI a, VI b) { return {_mm512_mask_blend_epi32(m, b.v, a.v)}; }
+inline VF itof(VI a) { return {_mm512_cvtepi32_ps(a.v)}; }
 
 inline VM mand(VM a, VM b) { return static_cast<VM>(a & b); }
 inline VM mor(VM a, VM b) { return static_cast<VM>(a | b); }
