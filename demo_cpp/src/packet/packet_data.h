@@ -86,11 +86,16 @@ struct Kernels {
     // Level 0 for a tw x th tile at (x0, y0); pixel (x, y)'s ray through (x + off_x, y + off_y).
     void (*camera)(const CameraArrays&, int x0, int y0, int tw, int th, float off_x, float off_y,
                    Level& out);
-    // Nearest hits and shading of `cur` (rays at recursion depth `depth`); children go to `next`
-    // (capacity >= 2 * cur.count + lanes, count set by the kernel); the queues' capacity is
-    // >= cur.count + lanes.
-    void (*shade)(const SceneArrays&, const Options&, int depth, Level& cur, Level& next,
-                  HitQueue& diffuse, HitQueue& specular, Counts&, const Aov* aov);
+    // Nearest hits of `cur` (rays at recursion depth `depth`) and the shading of its leaves and
+    // diffuse hits; its specular hits below the depth limit are left in `specular` (the
+    // queues' capacity is >= cur.count + lanes).
+    void (*shade)(const SceneArrays&, const Options&, int depth, Level& cur, HitQueue& diffuse,
+                  HitQueue& specular, Counts&, const Aov* aov);
+    // The specular hits' weights (cur's inner nodes) and their children, into `next` (capacity
+    // >= 2 * specular.count + lanes, count set by the kernel). Known only now, the count of
+    // specular hits sizes `next`: only memory the bounce uses is touched.
+    void (*spawn)(const SceneArrays&, const Options&, Level& cur, const HitQueue& specular,
+                  Level& next);
     // Only the AOVs of `cur` (the pixel-centre rays when spp > 1).
     void (*primary)(const SceneArrays&, const Options&, const Level& cur, const Aov& aov);
     // Inner nodes of `cur` from the colours of `next`; then every node's colour in its place.
