@@ -5,16 +5,39 @@
 
 namespace rt {
 
+// A band's pixels, row after row (row stride: the frame's width). Each channel starts at its
+// own pointer, `step` floats from one pixel to the next: 3 where rgb and the normal are
+// interleaved as RenderedImage has them (g = r + 1, b = r + 2, likewise n.y and n.z), 1 where
+// every channel is a plane of its own. Colour is linear and unclamped; the AOVs (id, depth, the
+// normal) are null when the frame was rendered without them.
+struct BandPixels {
+    const float *r, *g, *b, *id, *depth, *nx, *ny, *nz;
+    int step;
+};
+
 class BandSink {
 public:
     virtual ~BandSink() = default;
-    // Rows [y0, y0 + rows) of a frame `width` pixels wide, each row `width` pixels: rgb
-    // interleaved (3 floats a pixel, linear, unclamped); id, depth and normal (3 floats a pixel)
-    // as RenderedImage has them, or null when the frame was rendered without AOVs. Called from
-    // the render threads at once, never twice for a row. Must not throw: a sink keeps its
-    // failure and reports it when it is finished.
-    virtual void band(int y0, int rows, int width, const float* rgb, const float* id,
-                      const float* depth, const float* normal) noexcept = 0;
+    // The layout the sink writes from fastest (BandPixels::step); it takes either.
+    virtual int step() const { return 3; }
+    // Rows [y0, y0 + rows) of a frame `width` pixels wide. Called from the render threads at
+    // once, never twice for a row. Must not throw: a sink keeps its failure and reports it
+    // when it is finished.
+    virtual void band(int y0, int rows, int width, const BandPixels& pixels) noexcept = 0;
 };
+
+// RenderedImage-style planes (rgb and normal interleaved) as BandPixels.
+inline BandPixels interleaved_pixels(const float* rgb, const float* id, const float* depth,
+                                     const float* normal) {
+    return {rgb,
+            rgb + 1,
+            rgb + 2,
+            id,
+            depth,
+            normal,
+            normal ? normal + 1 : nullptr,
+            normal ? normal + 2 : nullptr,
+            3};
+}
 
 }  // namespace rt

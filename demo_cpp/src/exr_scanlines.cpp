@@ -106,26 +106,25 @@ private:
     int fd_ = -1;
 };
 
-// The channels in name order (OpenEXR's strcmp order), each float32 with its source plane:
-// the values of pixel i are at data[stride * i + offset].
+// The channels in name order (OpenEXR's strcmp order), each float32 with its source: the
+// value of pixel i is data[stride * i].
 struct Channel {
     const char* name;
     const float* data;
-    int stride, offset;
+    int stride;
 };
 constexpr int kChannels = 8;
 using Channels = std::array<Channel, kChannels>;
 
-// The planes as RenderedImage has them (rgb and normal interleaved).
-Channels channels_of(const float* rgb, const float* id, const float* depth, const float* normal) {
-    return {{{"B", rgb, 3, 2},
-             {"G", rgb, 3, 1},
-             {"N.X", normal, 3, 0},
-             {"N.Y", normal, 3, 1},
-             {"N.Z", normal, 3, 2},
-             {"R", rgb, 3, 0},
-             {"depth", depth, 1, 0},
-             {"id", id, 1, 0}}};
+Channels channels_of(const BandPixels& p) {
+    return {{{"B", p.b, p.step},
+             {"G", p.g, p.step},
+             {"N.X", p.nx, p.step},
+             {"N.Y", p.ny, p.step},
+             {"N.Z", p.nz, p.step},
+             {"R", p.r, p.step},
+             {"depth", p.depth, 1},
+             {"id", p.id, 1}}};
 }
 
 // The uncompressed bytes of lines [y0, y1): for each line, each channel's row of floats.
@@ -138,7 +137,7 @@ char* put_lines(char* p, const Channels& channels, int w, int y0, int y1) {
             if (c.stride == 1) {
                 std::memcpy(row, c.data + base, static_cast<std::size_t>(w) * 4);
             } else {
-                const float* src = c.data + 3 * base + c.offset;
+                const float* src = c.data + 3 * base;
                 for (int x = 0; x < w; ++x) row[x] = src[3 * x];
             }
             p += static_cast<std::size_t>(w) * 4;
@@ -213,7 +212,7 @@ std::vector<char> exr_header(int w, int h, const std::map<std::string, std::stri
     put_i32(head, 2 | (long_names ? 0x400 : 0));  // version 2, single-part scanline
 
     std::vector<char> v;
-    for (const Channel& c : channels_of(nullptr, nullptr, nullptr, nullptr)) {
+    for (const Channel& c : channels_of(BandPixels{})) {
         put_str0(v, c.name);
         put_i32(v, 2);                // FLOAT
         put_bytes(v, "\0\0\0\0", 4);  // pLinear, reserved
@@ -251,9 +250,8 @@ std::vector<char> exr_header(int w, int h, const std::map<std::string, std::stri
 
 std::size_t exr_line_block_bytes(int w) { return 8 + static_cast<std::size_t>(w) * 4 * kChannels; }
 
-char* exr_line_blocks(char* out, int y0, int rows, int w, const float* rgb, const float* id,
-                      const float* depth, const float* normal) {
-    const Channels channels = channels_of(rgb, id, depth, normal);
+char* exr_line_blocks(char* out, int y0, int rows, int w, const BandPixels& pixels) {
+    const Channels channels = channels_of(pixels);
     const std::int32_t row_bytes = static_cast<std::int32_t>(exr_line_block_bytes(w) - 8);
     for (int r = 0; r < rows; ++r) {
         const std::int32_t header_words[2] = {y0 + r, row_bytes};
@@ -273,8 +271,8 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
         throw std::runtime_error(path +
                                  ": the frame has no AOV planes to write (rendered "
                                  "with RenderSettings::aovs off)");
-    const Channels channels =
-        channels_of(image.rgb.data(), image.id.data(), image.depth.data(), image.normal.data());
+    const Channels channels = channels_of(interleaved_pixels(
+        image.rgb.data(), image.id.data(), image.depth.data(), image.normal.data()));
 
     std::vector<char> head = exr_header(w, h, attributes, compression);
 
@@ -296,10 +294,10 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
         std::vector<char> buf(static_cast<std::size_t>(lines) * (8 + row_bytes));
         for (int y0 = 0; y0 < h; y0 += lines) {
             const std::size_t first = static_cast<std::size_t>(y0) * w;
-            const char* end =
-                exr_line_blocks(buf.data(), y0, std::min(h, y0 + lines) - y0, w,
-                                image.rgb.data() + 3 * first, image.id.data() + first,
-                                image.depth.data() + first, image.normal.data() + 3 * first);
+            const char* end = exr_line_blocks(
+                buf.data(), y0, std::min(h, y0 + lines) - y0, w,
+                interleaved_pixels(image.rgb.data() + 3 * first, image.id.data() + first,
+                                   image.depth.data() + first, image.normal.data() + 3 * first));
             file.write(buf.data(), static_cast<std::size_t>(end - buf.data()));
         }
         file.close();

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "band_sink.h"
 #include "image.h"
 
 namespace rt {
@@ -22,10 +23,9 @@ std::vector<char> exr_header(int w, int h, const std::map<std::string, std::stri
                              ExrCompression compression);
 // Uncompressed: the bytes of one line's block (y, byte count, each channel's row).
 std::size_t exr_line_block_bytes(int w);
-// Writes the blocks of lines [y0, y0 + rows) to `out` from planes as RenderedImage has them,
-// holding just these rows (row stride w); returns the end of what was written.
-char* exr_line_blocks(char* out, int y0, int rows, int w, const float* rgb, const float* id,
-                      const float* depth, const float* normal);
+// Writes the blocks of lines [y0, y0 + rows) to `out` from `pixels`, which hold just these rows
+// (row stride w); returns the end of what was written.
+char* exr_line_blocks(char* out, int y0, int rows, int w, const BandPixels& pixels);
 
 // Writes `image` to `path` (created or replaced; only ever a regular file): float32 channels B,
 // G, N.X, N.Y, N.Z, R, depth, id (stored in name order, as OpenEXR does) and `attributes` as

@@ -100,14 +100,22 @@ PpmStream::PpmStream(const std::string& path, int width, int height, PpmRounding
     file_.write_at(head.data(), header_, 0);
 }
 
-void PpmStream::band(int y0, int rows, int width, const float* rgb, const float*, const float*,
-                     const float*) noexcept {
+void PpmStream::band(int y0, int rows, int width, const BandPixels& pixels) noexcept {
     const BandFile::Busy busy(file_);
     const std::size_t row = 3 * static_cast<std::size_t>(width);
     const std::size_t n = row * static_cast<std::size_t>(rows);
     try {
         std::vector<char>& bytes = thread_scratch(n);
-        linear8_encode(rgb, n, rounding_, reinterpret_cast<unsigned char*>(bytes.data()));
+        unsigned char* out = reinterpret_cast<unsigned char*>(bytes.data());
+        if (pixels.step == 3) {
+            linear8_encode(pixels.r, n, rounding_, out);
+        } else {
+            for (std::size_t i = 0; i < n / 3; ++i) {
+                out[3 * i + 0] = to_linear8(pixels.r[i], rounding_);
+                out[3 * i + 1] = to_linear8(pixels.g[i], rounding_);
+                out[3 * i + 2] = to_linear8(pixels.b[i], rounding_);
+            }
+        }
         file_.write_at(bytes.data(), n, header_ + row * static_cast<std::size_t>(y0));
     } catch (...) {  // no memory for the scratch: that band is a failed write
         file_.fail(ENOMEM);
@@ -133,14 +141,13 @@ ExrStream::ExrStream(const std::string& path, int width, int height,
                    (8 + exr_line_block_bytes(width)) * static_cast<std::size_t>(height));
 }
 
-void ExrStream::band(int y0, int rows, int width, const float* rgb, const float* id,
-                     const float* depth, const float* normal) noexcept {
+void ExrStream::band(int y0, int rows, int width, const BandPixels& pixels) noexcept {
     const BandFile::Busy busy(file_);
     const std::size_t block = exr_line_block_bytes(width);
     const std::size_t first = header_room_ + 8 * static_cast<std::size_t>(height_);
     try {
         std::vector<char>& bytes = thread_scratch(block * static_cast<std::size_t>(rows));
-        const char* end = exr_line_blocks(bytes.data(), y0, rows, width, rgb, id, depth, normal);
+        const char* end = exr_line_blocks(bytes.data(), y0, rows, width, pixels);
         file_.write_at(bytes.data(), static_cast<std::size_t>(end - bytes.data()),
                        first + block * static_cast<std::size_t>(y0));
     } catch (...) {

@@ -64,8 +64,7 @@ private:
 class PpmStream final : public BandSink {
 public:
     PpmStream(const std::string& path, int width, int height, PpmRounding rounding);
-    void band(int y0, int rows, int width, const float* rgb, const float* id, const float* depth,
-              const float* normal) noexcept override;
+    void band(int y0, int rows, int width, const BandPixels& pixels) noexcept override;
     void finish() { file_.finish(); }
     double write_seconds() const { return file_.busy_seconds(); }  // summed over the threads
 
@@ -84,8 +83,9 @@ public:
     static constexpr std::size_t kSlack = 256;
     ExrStream(const std::string& path, int width, int height,
               const std::map<std::string, std::string>& provisional);
-    void band(int y0, int rows, int width, const float* rgb, const float* id, const float* depth,
-              const float* normal) noexcept override;
+    // Planes: each line's block is then each channel's row, copied whole.
+    int step() const override { return 1; }
+    void band(int y0, int rows, int width, const BandPixels& pixels) noexcept override;
     // Writes the header with `attributes` and the line offset table, then renames the file.
     void finish(const std::map<std::string, std::string>& attributes);
     double write_seconds() const { return file_.busy_seconds(); }  // summed over the threads

@@ -31,9 +31,30 @@ namespace fs = std::filesystem;
 using test::expect_pixels;
 using test::sample_image;
 
-// Hands `img` to `sink` in bands of `rows` rows, last band first, from two threads.
-void feed(const RenderedImage& img, int rows, BandSink& sink) {
+// `img`'s channels, each a plane of its own (BandPixels with step 1).
+struct Planes {
+    std::vector<float> c[8];  // r g b id depth n.x n.y n.z
+    explicit Planes(const RenderedImage& img) {
+        const std::size_t n = static_cast<std::size_t>(img.width) * img.height;
+        for (std::size_t i = 0; i < n; ++i) {
+            for (int k = 0; k < 3; ++k) c[k].push_back(img.rgb[3 * i + k]);
+            c[3].push_back(img.id[i]);
+            c[4].push_back(img.depth[i]);
+            for (int k = 0; k < 3; ++k) c[5 + k].push_back(img.normal[3 * i + k]);
+        }
+    }
+    BandPixels at(std::size_t first) const {
+        return {c[0].data() + first, c[1].data() + first, c[2].data() + first,
+                c[3].data() + first, c[4].data() + first, c[5].data() + first,
+                c[6].data() + first, c[7].data() + first, 1};
+    }
+};
+
+// Hands `img` to `sink` in bands of `rows` rows, last band first, from two threads; as planes
+// when `planar`, else interleaved as RenderedImage has it.
+void feed(const RenderedImage& img, int rows, BandSink& sink, bool planar = false) {
     const std::size_t w = static_cast<std::size_t>(img.width);
+    const Planes planes(img);
     std::vector<int> starts;
     for (int y = 0; y < img.height; y += rows) starts.push_back(y);
     std::reverse(starts.begin(), starts.end());
@@ -41,9 +62,11 @@ void feed(const RenderedImage& img, int rows, BandSink& sink) {
         for (std::size_t i = from; i < starts.size(); i += 2) {
             const int y0 = starts[i];
             const std::size_t first = static_cast<std::size_t>(y0) * w;
-            sink.band(y0, std::min(rows, img.height - y0), img.width, img.rgb.data() + 3 * first,
-                      img.id.data() + first, img.depth.data() + first,
-                      img.normal.data() + 3 * first);
+            sink.band(y0, std::min(rows, img.height - y0), img.width,
+                      planar ? planes.at(first)
+                             : interleaved_pixels(img.rgb.data() + 3 * first, img.id.data() + first,
+                                                  img.depth.data() + first,
+                                                  img.normal.data() + 3 * first));
         }
     };
     std::thread other(part, 1);
@@ -94,6 +117,29 @@ TEST(StreamedOutputs, ExrReadsBackBitForBitWithTheFinalAttributes) {
     EXPECT_EQ(padding.find_first_not_of(' '), std::string::npos);
     expect_pixels(in, img);
     fs::remove(path);
+}
+
+// The engine hands each sink the layout it asks for (BandSink::step); both take either.
+TEST(StreamedOutputs, PlanarAndInterleavedBandsWriteTheSameFiles) {
+    const RenderedImage img = sample_image(37, 21);
+    std::string files[2][2];  // [planar][ppm, exr]
+    for (bool planar : {false, true}) {
+        const fs::path ppm = temp_path("rtdemo_stream_layout.ppm");
+        const fs::path exr = temp_path("rtdemo_stream_layout.exr");
+        PpmStream ppm_stream(ppm.string(), img.width, img.height, PpmRounding::round);
+        feed(img, 8, ppm_stream, planar);
+        ppm_stream.finish();
+        ExrStream exr_stream(exr.string(), img.width, img.height, {{"rtval.scene", "s"}});
+        feed(img, 5, exr_stream, planar);
+        exr_stream.finish({{"rtval.scene", "s"}});
+        files[planar][0] = bytes_of(ppm);
+        files[planar][1] = bytes_of(exr);
+        fs::remove(ppm);
+        fs::remove(exr);
+    }
+    EXPECT_EQ(files[1][0], files[0][0]);
+    EXPECT_EQ(files[1][1], files[0][1]);
+    EXPECT_GT(files[0][1].size(), 37u * 21u * 32u);
 }
 
 // The values known only after rendering at their longest: a time and three 64-bit ray counts

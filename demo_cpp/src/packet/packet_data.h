@@ -75,6 +75,14 @@ struct Aov {
     float *id, *depth, *nx, *ny, *nz;
 };
 
+// Where a finished tile's pixels go, at its first pixel (as band_sink.h BandPixels): each
+// channel at its own pointer, `step` floats from one pixel to the next (3: rgb and the normal
+// interleaved; 1: planes); the AOVs null when not wanted.
+struct TilePixels {
+    float *r, *g, *b, *id, *depth, *nx, *ny, *nz;
+    int step;
+};
+
 struct Counts {
     std::uint64_t camera = 0, secondary = 0, shadow = 0;
 };
@@ -100,11 +108,10 @@ struct Kernels {
     void (*primary)(const SceneArrays&, const Options&, const Level& cur, const Aov& aov);
     // Inner nodes of `cur` from the colours of `next`; then every node's colour in its place.
     void (*resolve)(const SceneArrays&, const Options&, Level& cur, const Level& next);
-    // A finished tw x th tile into the frame (row stride `width` pixels): rgb interleaved and
-    // scaled by `scale`; the AOVs too when `aov` is given.
+    // A finished tw x th tile into `out` (row stride `width` pixels): the colour scaled by
+    // `scale`; the AOVs too when `aov` is given.
     void (*store_tile)(const float* cr, const float* cg, const float* cb, float scale,
-                       const Aov* aov, int tw, int th, int width, float* rgb, float* id,
-                       float* depth, float* normal);
+                       const Aov* aov, int tw, int th, int width, const TilePixels& out);
 };
 
 const Kernels& kernels_scalar();

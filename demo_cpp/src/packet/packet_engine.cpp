@@ -254,14 +254,20 @@ Isa isa_from_environment() {
 
 namespace {
 
-// Where a band's pixels go (a band: kTileH full rows): the frame's planes at its rows, or a
-// buffer that is then handed to a BandSink. Row stride: the frame's width.
-struct BandTarget {
-    float *rgb, *id, *depth, *normal;
-};
+using packet::TilePixels;
 
-// The frame's tiles handed out dynamically, band after band. Before each tile of band b,
-// `target(b)` says where the band's rows go; the thread that finishes a band's last tile calls
+// Pixel x of a band's (or a tile's) first row.
+TilePixels at_x(const TilePixels& p, int x) {
+    const std::ptrdiff_t c = static_cast<std::ptrdiff_t>(p.step) * x;
+    if (!p.id)
+        return {p.r + c, p.g + c, p.b + c, nullptr, nullptr, nullptr, nullptr, nullptr, p.step};
+    return {p.r + c, p.g + c, p.b + c, p.id + x, p.depth + x, p.nx + c, p.ny + c, p.nz + c, p.step};
+}
+
+// The frame's tiles handed out dynamically, band after band (a band: kTileH full rows). Before
+// each tile of band b, `target(b)` says where the band's rows go (TilePixels of its first
+// pixel: the frame's planes at its rows, or a buffer then handed to a BandSink; row stride: the
+// frame's width); the thread that finishes a band's last tile calls
 // `band_done(b)` (the other threads' stores to it are visible then).
 template <class Target, class Done>
 void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, RayCounts* rays,
@@ -323,7 +329,7 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
             const int x0 = (tile % tiles_x) * kTileW, y0 = band * kTileH;
             const int tw = std::min(kTileW, width - x0), th = std::min(kTileH, height - y0);
             const int n = tw * th;
-            const BandTarget out = target(band);
+            const TilePixels out = target(band);
             Level& l0 = wk.levels[0].view;
             const float* cr = l0.cr;
             const float* cg = l0.cg;
@@ -350,8 +356,7 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
                 cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
             }
             kern.store_tile(cr, cg, cb, inv_samples, aovs ? &aov : nullptr, tw, th, width,
-                            out.rgb + 3 * x0, aovs ? out.id + x0 : nullptr,
-                            aovs ? out.depth + x0 : nullptr, aovs ? out.normal + 3 * x0 : nullptr);
+                            at_x(out, x0));
             if (tiles_left[band].fetch_sub(1) == 1) band_done(band);
         }
     };
@@ -375,9 +380,14 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
     const bool aovs = settings.aovs;
     auto rows_of_image = [&](int band) {
         const std::size_t first = static_cast<std::size_t>(band) * kTileH * width;
-        return BandTarget{image.rgb.data() + 3 * first, aovs ? image.id.data() + first : nullptr,
-                          aovs ? image.depth.data() + first : nullptr,
-                          aovs ? image.normal.data() + 3 * first : nullptr};
+        float* rgb = image.rgb.data() + 3 * first;
+        if (!aovs)
+            return TilePixels{rgb,     rgb + 1, rgb + 2, nullptr, nullptr,
+                              nullptr, nullptr, nullptr, 3};
+        float* n = image.normal.data() + 3 * first;
+        return TilePixels{
+            rgb,   rgb + 1, rgb + 2, image.id.data() + first, image.depth.data() + first, n,
+            n + 1, n + 2,   3};
     };
     render_tiles(scene, settings, isa, rays, rows_of_image, [](int) {});
     return image;
@@ -389,25 +399,32 @@ namespace {
 // b - count has been handed over. Tiles are handed out in order, so that band's tiles are all
 // being traced already (no thread waits for a band that waits itself); with two slots per
 // thread and two more, a thread waits only when another one stalls on a whole band's worth.
+// The layout is the sink's (BandSink::step): rgb and normal interleaved, or planes.
 class BandSlots {
 public:
-    BandSlots(int threads, std::size_t band_pixels, bool aovs)
+    BandSlots(int threads, std::size_t band_pixels, bool aovs, int step)
         : count_(2 * threads + 2),
           pixels_(band_pixels),
           aovs_(aovs),
+          step_(step),
           next_band_(new std::atomic<int>[static_cast<std::size_t>(count_)]),
           // Uninitialised: every pixel of a band is stored by its tiles before it is handed over.
           planes_(new float[(aovs ? 8 : 3) * pixels_ * static_cast<std::size_t>(count_)]) {
         for (int i = 0; i < count_; ++i) next_band_[i] = i;
     }
     // Band b's buffers, once its slot is free.
-    BandTarget acquire(int b) {
+    TilePixels acquire(int b) {
         const int slot = b % count_;
         for (int spins = 0; next_band_[slot].load(std::memory_order_acquire) != b; ++spins)
             if (spins > 64) std::this_thread::yield();
         float* p = planes_.get() + (aovs_ ? 8 : 3) * pixels_ * static_cast<std::size_t>(slot);
-        if (!aovs_) return {p, nullptr, nullptr, nullptr};
-        return {p, p + 3 * pixels_, p + 4 * pixels_, p + 5 * pixels_};
+        // Interleaved: r g b run together, as do n.x n.y n.z; planes: one after the other.
+        const std::size_t next = step_ == 1 ? pixels_ : 1;
+        float* n = p + 5 * pixels_;
+        if (!aovs_)
+            return {p, p + next, p + 2 * next, nullptr, nullptr, nullptr, nullptr, nullptr, step_};
+        return {p,        p + next,     p + 2 * next, p + 3 * pixels_, p + 4 * pixels_, n,
+                n + next, n + 2 * next, step_};
     }
     // Band b handed over: its slot goes to band b + count.
     void release(int b) { next_band_[b % count_].store(b + count_, std::memory_order_release); }
@@ -416,8 +433,9 @@ private:
     int count_;
     std::size_t pixels_;
     bool aovs_;
+    int step_;
     std::unique_ptr<std::atomic<int>[]> next_band_;
-    std::unique_ptr<float[]> planes_;  // per slot: rgb, then id, depth, normal with AOVs
+    std::unique_ptr<float[]> planes_;  // per slot: r g b, then id, depth, n.x n.y n.z with AOVs
 };
 
 }  // namespace
@@ -425,12 +443,14 @@ private:
 void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa, BandSink& sink,
                    RayCounts* rays) {
     const int width = settings.width, height = settings.height;
-    BandSlots slots(settings.threads, static_cast<std::size_t>(width) * kTileH, settings.aovs);
+    BandSlots slots(settings.threads, static_cast<std::size_t>(width) * kTileH, settings.aovs,
+                    sink.step() == 1 ? 1 : 3);
     auto slot_of = [&](int band) { return slots.acquire(band); };
     auto hand_over = [&](int band) {
-        const BandTarget b = slots.acquire(band);  // its own slot: no wait
+        const TilePixels b = slots.acquire(band);  // its own slot: no wait
         const int y0 = band * kTileH;
-        sink.band(y0, std::min(kTileH, height - y0), width, b.rgb, b.id, b.depth, b.normal);
+        sink.band(y0, std::min(kTileH, height - y0), width,
+                  BandPixels{b.r, b.g, b.b, b.id, b.depth, b.nx, b.ny, b.nz, b.step});
         slots.release(band);
     };
     render_tiles(scene, settings, isa, rays, slot_of, hand_over);
