@@ -26,6 +26,14 @@ void render_cpu(const Scene& scene, const RenderSettings& settings, BandSink& si
     render_packet(scene, settings, isa_from_environment(), sink, rays);
 }
 
+void render_cpu(const Scene& scene, const RenderSettings& settings, RenderedImage& image,
+                RayCounts* rays) {
+    if (renders_in_bands(settings))
+        render_packet(scene, settings, isa_from_environment(), image, rays);
+    else
+        image = render_cpu(scene, settings, rays);
+}
+
 RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, RayCounts* rays) {
     if (renders_in_bands(settings))
         return render_packet(scene, settings, isa_from_environment(), rays);

@@ -28,6 +28,11 @@ struct RenderSettings {
 // also reports how many rays of each kind were traced.
 RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings,
                          RayCounts* rays = nullptr);
+// The same frame again into `image`, as render_cpu returned it for these settings: the packet
+// engine allocates nothing then (--frames times the frames after the first so: tracing alone,
+// not the kernel zero-filling a new frame's pages).
+void render_cpu(const Scene& scene, const RenderSettings& settings, RenderedImage& image,
+                RayCounts* rays = nullptr);
 
 // Whether the frame can be rendered into a BandSink: the packet engine, no named mistakes.
 bool renders_in_bands(const RenderSettings& settings);

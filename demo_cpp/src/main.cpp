@@ -438,7 +438,10 @@ int run_render(const std::vector<std::string>& args) {
     } else if (!a.gl) {
         for (int f = 0; f < a.frames; ++f) {
             const auto start = std::chrono::steady_clock::now();
-            image = render_cpu(scene, settings, &rays);
+            if (f == 0)
+                image = render_cpu(scene, settings, &rays);
+            else
+                render_cpu(scene, settings, image, &rays);
             const double s =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             seconds = f == 0 ? s : std::min(seconds, s);

@@ -376,6 +376,12 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
 RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
                             RayCounts* rays) {
     RenderedImage image = allocate_image(settings.width, settings.height, settings.aovs);
+    render_packet(scene, settings, isa, image, rays);
+    return image;
+}
+
+void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
+                   RenderedImage& image, RayCounts* rays) {
     const std::size_t width = static_cast<std::size_t>(settings.width);
     const bool aovs = settings.aovs;
     auto rows_of_image = [&](int band) {
@@ -390,7 +396,6 @@ RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, 
             n + 1, n + 2,   3};
     };
     render_tiles(scene, settings, isa, rays, rows_of_image, [](int) {});
-    return image;
 }
 
 namespace {

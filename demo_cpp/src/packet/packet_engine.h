@@ -28,6 +28,9 @@ Isa isa_from_environment();
 // this CPU.
 RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
                             RayCounts* rays = nullptr);
+// The same into `image`, as render_packet returned it for these settings: nothing allocated.
+void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
+                   RenderedImage& image, RayCounts* rays = nullptr);
 // The same frame handed to `sink` band by band as the threads finish them (band_sink.h)
 // instead of kept; the same preconditions.
 void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa, BandSink& sink,

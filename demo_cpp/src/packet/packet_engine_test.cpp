@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -183,6 +185,35 @@ TEST(PacketEngine, WithoutAovsTheColourAndRaysAreTheSame) {
         EXPECT_EQ(with_rays.total(), without_rays.total());
         EXPECT_FALSE(with.id.empty());
         EXPECT_TRUE(without.id.empty() && without.depth.empty() && without.normal.empty());
+    }
+}
+
+// --frames renders the frames after the first into the first one's image: every pixel of
+// every plane is written again (none left from before), the rays counted afresh; the scalar
+// tracer (a named mistake) takes the same call.
+TEST(PacketEngine, RenderingIntoAnImageRewritesEveryPixel) {
+    const Scene scene = load_scene_file(kScenes + "/classic.json");
+    for (bool mistake : {false, true}) {
+        SCOPED_TRACE(mistake ? "scalar tracer" : "packet engine");
+        RenderSettings settings;
+        settings.trace.quirks = quirks_for(Mode::classic);
+        settings.trace.max_depth = scene.max_depth;
+        if (mistake) settings.trace.mistakes.add(Mistake::half_pixel_offset);
+        settings.width = 83;  // tiles cut at the right and bottom edges
+        settings.height = 61;
+        settings.threads = 2;
+        RayCounts first_rays, again_rays;
+        const RenderedImage first = render_cpu(scene, settings, &first_rays);
+        RenderedImage again = first;
+        for (Plane* p : {&again.rgb, &again.id, &again.depth, &again.normal})
+            std::fill(p->data(), p->data() + p->size(), std::nanf(""));
+        render_cpu(scene, settings, again, &again_rays);
+        EXPECT_TRUE(same_bits(first.rgb, again.rgb, "rgb"));
+        EXPECT_TRUE(same_bits(first.id, again.id, "id"));
+        EXPECT_TRUE(same_bits(first.depth, again.depth, "depth"));
+        EXPECT_TRUE(same_bits(first.normal, again.normal, "normal"));
+        EXPECT_EQ(first_rays.total(), again_rays.total());
+        EXPECT_GT(again_rays.total(), 0u);
     }
 }
 
