@@ -400,29 +400,33 @@ void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
 
 namespace {
 
-// Band buffers for a BandSink, reused in turn: band b is traced into slot b % count once band
-// b - count has been handed over. Tiles are handed out in order, so that band's tiles are all
-// being traced already (no thread waits for a band that waits itself); with two slots per
-// thread and two more, a thread waits only when another one stalls on a whole band's worth.
+// Band buffers for a BandSink: the first tile of a band takes the lowest free slot, and the
+// hand-over frees it. Two or three slots are in use at once, so only their pages are ever
+// touched; when the host stops a thread midway through a tile, the others trace up to 64
+// bands ahead instead of waiting for that band's slot (with a slot per band taken in turn, a
+// stopped thread held up the frame for up to 5 ms, bench/NOTES.md). No thread waits for a
+// slot while a tile of its own is unfinished, so the bands holding slots always finish.
 // The layout is the sink's (BandSink::step): rgb and normal interleaved, or planes.
 class BandSlots {
 public:
-    BandSlots(int threads, std::size_t band_pixels, bool aovs, int step)
-        : count_(2 * threads + 2),
+    BandSlots(int bands, std::size_t band_pixels, bool aovs, int step)
+        : count_(slots_for(bands, (aovs ? 8 : 3) * band_pixels)),
           pixels_(band_pixels),
+          floats_((aovs ? 8 : 3) * band_pixels),
           aovs_(aovs),
           step_(step),
-          next_band_(new std::atomic<int>[static_cast<std::size_t>(count_)]),
-          // Uninitialised: every pixel of a band is stored by its tiles before it is handed over.
-          planes_(new float[(aovs ? 8 : 3) * pixels_ * static_cast<std::size_t>(count_)]) {
-        for (int i = 0; i < count_; ++i) next_band_[i] = i;
+          slot_of_(new std::atomic<int>[static_cast<std::size_t>(bands)]),
+          free_(count_ == 64 ? ~0ull : (1ull << count_) - 1),
+          // Uninitialised and untouched until used: every pixel of a band is stored by its
+          // tiles before it is handed over.
+          planes_(new float[floats_ * static_cast<std::size_t>(count_)]) {
+        for (int i = 0; i < bands; ++i) slot_of_[i] = kNone;
     }
-    // Band b's buffers, once its slot is free.
+    // Band b's buffers (its slot taken by the first tile that asks).
     TilePixels acquire(int b) {
-        const int slot = b % count_;
-        for (int spins = 0; next_band_[slot].load(std::memory_order_acquire) != b; ++spins)
-            if (spins > 64) std::this_thread::yield();
-        float* p = planes_.get() + (aovs_ ? 8 : 3) * pixels_ * static_cast<std::size_t>(slot);
+        int slot = slot_of_[b].load(std::memory_order_acquire);
+        if (slot < 0) slot = assign(b);
+        float* p = planes_.get() + floats_ * static_cast<std::size_t>(slot);
         // Interleaved: r g b run together, as do n.x n.y n.z; planes: one after the other.
         const std::size_t next = step_ == 1 ? pixels_ : 1;
         float* n = p + 5 * pixels_;
@@ -431,15 +435,53 @@ public:
         return {p,        p + next,     p + 2 * next, p + 3 * pixels_, p + 4 * pixels_, n,
                 n + next, n + 2 * next, step_};
     }
-    // Band b handed over: its slot goes to band b + count.
-    void release(int b) { next_band_[b % count_].store(b + count_, std::memory_order_release); }
+    // Band b handed over: its slot is free again.
+    void release(int b) {
+        free_.fetch_or(1ull << slot_of_[b].load(std::memory_order_relaxed),
+                       std::memory_order_release);
+    }
 
 private:
+    static constexpr int kNone = -1, kAssigning = -2;
+
+    // At most 64 slots (one bit each) and 64 MB of them, at least 4 (any 1 would do).
+    static int slots_for(int bands, std::size_t floats) {
+        const std::size_t by_memory = (std::size_t{64} << 20) / (4 * floats);
+        return std::max(
+            1, std::min({bands, 64,
+                         std::max(4, static_cast<int>(std::min<std::size_t>(by_memory, 64)))}));
+    }
+
+    int assign(int b) {
+        int expected = kNone;
+        if (slot_of_[b].compare_exchange_strong(expected, kAssigning, std::memory_order_acq_rel)) {
+            const int slot = take_free();
+            slot_of_[b].store(slot, std::memory_order_release);
+            return slot;
+        }
+        int slot;  // another tile of the band is taking its slot
+        for (int spins = 0; (slot = slot_of_[b].load(std::memory_order_acquire)) < 0; ++spins)
+            if (spins > 64) std::this_thread::yield();
+        return slot;
+    }
+    int take_free() {
+        for (int spins = 0;; ++spins) {
+            std::uint64_t f = free_.load(std::memory_order_acquire);
+            while (f != 0) {
+                const int slot = __builtin_ctzll(f);
+                if (free_.compare_exchange_weak(f, f & ~(1ull << slot), std::memory_order_acq_rel))
+                    return slot;
+            }
+            if (spins > 64) std::this_thread::yield();
+        }
+    }
+
     int count_;
-    std::size_t pixels_;
+    std::size_t pixels_, floats_;
     bool aovs_;
     int step_;
-    std::unique_ptr<std::atomic<int>[]> next_band_;
+    std::unique_ptr<std::atomic<int>[]> slot_of_;  // per band: its slot, kNone or kAssigning
+    std::atomic<std::uint64_t> free_;              // bit s: slot s is free
     std::unique_ptr<float[]> planes_;  // per slot: r g b, then id, depth, n.x n.y n.z with AOVs
 };
 
@@ -448,11 +490,11 @@ private:
 void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa, BandSink& sink,
                    RayCounts* rays) {
     const int width = settings.width, height = settings.height;
-    BandSlots slots(settings.threads, static_cast<std::size_t>(width) * kTileH, settings.aovs,
-                    sink.step() == 1 ? 1 : 3);
+    BandSlots slots((height + kTileH - 1) / kTileH, static_cast<std::size_t>(width) * kTileH,
+                    settings.aovs, sink.step() == 1 ? 1 : 3);
     auto slot_of = [&](int band) { return slots.acquire(band); };
     auto hand_over = [&](int band) {
-        const TilePixels b = slots.acquire(band);  // its own slot: no wait
+        const TilePixels b = slots.acquire(band);  // its own slot, taken
         const int y0 = band * kTileH;
         sink.band(y0, std::min(kTileH, height - y0), width,
                   BandPixels{b.r, b.g, b.b, b.id, b.depth, b.nx, b.ny, b.nz, b.step});

@@ -8,9 +8,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "scene_loader.h"
@@ -215,6 +218,81 @@ TEST(PacketEngine, RenderingIntoAnImageRewritesEveryPixel) {
         EXPECT_EQ(first_rays.total(), again_rays.total());
         EXPECT_GT(again_rays.total(), 0u);
     }
+}
+
+// A sink that copies each band into a frame of its own, counts the deliveries per row, and
+// stalls now and then as a slow disk or a stopped thread would.
+class CopyingSink final : public BandSink {
+public:
+    CopyingSink(int width, int height, int step, bool stall)
+        : frame_(width, height),
+          rows_(static_cast<std::size_t>(height)),
+          step_(step),
+          stall_(stall) {}
+    int step() const override { return step_; }
+    void band(int y0, int rows, int width, const BandPixels& px) noexcept override {
+        if (stall_ && y0 % 48 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        for (int r = 0; r < rows; ++r) {
+            rows_[static_cast<std::size_t>(y0 + r)]++;
+            for (int x = 0; x < width; ++x) {
+                const std::size_t i = static_cast<std::size_t>(r) * width + x;
+                const std::size_t o = static_cast<std::size_t>(y0 + r) * width + x;
+                const std::size_t c = static_cast<std::size_t>(px.step) * i;
+                frame_.rgb[3 * o + 0] = px.r[c];
+                frame_.rgb[3 * o + 1] = px.g[c];
+                frame_.rgb[3 * o + 2] = px.b[c];
+                if (!px.id) continue;
+                frame_.id[o] = px.id[i];
+                frame_.depth[o] = px.depth[i];
+                frame_.normal[3 * o + 0] = px.nx[c];
+                frame_.normal[3 * o + 1] = px.ny[c];
+                frame_.normal[3 * o + 2] = px.nz[c];
+            }
+        }
+    }
+    const RenderedImage& frame() const { return frame_; }
+    bool every_row_once() const {
+        return std::all_of(rows_.begin(), rows_.end(),
+                           [](const std::atomic<int>& n) { return n == 1; });
+    }
+
+private:
+    RenderedImage frame_;
+    std::vector<std::atomic<int>> rows_;
+    int step_;
+    bool stall_;
+};
+
+// Bands go through a pool of at most 64 slots: a frame of more bands than that, on one to
+// eight threads, with a sink that stalls (the other threads run ahead), in either layout,
+// equals the kept frame.
+TEST(PacketEngine, BandsHandedToASinkMakeTheKeptFrame) {
+    const Scene scene = load_scene_file(kScenes + "/classic.json");
+    RenderSettings settings;
+    settings.trace.quirks = quirks_for(Mode::classic);
+    settings.trace.max_depth = scene.max_depth;
+    settings.width = 45;
+    settings.height = 603;  // 76 bands of 8 rows, the last of 3
+    for (int threads : {1, 2, 3, 8})
+        for (int step : {1, 3})
+            for (bool aovs : {true, false}) {
+                SCOPED_TRACE("threads " + std::to_string(threads) + " step " +
+                             std::to_string(step) + (aovs ? " aovs" : ""));
+                settings.threads = threads;
+                settings.aovs = aovs;
+                RayCounts kept_rays, sunk_rays;
+                const RenderedImage kept = render_packet(scene, settings, best_isa(), &kept_rays);
+                CopyingSink sink(settings.width, settings.height, step, threads == 3);
+                render_packet(scene, settings, best_isa(), sink, &sunk_rays);
+                EXPECT_TRUE(sink.every_row_once());
+                EXPECT_TRUE(same_bits(kept.rgb, sink.frame().rgb, "rgb"));
+                if (aovs) {
+                    EXPECT_TRUE(same_bits(kept.id, sink.frame().id, "id"));
+                    EXPECT_TRUE(same_bits(kept.depth, sink.frame().depth, "depth"));
+                    EXPECT_TRUE(same_bits(kept.normal, sink.frame().normal, "normal"));
+                }
+                EXPECT_EQ(kept_rays.total(), sunk_rays.total());
+            }
 }
 
 TEST(PacketEngine, EqualsScalarWithSamplesDepthsAndEffectsOff) {
