@@ -267,8 +267,8 @@ TilePixels at_x(const TilePixels& p, int x) {
 // The frame's tiles handed out dynamically, band after band (a band: kTileH full rows). Before
 // each tile of band b, `target(b)` says where the band's rows go (TilePixels of its first
 // pixel: the frame's planes at its rows, or a buffer then handed to a BandSink; row stride: the
-// frame's width); the thread that finishes a band's last tile calls
-// `band_done(b)` (the other threads' stores to it are visible then).
+// frame's width); the thread that finishes a band's last tile calls `band_done(b)` (the other
+// threads' stores to it are visible then).
 template <class Target, class Done>
 void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, RayCounts* rays,
                   Target target, Done band_done) {

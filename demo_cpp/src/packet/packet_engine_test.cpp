@@ -97,6 +97,17 @@ void expect_same(const Case& c) {
     }
 }
 
+// Classic mode on `scene` at width x height, two threads, the scene's depth.
+RenderSettings classic_settings(const Scene& scene, int width, int height) {
+    RenderSettings settings;
+    settings.trace.quirks = quirks_for(Mode::classic);
+    settings.trace.max_depth = scene.max_depth;
+    settings.width = width;
+    settings.height = height;
+    settings.threads = 2;
+    return settings;
+}
+
 TEST(PacketEngine, EqualsScalarOnProjectScenesInEveryMode) {
     for (const char* scene : {"classic.json", "paper.json"})
         for (Mode mode : {Mode::paper, Mode::classic, Mode::physical})
@@ -145,12 +156,7 @@ TEST(PacketEngine, EqualsScalarWithQuirksAdded) {
 // tracer even when the packet engine is asked for, so the mistake shows.
 TEST(PacketEngine, RenderCpuTakesTheScalarTracerForAMistake) {
     const Scene scene = load_scene_file(kScenes + "/classic.json");
-    RenderSettings settings;
-    settings.trace.quirks = quirks_for(Mode::classic);
-    settings.trace.max_depth = scene.max_depth;
-    settings.width = 80;
-    settings.height = 60;
-    settings.threads = 2;
+    RenderSettings settings = classic_settings(scene, 80, 60);
     settings.engine = Engine::packet;
     const RenderedImage plain = render_cpu(scene, settings);
     for (Mistake m : {Mistake::black_background, Mistake::half_pixel_offset, Mistake::no_shadows}) {
@@ -173,13 +179,8 @@ TEST(PacketEngine, WithoutAovsTheColourAndRaysAreTheSame) {
     const Scene scene = load_scene_file(kScenes + "/classic.json");
     for (int spp : {1, 4}) {
         SCOPED_TRACE("spp " + std::to_string(spp));
-        RenderSettings settings;
-        settings.trace.quirks = quirks_for(Mode::classic);
-        settings.trace.max_depth = scene.max_depth;
-        settings.width = 80;
-        settings.height = 60;
+        RenderSettings settings = classic_settings(scene, 80, 60);
         settings.spp = spp;
-        settings.threads = 2;
         RayCounts with_rays, without_rays;
         const RenderedImage with = render_packet(scene, settings, best_isa(), &with_rays);
         settings.aovs = false;
@@ -198,13 +199,8 @@ TEST(PacketEngine, RenderingIntoAnImageRewritesEveryPixel) {
     const Scene scene = load_scene_file(kScenes + "/classic.json");
     for (bool mistake : {false, true}) {
         SCOPED_TRACE(mistake ? "scalar tracer" : "packet engine");
-        RenderSettings settings;
-        settings.trace.quirks = quirks_for(Mode::classic);
-        settings.trace.max_depth = scene.max_depth;
+        RenderSettings settings = classic_settings(scene, 83, 61);  // edge tiles cut
         if (mistake) settings.trace.mistakes.add(Mistake::half_pixel_offset);
-        settings.width = 83;  // tiles cut at the right and bottom edges
-        settings.height = 61;
-        settings.threads = 2;
         RayCounts first_rays, again_rays;
         const RenderedImage first = render_cpu(scene, settings, &first_rays);
         RenderedImage again = first;
@@ -268,11 +264,7 @@ private:
 // equals the kept frame.
 TEST(PacketEngine, BandsHandedToASinkMakeTheKeptFrame) {
     const Scene scene = load_scene_file(kScenes + "/classic.json");
-    RenderSettings settings;
-    settings.trace.quirks = quirks_for(Mode::classic);
-    settings.trace.max_depth = scene.max_depth;
-    settings.width = 45;
-    settings.height = 603;  // 76 bands of 8 rows, the last of 3
+    RenderSettings settings = classic_settings(scene, 45, 603);  // 76 bands, the last of 3 rows
     for (int threads : {1, 2, 3, 8})
         for (int step : {1, 3})
             for (bool aovs : {true, false}) {
