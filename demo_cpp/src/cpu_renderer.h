@@ -29,7 +29,7 @@ struct RenderSettings {
 RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings,
                          RayCounts* rays = nullptr);
 // The same frame again into `image`, as render_cpu returned it for these settings: the packet
-// engine allocates nothing then (--frames times the frames after the first so: tracing alone,
+// engine allocates no new frame then (--frames times the frames after the first so: tracing,
 // not the kernel zero-filling a new frame's pages).
 void render_cpu(const Scene& scene, const RenderSettings& settings, RenderedImage& image,
                 RayCounts* rays = nullptr);

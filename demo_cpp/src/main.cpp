@@ -539,11 +539,12 @@ int run_view(const std::vector<std::string>& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    // A render is a short batch job: memory it frees is kept for reuse until the process ends,
-    // never handed back to the kernel midway (each unmap or trim is a system call that flushes
-    // the address translations of every core the process ran on: 0.2-0.5 ms at the end of a
-    // frame, bench/NOTES.md); the heap grows 4 MB at a time, and the worker threads allocate
-    // from it instead of each mapping an arena of its own.
+    // A render is a short batch job: blocks under 32 MB that it frees are kept for reuse until
+    // the process ends, not handed back to the kernel midway (each unmap or trim is a system
+    // call that flushes the address translations of every core the process ran on: 0.2-0.5 ms
+    // at the end of a frame, bench/NOTES.md; larger blocks, a frame plane over ~2.8 Mpixels,
+    // are still mapped and unmapped on their own); the heap grows 4 MB at a time, and the
+    // worker threads allocate from it instead of each mapping an arena of its own.
     mallopt(M_MMAP_THRESHOLD, 32 << 20);
     mallopt(M_TRIM_THRESHOLD, INT_MAX);
     mallopt(M_TOP_PAD, 4 << 20);

@@ -401,11 +401,13 @@ void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
 namespace {
 
 // Band buffers for a BandSink: the first tile of a band takes the lowest free slot, and the
-// hand-over frees it. Two or three slots are in use at once, so only their pages are ever
-// touched; when the host stops a thread midway through a tile, the others trace up to 64
-// bands ahead instead of waiting for that band's slot (with a slot per band taken in turn, a
-// stopped thread held up the frame for up to 5 ms, bench/NOTES.md). No thread waits for a
-// slot while a tile of its own is unfinished, so the bands holding slots always finish.
+// hand-over frees it. Tiles are handed out in order, so every band holding a slot has a thread
+// in it (tracing one of its tiles, or handing it over): at most one slot per thread is in use,
+// the lowest ones, and only their pages are ever touched. When the host stops a thread midway
+// through a tile, the others go on with the bands after it instead of waiting for that band's
+// slot (with band b in slot b mod 6, a stopped thread held up the frame for up to 5 ms,
+// bench/NOTES.md). A thread waits for a slot only with more threads than slots, and never while
+// a tile of its own is unfinished, so the bands holding slots always finish.
 // The layout is the sink's (BandSink::step): rgb and normal interleaved, or planes.
 class BandSlots {
 public:

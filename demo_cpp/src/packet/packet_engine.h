@@ -28,7 +28,7 @@ Isa isa_from_environment();
 // this CPU.
 RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
                             RayCounts* rays = nullptr);
-// The same into `image`, as render_packet returned it for these settings: nothing allocated.
+// The same into `image`, as render_packet returned it for these settings: no new frame.
 void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
                    RenderedImage& image, RayCounts* rays = nullptr);
 // The same frame handed to `sink` band by band as the threads finish them (band_sink.h)

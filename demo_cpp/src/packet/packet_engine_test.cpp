@@ -217,17 +217,20 @@ TEST(PacketEngine, RenderingIntoAnImageRewritesEveryPixel) {
 }
 
 // A sink that copies each band into a frame of its own, counts the deliveries per row, and
-// stalls now and then as a slow disk or a stopped thread would.
+// stalls on every `stall_rows`-th row's band for `stall_ms` (0: never), as a slow disk or a
+// stopped thread would: the band keeps its slot meanwhile.
 class CopyingSink final : public BandSink {
 public:
-    CopyingSink(int width, int height, int step, bool stall)
+    CopyingSink(int width, int height, int step, int stall_rows, int stall_ms)
         : frame_(width, height),
           rows_(static_cast<std::size_t>(height)),
           step_(step),
-          stall_(stall) {}
+          stall_rows_(stall_rows),
+          stall_ms_(stall_ms) {}
     int step() const override { return step_; }
     void band(int y0, int rows, int width, const BandPixels& px) noexcept override {
-        if (stall_ && y0 % 48 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        if (stall_ms_ > 0 && y0 % stall_rows_ == 0)
+            std::this_thread::sleep_for(std::chrono::milliseconds(stall_ms_));
         for (int r = 0; r < rows; ++r) {
             rows_[static_cast<std::size_t>(y0 + r)]++;
             for (int x = 0; x < width; ++x) {
@@ -255,17 +258,17 @@ public:
 private:
     RenderedImage frame_;
     std::vector<std::atomic<int>> rows_;
-    int step_;
-    bool stall_;
+    int step_, stall_rows_, stall_ms_;
 };
 
-// Bands go through a pool of at most 64 slots: a frame of more bands than that, on one to
-// eight threads, with a sink that stalls (the other threads run ahead), in either layout,
-// equals the kept frame.
+// Bands go through a pool of at most 64 slots: a frame of more bands than that, on one to 70
+// threads, with a sink that stalls now and then (the other threads go on), in either layout,
+// equals the kept frame. On 70 threads every hand-over stalls 20 ms: up to 70 bands hold their
+// slots at once, so threads wait for a free one.
 TEST(PacketEngine, BandsHandedToASinkMakeTheKeptFrame) {
     const Scene scene = load_scene_file(kScenes + "/classic.json");
     RenderSettings settings = classic_settings(scene, 45, 603);  // 76 bands, the last of 3 rows
-    for (int threads : {1, 2, 3, 8})
+    for (int threads : {1, 2, 3, 8, 70})
         for (int step : {1, 3})
             for (bool aovs : {true, false}) {
                 SCOPED_TRACE("threads " + std::to_string(threads) + " step " +
@@ -274,7 +277,10 @@ TEST(PacketEngine, BandsHandedToASinkMakeTheKeptFrame) {
                 settings.aovs = aovs;
                 RayCounts kept_rays, sunk_rays;
                 const RenderedImage kept = render_packet(scene, settings, best_isa(), &kept_rays);
-                CopyingSink sink(settings.width, settings.height, step, threads == 3);
+                CopyingSink sink(settings.width, settings.height, step, threads == 70 ? 8 : 48,
+                                 threads == 70  ? 20
+                                 : threads == 3 ? 2
+                                                : 0);
                 render_packet(scene, settings, best_isa(), sink, &sunk_rays);
                 EXPECT_TRUE(sink.every_row_once());
                 EXPECT_TRUE(same_bits(kept.rgb, sink.frame().rgb, "rgb"));
