@@ -137,39 +137,44 @@ private:
     std::size_t cap_ = 0;
 };
 
-// One bounce's queue, owning its storage; grows between bounces, never inside a kernel.
-struct LevelStore {
-    Block<float> f;  // ox oy oz dx dy dz cr cg cb f w ir ig ib dr dg db
-    Block<int> i;    // skip sph crefl crefr dmask smask (the masks: one per vector)
-    Level view;
+// A queue's arrays (the members of View listed in `floats` and `ints`) in two blocks, owning
+// their storage; grows between bounces, never inside a kernel.
+template <class View>
+struct ArrayStore {
+    Block<float> f;
+    Block<int> i;
+    View view;
 
-    void reserve(int n) {
+    template <std::size_t F, std::size_t I>
+    void reserve(int n, float* View::*const (&floats)[F], int* View::*const (&ints)[I]) {
         const std::size_t want = static_cast<std::size_t>(n);
-        if (!(f.reserve(want, 17) | i.reserve(want, 6))) return;
-        view.ox = f.array(0), view.oy = f.array(1), view.oz = f.array(2);
-        view.dx = f.array(3), view.dy = f.array(4), view.dz = f.array(5);
-        view.cr = f.array(6), view.cg = f.array(7), view.cb = f.array(8);
-        view.f = f.array(9), view.w = f.array(10);
-        view.ir = f.array(11), view.ig = f.array(12), view.ib = f.array(13);
-        view.dr = f.array(14), view.dg = f.array(15), view.db = f.array(16);
-        view.skip = i.array(0), view.sph = i.array(1);
-        view.crefl = i.array(2), view.crefr = i.array(3);
-        view.dmask = i.array(4), view.smask = i.array(5);
+        if (!(f.reserve(want, static_cast<int>(F)) | i.reserve(want, static_cast<int>(I)))) return;
+        for (std::size_t k = 0; k < F; ++k) view.*floats[k] = f.array(static_cast<int>(k));
+        for (std::size_t k = 0; k < I; ++k) view.*ints[k] = i.array(static_cast<int>(k));
     }
 };
 
-struct QueueStore {
-    Block<float> f;  // px py pz nx ny nz dx dy dz
-    Block<int> i;    // sph inside
-    packet::HitQueue view;
-
+// One bounce's rays and nodes (the masks: one entry per vector).
+struct LevelStore : ArrayStore<Level> {
     void reserve(int n) {
-        const std::size_t want = static_cast<std::size_t>(n);
-        if (!(f.reserve(want, 9) | i.reserve(want, 2))) return;
-        view.px = f.array(0), view.py = f.array(1), view.pz = f.array(2);
-        view.nx = f.array(3), view.ny = f.array(4), view.nz = f.array(5);
-        view.dx = f.array(6), view.dy = f.array(7), view.dz = f.array(8);
-        view.sph = i.array(0), view.inside = i.array(1);
+        static constexpr float* Level::*kFloats[] = {
+            &Level::ox, &Level::oy, &Level::oz, &Level::dx, &Level::dy, &Level::dz,
+            &Level::cr, &Level::cg, &Level::cb, &Level::f,  &Level::w,  &Level::ir,
+            &Level::ig, &Level::ib, &Level::dr, &Level::dg, &Level::db};
+        static constexpr int* Level::*kInts[] = {&Level::skip,  &Level::sph,   &Level::crefl,
+                                                 &Level::crefr, &Level::dmask, &Level::smask};
+        ArrayStore::reserve(n, kFloats, kInts);
+    }
+};
+
+// One shade() call's hits of one kind.
+struct QueueStore : ArrayStore<packet::HitQueue> {
+    void reserve(int n) {
+        using Q = packet::HitQueue;
+        static constexpr float* Q::*kFloats[] = {&Q::px, &Q::py, &Q::pz, &Q::nx, &Q::ny,
+                                                 &Q::nz, &Q::dx, &Q::dy, &Q::dz};
+        static constexpr int* Q::*kInts[] = {&Q::sph, &Q::inside};
+        ArrayStore::reserve(n, kFloats, kInts);
     }
 };
 
