@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "file_kind.h"
+#include "output_file.h"
 
 namespace rt {
 
@@ -68,12 +69,9 @@ public:
     File(const File&) = delete;
     File& operator=(const File&) = delete;
     void write(const char* p, std::size_t n) {
-        while (n > 0) {
-            const ssize_t done = ::write(fd_, p, n);
-            if (done < 0 && errno == EINTR) continue;
-            if (done <= 0) fail("write failed");
-            p += done;
-            n -= static_cast<std::size_t>(done);
+        if (const int error = write_fully(fd_, p, n)) {
+            errno = error;
+            fail("write failed");
         }
     }
     // Gathers the pieces in one call per IOV_MAX of them, resuming after a short write.

@@ -13,6 +13,19 @@
 
 namespace rt {
 
+int write_fully(int fd, const void* data, std::size_t n, off_t offset) noexcept {
+    const char* p = static_cast<const char*>(data);
+    while (n > 0) {
+        const ssize_t done = offset < 0 ? ::write(fd, p, n) : ::pwrite(fd, p, n, offset);
+        if (done < 0 && errno == EINTR) continue;
+        if (done <= 0) return done < 0 ? errno : EIO;
+        p += done;
+        n -= static_cast<std::size_t>(done);
+        if (offset >= 0) offset += done;
+    }
+    return 0;
+}
+
 AtomicFile::AtomicFile(std::string path)
     : path_(std::move(path)), temp_(path_ + ".tmp" + std::to_string(::getpid())) {}
 

@@ -2,9 +2,17 @@
 // finished, so that a failed write never leaves a partial file.
 #pragma once
 
+#include <sys/types.h>
+
+#include <cstddef>
 #include <string>
 
 namespace rt {
+
+// Writes all n bytes to fd at `offset` (pwrite), or at the file's position when `offset` is
+// negative (write), resuming after a short write or a signal. Returns 0, or the errno of the
+// failure (EIO for a write that wrote nothing).
+int write_fully(int fd, const void* data, std::size_t n, off_t offset = -1) noexcept;
 
 class AtomicFile {
 public:

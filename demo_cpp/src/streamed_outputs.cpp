@@ -43,18 +43,8 @@ void BandFile::allocate(std::size_t size) {
 }
 
 void BandFile::write_at(const void* data, std::size_t n, std::size_t offset) noexcept {
-    const char* p = static_cast<const char*>(data);
-    while (n > 0 && error_.load(std::memory_order_relaxed) == 0) {
-        const ssize_t done = ::pwrite(fd_, p, n, static_cast<off_t>(offset));
-        if (done < 0 && errno == EINTR) continue;
-        if (done <= 0) {
-            fail(done < 0 ? errno : EIO);
-            return;
-        }
-        p += done;
-        offset += static_cast<std::size_t>(done);
-        n -= static_cast<std::size_t>(done);
-    }
+    if (error_.load(std::memory_order_relaxed) != 0) return;  // the file is lost already
+    if (const int error = write_fully(fd_, data, n, static_cast<off_t>(offset))) fail(error);
 }
 
 void BandFile::fail(int error) noexcept {
