@@ -2,11 +2,11 @@
 
 #include <atomic>
 #include <cmath>
-#include <thread>
 #include <vector>
 
 #include "camera_rays.h"
 #include "packet/packet_engine.h"
+#include "worker_threads.h"
 
 namespace rt {
 
@@ -85,10 +85,7 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
         }
         counts[static_cast<std::size_t>(thread)] = tracer.ray_counts();
     };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < settings.threads; ++t) pool.emplace_back(worker, t);
-    worker(0);
-    for (auto& t : pool) t.join();
+    run_workers(settings.threads, worker);
     if (rays) {
         *rays = {};
         for (const RayCounts& c : counts) *rays += c;

@@ -24,6 +24,7 @@
 
 #include "file_kind.h"
 #include "output_file.h"
+#include "worker_threads.h"
 
 namespace rt {
 
@@ -354,14 +355,7 @@ void write_exr_scanlines(const std::string& path, const RenderedImage& image,
     };
     if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     threads = std::min(blocks, threads);
-    std::vector<std::thread> helpers;
-    helpers.reserve(static_cast<std::size_t>(threads));
-    try {
-        for (int t = 1; t < threads; ++t) helpers.emplace_back(work);
-    } catch (...) {  // no more threads (or no memory for one): those there share the blocks
-    }
-    work();
-    for (std::thread& t : helpers) t.join();
+    run_workers(threads, [&](int) { work(); });
     if (failed) throw std::runtime_error(path + ": compressing the EXR blocks failed");
 
     std::uint64_t offset = head.size() + static_cast<std::size_t>(blocks) * 8;

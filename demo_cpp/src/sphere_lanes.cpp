@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "cpu_features.h"
+
 namespace rt {
 namespace {
 
@@ -102,7 +104,7 @@ SphereLanes::SphereLanes(const std::vector<Sphere>& spheres)
       cy_(padded_, 0.0f),
       cz_(padded_, 0.0f),
       r2_(padded_, -kInf),
-      avx2_(__builtin_cpu_supports("avx2")) {
+      avx2_(cpu_runs_avx2()) {
     for (int i = 0; i < count_; ++i) {
         cx_[i] = spheres[i].center.x;
         cy_[i] = spheres[i].center.y;

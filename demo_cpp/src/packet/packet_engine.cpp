@@ -11,8 +11,10 @@
 #include <vector>
 
 #include "camera_rays.h"
+#include "cpu_features.h"
 #include "light_units.h"
 #include "packet/packet_data.h"
+#include "worker_threads.h"
 
 namespace rt {
 
@@ -38,18 +40,6 @@ const Kernels& kernels_for(Isa isa) {
             break;
     }
     return packet::kernels_scalar();
-}
-
-bool supported(Isa isa) {
-    switch (isa) {
-        case Isa::avx512:
-            return __builtin_cpu_supports("avx512f");
-        case Isa::avx2:
-            return __builtin_cpu_supports("avx2");
-        case Isa::scalar:
-            return true;
-    }
-    return false;
 }
 
 // The scene as arrays (packet_data.h), owning its storage.
@@ -234,6 +224,18 @@ const char* isa_name(Isa isa) {
     return "?";
 }
 
+bool supported(Isa isa) {
+    switch (isa) {
+        case Isa::avx512:
+            return cpu_runs_avx512f();
+        case Isa::avx2:
+            return cpu_runs_avx2();
+        case Isa::scalar:
+            return true;
+    }
+    return false;
+}
+
 Isa best_isa() {
     if (supported(Isa::avx512)) return Isa::avx512;
     if (supported(Isa::avx2)) return Isa::avx2;
@@ -365,10 +367,8 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
             if (tiles_left[band].fetch_sub(1) == 1) band_done(band);
         }
     };
-    std::vector<std::thread> pool;
-    for (std::size_t t = 1; t < workers.size(); ++t) pool.emplace_back(work, std::ref(workers[t]));
-    work(workers[0]);
-    for (auto& t : pool) t.join();
+    run_workers(static_cast<int>(workers.size()),
+                [&](int i) { work(workers[static_cast<std::size_t>(i)]); });
     if (rays) {
         *rays = {};
         for (const Worker& w : workers)

@@ -24,9 +24,9 @@ namespace {
 const std::string kScenes = RTVAL_SCENES_DIR;
 
 std::vector<Isa> supported_isas() {
-    std::vector<Isa> out{Isa::scalar};
-    if (__builtin_cpu_supports("avx2")) out.push_back(Isa::avx2);
-    if (__builtin_cpu_supports("avx512f")) out.push_back(Isa::avx512);
+    std::vector<Isa> out;
+    for (Isa isa : {Isa::scalar, Isa::avx2, Isa::avx512})
+        if (supported(isa)) out.push_back(isa);
     return out;
 }
 
