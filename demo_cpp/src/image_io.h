@@ -10,6 +10,7 @@
 
 #include "exr_scanlines.h"
 #include "image.h"
+#include "ppm_rounding.h"
 
 namespace rt {
 
@@ -36,9 +37,6 @@ void write_png(const std::string& path, const RenderedImage& image);
 // 8-bit RGB bytes (row-major, y down) that are already display-encoded, as a PNG.
 void write_png_bytes(const std::string& path, int width, int height,
                      const std::vector<unsigned char>& rgb);
-// How a linear value in [0, 1] becomes a byte: `truncate` is what the paper's program family
-// writes, (unsigned char)(std::min(1.f, x) * 255); `round` is the nearest level.
-enum class PpmRounding { truncate, round };
 // "truncate" | "round"; throws std::invalid_argument naming the bad value.
 PpmRounding parse_ppm_rounding(const std::string& text);
 

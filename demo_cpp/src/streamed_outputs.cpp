@@ -94,6 +94,11 @@ void PpmStream::band(int y0, int rows, int width, const BandPixels& pixels) noex
     const BandFile::Busy busy(file_);
     const std::size_t row = 3 * static_cast<std::size_t>(width);
     const std::size_t n = row * static_cast<std::size_t>(rows);
+    const std::size_t offset = header_ + row * static_cast<std::size_t>(y0);
+    if (pixels.rgb8) {  // encoded by the render threads
+        file_.write_at(pixels.rgb8, n, offset);
+        return;
+    }
     try {
         std::vector<char>& bytes = thread_scratch(n);
         unsigned char* out = reinterpret_cast<unsigned char*>(bytes.data());
@@ -106,7 +111,7 @@ void PpmStream::band(int y0, int rows, int width, const BandPixels& pixels) noex
                 out[3 * i + 2] = to_linear8(pixels.b[i], rounding_);
             }
         }
-        file_.write_at(bytes.data(), n, header_ + row * static_cast<std::size_t>(y0));
+        file_.write_at(bytes.data(), n, offset);
     } catch (...) {  // no memory for the scratch: that band is a failed write
         file_.fail(ENOMEM);
     }

@@ -64,6 +64,7 @@ private:
 class PpmStream final : public BandSink {
 public:
     PpmStream(const std::string& path, int width, int height, PpmRounding rounding);
+    std::optional<PpmRounding> rgb8() const override { return rounding_; }
     void band(int y0, int rows, int width, const BandPixels& pixels) noexcept override;
     void finish() { file_.finish(); }
     double write_seconds() const { return file_.busy_seconds(); }  // summed over the threads

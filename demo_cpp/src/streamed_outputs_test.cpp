@@ -23,6 +23,7 @@
 #include "cpu_renderer.h"
 #include "exr_test_support.h"
 #include "image_io.h"
+#include "packet/packet_engine.h"
 #include "scene_loader.h"
 
 namespace rt {
@@ -195,7 +196,8 @@ TEST(StreamedOutputs, AnUnfinishedStreamLeavesNoFileAndABadPathIsNamed) {
 }
 
 // The packet engine into a stream: the bytes write_ppm writes from the frame it returns, at a
-// size whose last band and tiles are partial, with and without AOVs.
+// size whose last band and tiles are partial, in both roundings and on every instruction set
+// (without AOVs the PPM stream takes bytes the render threads encoded); then the EXR with AOVs.
 TEST(StreamedOutputs, ThePacketEnginesBandsMakeTheSameFiles) {
     const Scene scene = load_scene_file(RTVAL_SCENES_DIR "/classic.json");
     RenderSettings settings;
@@ -205,15 +207,21 @@ TEST(StreamedOutputs, ThePacketEnginesBandsMakeTheSameFiles) {
     settings.aovs = false;
     const fs::path whole = temp_path("rtdemo_engine_whole.ppm");
     const fs::path streamed = temp_path("rtdemo_engine_bands.ppm");
-    write_ppm(whole.string(), render_cpu(scene, settings));
     ASSERT_TRUE(renders_in_bands(settings));
-    PpmStream stream(streamed.string(), settings.width, settings.height, PpmRounding::truncate);
-    RayCounts streamed_rays, whole_rays;
-    render_cpu(scene, settings, stream, &streamed_rays);
-    stream.finish();
-    EXPECT_EQ(bytes_of(streamed), bytes_of(whole));
-    render_cpu(scene, settings, &whole_rays);
-    EXPECT_EQ(streamed_rays.total(), whole_rays.total());
+    for (Isa isa : {Isa::scalar, Isa::avx2, Isa::avx512}) {
+        if (!supported(isa)) continue;
+        for (PpmRounding rounding : {PpmRounding::truncate, PpmRounding::round}) {
+            SCOPED_TRACE(std::string(isa_name(isa)) +
+                         (rounding == PpmRounding::round ? " round" : " truncate"));
+            RayCounts streamed_rays, whole_rays;
+            write_ppm(whole.string(), render_packet(scene, settings, isa, &whole_rays), rounding);
+            PpmStream stream(streamed.string(), settings.width, settings.height, rounding);
+            render_packet(scene, settings, isa, stream, &streamed_rays);
+            stream.finish();
+            EXPECT_EQ(bytes_of(streamed), bytes_of(whole));
+            EXPECT_EQ(streamed_rays.total(), whole_rays.total());
+        }
+    }
 
     settings.aovs = true;
     const RenderedImage frame = render_cpu(scene, settings);

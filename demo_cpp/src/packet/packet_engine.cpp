@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <memory>
 #include <new>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -265,6 +266,12 @@ using packet::TilePixels;
 
 // Pixel x of a band's (or a tile's) first row.
 TilePixels at_x(const TilePixels& p, int x) {
+    if (p.rgb8) {
+        TilePixels bytes{};
+        bytes.rgb8 = p.rgb8 + 3 * static_cast<std::ptrdiff_t>(x);
+        bytes.round = p.round;
+        return bytes;
+    }
     const std::ptrdiff_t c = static_cast<std::ptrdiff_t>(p.step) * x;
     if (!p.id)
         return {p.r + c, p.g + c, p.b + c, nullptr, nullptr, nullptr, nullptr, nullptr, p.step};
@@ -413,15 +420,19 @@ namespace {
 // slot (with band b in slot b mod 6, a stopped thread held up the frame for up to 5 ms,
 // bench/NOTES.md). A thread waits for a slot only with more threads than slots, and never while
 // a tile of its own is unfinished, so the bands holding slots always finish.
-// The layout is the sink's (BandSink::step): rgb and normal interleaved, or planes.
+// The layout is the sink's (BandSink::step): rgb and normal interleaved, or planes; or the
+// colour as the sink's bytes (BandSink::rgb8, a frame without AOVs).
 class BandSlots {
 public:
-    BandSlots(int bands, std::size_t band_pixels, bool aovs, int step)
+    // `rgb8`: null for floats.
+    BandSlots(int bands, std::size_t band_pixels, bool aovs, int step, const PpmRounding* rgb8)
         : count_(slots_for(bands, (aovs ? 8 : 3) * band_pixels)),
           pixels_(band_pixels),
           floats_((aovs ? 8 : 3) * band_pixels),
           aovs_(aovs),
           step_(step),
+          rgb8_(rgb8 != nullptr),
+          round_(rgb8 && *rgb8 == PpmRounding::round),
           slot_of_(new std::atomic<int>[static_cast<std::size_t>(bands)]),
           free_(count_ == 64 ? ~0ull : (1ull << count_) - 1),
           // Uninitialised and untouched until used: every pixel of a band is stored by its
@@ -434,6 +445,12 @@ public:
         int slot = slot_of_[b].load(std::memory_order_acquire);
         if (slot < 0) slot = assign(b);
         float* p = planes_.get() + floats_ * static_cast<std::size_t>(slot);
+        if (rgb8_) {  // 3 bytes a pixel in the slot's first quarter
+            TilePixels bytes{};
+            bytes.rgb8 = reinterpret_cast<unsigned char*>(p);
+            bytes.round = round_;
+            return bytes;
+        }
         // Interleaved: r g b run together, as do n.x n.y n.z; planes: one after the other.
         const std::size_t next = step_ == 1 ? pixels_ : 1;
         float* n = p + 5 * pixels_;
@@ -487,6 +504,7 @@ private:
     std::size_t pixels_, floats_;
     bool aovs_;
     int step_;
+    bool rgb8_, round_;
     std::unique_ptr<std::atomic<int>[]> slot_of_;  // per band: its slot, kNone or kAssigning
     std::atomic<std::uint64_t> free_;              // bit s: slot s is free
     std::unique_ptr<float[]> planes_;  // per slot: r g b, then id, depth, n.x n.y n.z with AOVs
@@ -497,14 +515,15 @@ private:
 void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa, BandSink& sink,
                    RayCounts* rays) {
     const int width = settings.width, height = settings.height;
+    const std::optional<PpmRounding> rgb8 = settings.aovs ? std::nullopt : sink.rgb8();
     BandSlots slots((height + kTileH - 1) / kTileH, static_cast<std::size_t>(width) * kTileH,
-                    settings.aovs, sink.step() == 1 ? 1 : 3);
+                    settings.aovs, sink.step() == 1 ? 1 : 3, rgb8 ? &*rgb8 : nullptr);
     auto slot_of = [&](int band) { return slots.acquire(band); };
     auto hand_over = [&](int band) {
         const TilePixels b = slots.acquire(band);  // its own slot, taken
         const int y0 = band * kTileH;
         sink.band(y0, std::min(kTileH, height - y0), width,
-                  BandPixels{b.r, b.g, b.b, b.id, b.depth, b.nx, b.ny, b.nz, b.step});
+                  BandPixels{b.r, b.g, b.b, b.id, b.depth, b.nx, b.ny, b.nz, b.step, b.rgb8});
         slots.release(band);
     };
     render_tiles(scene, settings, isa, rays, slot_of, hand_over);

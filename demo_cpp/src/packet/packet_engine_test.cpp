@@ -11,11 +11,15 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "image_io.h"
+#include "packet/packet_data.h"
 #include "scene_loader.h"
 
 namespace rt {
@@ -291,6 +295,104 @@ TEST(PacketEngine, BandsHandedToASinkMakeTheKeptFrame) {
                 }
                 EXPECT_EQ(kept_rays.total(), sunk_rays.total());
             }
+}
+
+const packet::Kernels& kernels_of(Isa isa) {
+    switch (isa) {
+        case Isa::avx512:
+            return packet::kernels_avx512();
+        case Isa::avx2:
+            return packet::kernels_avx2();
+        case Isa::scalar:
+            break;
+    }
+    return packet::kernels_scalar();
+}
+
+// The floats an 8-bit encoding must get right: specials, the edges of every level (k / 255 and
+// (k + 0.5) / 255, a few ulps either side), and a sweep of all float bit patterns.
+std::vector<float> encoding_probes() {
+    std::vector<float> v = {0.0f,
+                            -0.0f,
+                            1.0f,
+                            -1.0f,
+                            2.0f,
+                            std::nanf(""),
+                            -std::nanf(""),
+                            std::numeric_limits<float>::infinity(),
+                            -std::numeric_limits<float>::infinity(),
+                            std::numeric_limits<float>::denorm_min(),
+                            std::numeric_limits<float>::max()};
+    for (int k = 0; k <= 255; ++k)
+        for (float edge : {k / 255.0f, (k + 0.5f) / 255.0f}) {
+            float below = edge, above = edge;
+            for (int u = 0; u < 3; ++u) {
+                v.push_back(below = std::nextafter(below, -1.0f));
+                v.push_back(above = std::nextafter(above, 2.0f));
+            }
+            v.push_back(edge);
+        }
+    for (std::uint64_t bits = 0; bits < (1ull << 32); bits += 65521) {
+        float f;
+        const auto b = static_cast<std::uint32_t>(bits);
+        std::memcpy(&f, &b, 4);
+        v.push_back(f);
+    }
+    return v;
+}
+
+// A tile stored as an 8-bit output's bytes (a PPM stream's bands) holds, for every instruction
+// set, both roundings and spp scales, to_linear8 of each colour value: r g b interleaved, the
+// row stride the frame's, tiles narrower than a vector included.
+TEST(PacketEngine, EightBitTilesAreToLinear8OfEveryValue) {
+    const std::vector<float> probes = encoding_probes();
+    for (Isa isa : supported_isas())
+        for (PpmRounding rounding : {PpmRounding::truncate, PpmRounding::round})
+            for (float scale : {1.0f, 0.25f})
+                for (int tw : {16, 13, 5}) {
+                    SCOPED_TRACE(std::string(isa_name(isa)) + " tile width " + std::to_string(tw) +
+                                 " scale " + std::to_string(scale) +
+                                 (rounding == PpmRounding::round ? " round" : " truncate"));
+                    const packet::Kernels& k = kernels_of(isa);
+                    const int th = 8, width = 40, n = tw * th;
+                    std::vector<float> ch[3];
+                    for (auto& c : ch) c.assign(static_cast<std::size_t>(n + k.lanes), 0.5f);
+                    std::vector<unsigned char> out(static_cast<std::size_t>(3 * width * th), 7);
+                    int mismatches = 0;
+                    for (std::size_t first = 0; first < probes.size(); first += n) {
+                        for (int c = 0; c < 3; ++c)
+                            for (int i = 0; i < n; ++i)
+                                ch[c][static_cast<std::size_t>(i)] =
+                                    probes[(first + static_cast<std::size_t>(i + 7 * c)) %
+                                           probes.size()];
+                        packet::TilePixels px{};
+                        px.rgb8 = out.data() + 3 * 2;  // the tile at x = 2 of its band
+                        px.round = rounding == PpmRounding::round;
+                        k.store_tile(ch[0].data(), ch[1].data(), ch[2].data(), scale, nullptr, tw,
+                                     th, width, px);
+                        for (int y = 0; y < th; ++y)
+                            for (int x = 0; x < tw; ++x)
+                                for (int c = 0; c < 3; ++c) {
+                                    const float v = ch[c][static_cast<std::size_t>(y * tw + x)];
+                                    const unsigned char want = to_linear8(v * scale, rounding);
+                                    const unsigned char got =
+                                        out[static_cast<std::size_t>(3 * (y * width + 2 + x) + c)];
+                                    if (got != want && ++mismatches <= 3)
+                                        ADD_FAILURE() << "value " << v << " channel " << c << ": "
+                                                      << int(got) << ", to_linear8 " << int(want);
+                                }
+                        // The pixels beside the tile (x < 2, x >= 2 + tw) are untouched.
+                        for (int y = 0; y < th; ++y)
+                            for (int x = 0; x < width; ++x) {
+                                if (x >= 2 && x < 2 + tw) continue;
+                                for (int c = 0; c < 3; ++c)
+                                    ASSERT_EQ(
+                                        out[static_cast<std::size_t>(3 * (y * width + x) + c)], 7)
+                                        << "pixel " << x << ", " << y << " written";
+                            }
+                    }
+                    EXPECT_EQ(mismatches, 0);
+                }
 }
 
 TEST(PacketEngine, EqualsScalarWithSamplesDepthsAndEffectsOff) {

@@ -45,6 +45,8 @@ inline VF vmax_raw(VF a, VF b) { return {a.v > b.v ? a.v : b.v}; }  // x86 maxps
 inline VI iset(int x) { return {x}; }
 inline VI iload(const int* p) { return {*p}; }
 inline void istore(int* p, VI a) { *p = a.v; }
+// Each lane's low byte (values 0..255), W bytes.
+inline void bstore(unsigned char* p, VI a) { *p = static_cast<unsigned char>(a.v); }
 inline VI igather(const int* base, VI i) { return {base[i.v]}; }
 inline VI iota() { return {0}; }
 inline VI iand(VI a, VI b) { return {a.v & b.v}; }
@@ -52,6 +54,8 @@ inline VM ieq(VI a, VI b) { return a.v == b.v; }
 inline VM igt(VI a, VI b) { return a.v > b.v; }
 inline VI isel(VM m, VI a, VI b) { return m ? a : b; }
 inline VF itof(VI a) { return {static_cast<float>(a.v)}; }  // exact below 2^24
+inline VI ftoi(VF a) { return {static_cast<int>(a.v)}; }    // truncated; |a| < 2^31
+inline VI iadd(VI a, VI b) { return {a.v + b.v}; }
 
 inline VM mand(VM a, VM b) { return a && b; }
 inline VM mor(VM a, VM b) { return a || b; }
@@ -145,6 +149,15 @@ inline VF vmax_raw(VF a, VF b) { return {_mm256_max_ps(a.v, b.v)}; }
 inline VI iset(int x) { return {_mm256_set1_epi32(x)}; }
 inline VI iload(const int* p) { return {_mm256_loadu_si256(reinterpret_cast<const __m256i*>(p))}; }
 inline void istore(int* p, VI a) { _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), a.v); }
+inline void bstore(unsigned char* p, VI a) {
+    // Each 128-bit half's four low bytes to its front, then the halves' fronts side by side.
+    const __m256i front = _mm256_shuffle_epi8(
+        a.v, _mm256_setr_epi8(0, 4, 8, 12, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 0, 4, 8,
+                              12, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1));
+    const __m128i both =
+        _mm_unpacklo_epi32(_mm256_castsi256_si128(front), _mm256_extracti128_si256(front, 1));
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(p), both);
+}
 inline VI igather(const int* base, VI i) { return {_mm256_i32gather_epi32(base, i.v, 4)}; }
 inline VI iota() { return {_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)}; }
 inline VI iand(VI a, VI b) { return {_mm256_and_si256(a.v, b.v)}; }
@@ -155,6 +168,8 @@ inline VI isel(VM m, VI a, VI b) {
         _mm256_blendv_ps(_mm256_castsi256_ps(b.v), _mm256_castsi256_ps(a.v), m.v))};
 }
 inline VF itof(VI a) { return {_mm256_cvtepi32_ps(a.v)}; }
+inline VI ftoi(VF a) { return {_mm256_cvttps_epi32(a.v)}; }
+inline VI iadd(VI a, VI b) { return {_mm256_add_epi32(a.v, b.v)}; }
 
 inline VM mand(VM a, VM b) { return {_mm256_and_ps(a.v, b.v)}; }
 inline VM mor(VM a, VM b) { return {_mm256_or_ps(a.v, b.v)}; }
@@ -301,6 +316,9 @@ inline VF vmax_raw(VF a, VF b) { return {_mm512_max_ps(a.v, b.v)}; }
 inline VI iset(int x) { return {_mm512_set1_epi32(x)}; }
 inline VI iload(const int* p) { return {_mm512_loadu_si512(p)}; }
 inline void istore(int* p, VI a) { _mm512_storeu_si512(p, a.v); }
+inline void bstore(unsigned char* p, VI a) {
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(p), _mm512_cvtepi32_epi8(a.v));
+}
 inline VI igather(const int* base, VI i) { return {_mm512_i32gather_epi32(i.v, base, 4)}; }
 inline VI iota() {
     return {_mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)};
@@ -310,6 +328,8 @@ inline VM ieq(VI a, VI b) { return _mm512_cmpeq_epi32_mask(a.v, b.v); }
 inline VM igt(VI a, VI b) { return _mm512_cmpgt_epi32_mask(a.v, b.v); }
 inline VI isel(VM m, VI a, VI b) { return {_mm512_mask_blend_epi32(m, b.v, a.v)}; }
 inline VF itof(VI a) { return {_mm512_cvtepi32_ps(a.v)}; }
+inline VI ftoi(VF a) { return {_mm512_cvttps_epi32(a.v)}; }
+inline VI iadd(VI a, VI b) { return {_mm512_add_epi32(a.v, b.v)}; }
 
 inline VM mand(VM a, VM b) { return static_cast<VM>(a & b); }
 inline VM mor(VM a, VM b) { return static_cast<VM>(a | b); }
