@@ -543,12 +543,13 @@ int main(int argc, char** argv) {
     // the process ends, not handed back to the kernel midway (each unmap or trim is a system
     // call that flushes the address translations of every core the process ran on: 0.2-0.5 ms
     // at the end of a frame, bench/NOTES.md; larger blocks, a frame plane over ~2.8 Mpixels,
-    // are still mapped and unmapped on their own); the heap grows 4 MB at a time, and the
-    // worker threads allocate from it instead of each mapping an arena of its own.
+    // are still mapped and unmapped on their own); the heap grows 4 MB at a time. Each worker
+    // thread keeps its own arena (malloc's default): with one shared arena the two threads'
+    // first allocations woke each other through its lock, and Linux then often ran both on
+    // the waker's CPU for milliseconds (perf sched, bench/NOTES.md).
     mallopt(M_MMAP_THRESHOLD, 32 << 20);
     mallopt(M_TRIM_THRESHOLD, INT_MAX);
     mallopt(M_TOP_PAD, 4 << 20);
-    mallopt(M_ARENA_MAX, 1);
     // Past a file-size limit a write fails (exit 4, the temporary file removed) instead of
     // the process being killed with its temporary file left behind.
     std::signal(SIGXFSZ, SIG_IGN);
