@@ -63,6 +63,7 @@ inline VM mandnot(VM a, VM b) { return a && !b; }  // a and not b
 inline VM mnot(VM a) { return !a; }
 inline VM mall(bool b) { return b; }
 inline bool any(VM m) { return m; }
+inline bool all(VM m) { return m; }
 inline unsigned bits(VM m) { return m ? 1u : 0u; }
 
 // The lanes of m, packed, at dst (which may be written up to W entries on).
@@ -177,6 +178,7 @@ inline VM mandnot(VM a, VM b) { return {_mm256_andnot_ps(b.v, a.v)}; }
 inline VM mnot(VM a) { return {_mm256_xor_ps(a.v, _mm256_castsi256_ps(_mm256_set1_epi32(-1)))}; }
 inline VM mall(bool b) { return {_mm256_castsi256_ps(_mm256_set1_epi32(b ? -1 : 0))}; }
 inline bool any(VM m) { return _mm256_movemask_ps(m.v) != 0; }
+inline bool all(VM m) { return _mm256_movemask_ps(m.v) == 0xff; }
 inline unsigned bits(VM m) { return static_cast<unsigned>(_mm256_movemask_ps(m.v)); }
 
 // AVX2 has no compress: a permutation per 8-bit mask that moves the set lanes to the front.
@@ -337,6 +339,7 @@ inline VM mandnot(VM a, VM b) { return static_cast<VM>(a & ~b); }
 inline VM mnot(VM a) { return static_cast<VM>(~a); }
 inline VM mall(bool b) { return b ? VM(0xFFFF) : VM(0); }
 inline bool any(VM m) { return m != 0; }
+inline bool all(VM m) { return _kortestc_mask16_u8(m, m) != 0; }  // one kortestw
 inline unsigned bits(VM m) { return m; }
 
 // Compress into a register, then one full store: the masked compress-store to memory is slow.
