@@ -60,6 +60,26 @@ def run_once(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, 
     return elapsed, usage.ru_utime + usage.ru_stime, err
 
 
+def cpu_times() -> list[int] | None:
+    """The machine's CPU time counters (/proc/stat, all CPUs): user, nice, system, idle,
+    iowait, irq, softirq, steal; None where there is no /proc/stat."""
+    try:
+        fields = Path("/proc/stat").read_text().splitlines()[0].split()
+    except OSError:
+        return None
+    values = [int(v) for v in fields[1:9]]
+    return values if len(values) == 8 else None
+
+
+def steal_share(before: list[int] | None, after: list[int] | None) -> float | None:
+    """Share of the CPUs' time the host gave to other guests (steal) between two readings: the
+    noise no alternating of runs removes, since short two-thread processes lose more of it."""
+    if before is None or after is None:
+        return None
+    delta = [b - a for a, b in zip(before, after, strict=True)]
+    return delta[7] / sum(delta) if sum(delta) > 0 else None
+
+
 def alternate(
     cmds: dict[str, list[str]], rounds: int, envs: dict[str, dict[str, str]] | None = None
 ) -> dict[str, dict[str, Any]]:
@@ -144,6 +164,7 @@ def main() -> None:
         render = [rtdemo, "render", CLASSIC, "--mode", "classic"]
         ppm_round = [*render, "--ppm-rounding", "round", "--ppm"]
         # 1. Whole processes against the plain program, and the empty process.
+        stat_before = cpu_times()
         whole = alternate(
             {
                 "seed_ppm": [seed, CLASSIC, f"{tmp}/seed-{{round}}.ppm", "classic"],
@@ -161,6 +182,7 @@ def main() -> None:
             },
             args.rounds,
         )
+        steal = steal_share(stat_before, cpu_times())
         last = args.rounds - 1
         same_ppm = (
             Path(f"{tmp}/seed-{last}.ppm").read_bytes() == Path(f"{tmp}/p-{last}.ppm").read_bytes()
@@ -262,9 +284,10 @@ def main() -> None:
         ]
         for k, label in labels.items()
     ]
+    host = "unknown" if steal is None else f"{100 * steal:.1f} %"
     print(
         f"Whole processes, classic scene, classic mode, 640x480 ({args.rounds} alternating rounds; same PPM as the "
-        f"plain program: {same_ppm})"
+        f"plain program: {same_ppm}; the host's steal of the CPUs meanwhile: {host})"
     )
     print_table(
         ["process", "median s", "min s", "max s", "x plain", "cpu s (median)", "x plain (cpu)"],
@@ -322,6 +345,7 @@ def main() -> None:
         {
             "whole": whole,
             "same_ppm_as_plain": same_ppm,
+            "host_steal_share": steal,
             "speedup_ppm": base / ppm_s,
             "speedup_exr": base / exr_s,
             "speedup_ppm_cpu_time": base_cpu / whole["packet_ppm"]["cpu_median_s"],
