@@ -19,6 +19,18 @@
 
 namespace rt {
 
+const packet::Kernels& kernels_for(Isa isa) {
+    switch (isa) {
+        case Isa::avx512:
+            return packet::kernels_avx512();
+        case Isa::avx2:
+            return packet::kernels_avx2();
+        case Isa::scalar:
+            break;
+    }
+    return packet::kernels_scalar();
+}
+
 namespace {
 
 using packet::Kernels;
@@ -30,18 +42,6 @@ using packet::Level;
 // of queue memory touched in a fresh process (bench/NOTES.md).
 constexpr int kTileW = 16;
 constexpr int kTileH = 8;
-
-const Kernels& kernels_for(Isa isa) {
-    switch (isa) {
-        case Isa::avx512:
-            return packet::kernels_avx512();
-        case Isa::avx2:
-            return packet::kernels_avx2();
-        case Isa::scalar:
-            break;
-    }
-    return packet::kernels_scalar();
-}
 
 // The scene as arrays (packet_data.h), owning its storage.
 struct SceneStore {

@@ -14,11 +14,17 @@
 
 namespace rt {
 
+namespace packet {
+struct Kernels;
+}
+
 enum class Isa { scalar, avx2, avx512 };
 
 const char* isa_name(Isa isa);
 // Whether this CPU (and its kernel) runs `isa`.
 bool supported(Isa isa);
+// The kernels compiled for `isa` (packet/packet_data.h); `isa` must be supported.
+const packet::Kernels& kernels_for(Isa isa);
 // The widest instruction set this CPU runs.
 Isa best_isa();
 // RTDEMO_ISA=scalar|avx2|avx512 forces a narrower one (tests, benchmarks); unset or empty: best.

@@ -297,18 +297,6 @@ TEST(PacketEngine, BandsHandedToASinkMakeTheKeptFrame) {
             }
 }
 
-const packet::Kernels& kernels_of(Isa isa) {
-    switch (isa) {
-        case Isa::avx512:
-            return packet::kernels_avx512();
-        case Isa::avx2:
-            return packet::kernels_avx2();
-        case Isa::scalar:
-            break;
-    }
-    return packet::kernels_scalar();
-}
-
 // The floats an 8-bit encoding must get right: specials, the edges of every level (k / 255 and
 // (k + 0.5) / 255, a few ulps either side), and a sweep of all float bit patterns.
 std::vector<float> encoding_probes() {
@@ -353,7 +341,7 @@ TEST(PacketEngine, EightBitTilesAreToLinear8OfEveryValue) {
                     SCOPED_TRACE(std::string(isa_name(isa)) + " tile width " + std::to_string(tw) +
                                  " scale " + std::to_string(scale) +
                                  (rounding == PpmRounding::round ? " round" : " truncate"));
-                    const packet::Kernels& k = kernels_of(isa);
+                    const packet::Kernels& k = kernels_for(isa);
                     const int th = 8, width = 40, n = tw * th;
                     std::vector<float> ch[3];
                     for (auto& c : ch) c.assign(static_cast<std::size_t>(n + k.lanes), 0.5f);
