@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import signal
 import statistics
 import sys
 import tempfile
@@ -40,24 +41,35 @@ CLASSIC = str(SCENES / "classic.json")
 
 def run_once(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, float, str]:
     """Wall time, CPU time (user + system of the child, from wait4: less moved by other work
-    waiting for the same cores than wall time) and stderr of one process. Started with
-    posix_spawn, its output to a file read afterwards: subprocess.run with pipes added about
-    0.3 ms to every process, both programs' alike (bench/NOTES.md)."""
+    waiting for the same cores than wall time) and output (stdout and stderr together) of one
+    process. Started with posix_spawn, its output to a file read afterwards: subprocess.run with
+    pipes added about 0.3 ms to every process, both programs' alike (bench/NOTES.md). Signals
+    Python ignores (SIGPIPE, SIGXFSZ) are set back to their defaults in the child, as
+    subprocess does; an interrupted benchmark kills the process it waits for."""
     with tempfile.TemporaryFile() as log:
         fd = log.fileno()
         actions = [(os.POSIX_SPAWN_DUP2, fd, 1), (os.POSIX_SPAWN_DUP2, fd, 2)]
         start = time.perf_counter()
         pid = os.posix_spawn(
-            cmd[0], cmd, env if env is not None else os.environ, file_actions=actions
+            cmd[0],
+            cmd,
+            env if env is not None else os.environ,
+            file_actions=actions,
+            setsigdef=(signal.SIGPIPE, signal.SIGXFSZ),
         )
-        _, status, usage = os.wait4(pid, 0)
+        try:
+            _, status, usage = os.wait4(pid, 0)
+        except BaseException:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            raise
         elapsed = time.perf_counter() - start
         log.seek(0)
-        err = log.read().decode(errors="replace")
+        output = log.read().decode(errors="replace")
     code = os.waitstatus_to_exitcode(status)
     if code != 0:
-        raise SystemExit(f"{' '.join(cmd)} failed ({code}): {err.strip()}")
-    return elapsed, usage.ru_utime + usage.ru_stime, err
+        raise SystemExit(f"{' '.join(cmd)} failed ({code}): {output.strip()}")
+    return elapsed, usage.ru_utime + usage.ru_stime, output
 
 
 def cpu_times() -> list[int] | None:
@@ -83,7 +95,7 @@ def steal_share(before: list[int] | None, after: list[int] | None) -> float | No
 def alternate(
     cmds: dict[str, list[str]], rounds: int, envs: dict[str, dict[str, str]] | None = None
 ) -> dict[str, dict[str, Any]]:
-    """Runs every command once per round, the order rotated each round; wall times and stderr.
+    """Runs every command once per round, the order rotated each round; wall times and output.
     "{round}" in an argument becomes the round's number: such outputs are new files each round
     (the previous round's are removed before the round starts, untimed), as rtval's render
     cache writes them. Replacing an existing file costs its old pages (measured apart)."""
@@ -110,16 +122,16 @@ def alternate(
             "cpu_median_s": statistics.median(cpus[n]),
             "runs_s": v,
             "cpu_runs_s": cpus[n],
-            "stderr": errs[n],
+            "output": errs[n],
         }
         for n, v in times.items()
     }
 
 
-def summary(stderr: str) -> dict[str, float]:
-    m = SUMMARY.search(stderr)
+def summary(output: str) -> dict[str, float]:
+    m = SUMMARY.search(output)
     if not m:
-        raise SystemExit(f"no rtdemo summary line in: {stderr!r}")
+        raise SystemExit(f"no rtdemo summary line in: {output!r}")
     return {
         "frame_s": float(m.group(1)),
         "threads": int(m.group(2)),
@@ -194,7 +206,7 @@ def main() -> None:
         )
 
         def median_of(row: str, key: str) -> float:
-            return statistics.median(summary(e)[key] for e in whole[row]["stderr"])
+            return statistics.median(summary(e)[key] for e in whole[row]["output"])
 
         write_ppm = median_of("packet_ppm_kept", "write_s")
         write_exr = median_of("packet_exr_kept", "write_s")
@@ -225,7 +237,7 @@ def main() -> None:
             {k: env for k, (env, _) in variants.items()},
         )
         trace_s = {
-            k: statistics.median(summary(e)["frame_s"] for e in v["stderr"])
+            k: statistics.median(summary(e)["frame_s"] for e in v["output"])
             for k, v in tracing.items()
         }
         best = next(iter(trace_s))
@@ -340,7 +352,7 @@ def main() -> None:
     )
     for d in (whole, tracing, physical):
         for v in d.values():
-            v.pop("stderr", None)
+            v.pop("output", None)
     results.update(
         {
             "whole": whole,

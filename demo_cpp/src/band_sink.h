@@ -15,7 +15,7 @@ namespace rt {
 // every channel is a plane of its own. Colour is linear and unclamped; the AOVs (id, depth, the
 // normal) are null when the frame was rendered without them.
 // For a sink that asked for it (BandSink::rgb8), the colour may come as that output's bytes
-// instead: `rgb8` r g b per pixel (row stride 3 * width bytes), r, g and b then null.
+// instead: `rgb8` r g b per pixel (row stride 3 * width bytes, `step` 3), r, g and b then null.
 struct BandPixels {
     const float *r, *g, *b, *id, *depth, *nx, *ny, *nz;
     int step;

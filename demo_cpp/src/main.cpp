@@ -543,7 +543,7 @@ int main(int argc, char** argv) {
     // the process ends, not handed back to the kernel midway (each unmap or trim is a system
     // call that flushes the address translations of every core the process ran on: 0.2-0.5 ms
     // at the end of a frame, bench/NOTES.md; larger blocks, a frame plane over ~2.8 Mpixels,
-    // are still mapped and unmapped on their own); the heap grows 4 MB at a time. Each worker
+    // are still mapped and unmapped on their own); the main heap grows 4 MB at a time. Each worker
     // thread keeps its own arena (malloc's default): with one shared arena the two threads'
     // first allocations woke each other through its lock, and Linux then often ran both on
     // the waker's CPU for milliseconds (perf sched, bench/NOTES.md).

@@ -14,17 +14,18 @@ struct Start {
     int index;
     bool widen;         // the thread was started on one CPU: give it back the caller's set
     cpu_set_t allowed;  // the caller's CPUs
+    std::exception_ptr error;
 };
 
 void* run_one(void* arg) {
-    const Start& start = *static_cast<const Start*>(arg);
+    Start& start = *static_cast<Start*>(arg);
     // Already on its CPU: widening the set moves nothing now, and lets the scheduler move the
-    // thread later if that CPU gets busy.
+    // thread later if that CPU gets busy. A failure leaves it where it is: still correct.
     if (start.widen) pthread_setaffinity_np(pthread_self(), sizeof start.allowed, &start.allowed);
     try {
         (*start.work)(start.index);
     } catch (...) {
-        std::terminate();  // as from a std::thread: the contract says work does not throw
+        start.error = std::current_exception();  // rethrown by run_workers after the join
     }
     return nullptr;
 }
@@ -52,13 +53,16 @@ void run_workers(int count, const std::function<void(int)>& work) {
     const bool known = sched_getaffinity(0, sizeof allowed, &allowed) == 0;
     const std::vector<int> cpus = known ? start_cpus(allowed) : std::vector<int>{};
 
+    // Everything the threads use, and the lists, allocated before the first thread starts:
+    // nothing below may throw while a thread is running.
     std::vector<Start> starts(static_cast<std::size_t>(count));
     std::vector<pthread_t> threads;
     std::vector<int> not_started;
     threads.reserve(static_cast<std::size_t>(count));
+    not_started.reserve(static_cast<std::size_t>(count));
     for (int i = 1; i < count; ++i) {
         Start& s = starts[static_cast<std::size_t>(i)];
-        s = Start{&work, i, !cpus.empty(), allowed};
+        s = Start{&work, i, !cpus.empty(), allowed, nullptr};
         pthread_t thread;
         int err = -1;
         pthread_attr_t attr;
@@ -79,9 +83,17 @@ void run_workers(int count, const std::function<void(int)>& work) {
         else
             not_started.push_back(i);
     }
-    work(0);
-    for (int i : not_started) work(i);
+    std::exception_ptr error;
+    try {
+        work(0);
+        for (int i : not_started) work(i);
+    } catch (...) {
+        error = std::current_exception();
+    }
     for (pthread_t t : threads) pthread_join(t, nullptr);
+    for (const Start& s : starts)
+        if (!error && s.error) error = s.error;
+    if (error) std::rethrow_exception(error);
 }
 
 }  // namespace rt

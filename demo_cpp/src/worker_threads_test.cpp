@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cstring>
 #include <mutex>
+#include <stdexcept>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -42,6 +44,31 @@ TEST(WorkerThreads, IndexZeroRunsOnTheCallerAndTheOthersAtTheSameTime) {
     });
     EXPECT_EQ(zero, caller);
     EXPECT_TRUE(all_met.load());
+}
+
+// A throwing index: the others still run to their end before the first exception (the
+// caller's, when it threw too) comes out of run_workers.
+TEST(WorkerThreads, AnExceptionComesOutAfterEveryThreadHasFinished) {
+    for (int thrower : {0, 2}) {
+        std::atomic<int> finished{0};
+        try {
+            run_workers(4, [&](int i) {
+                if (i == thrower) throw std::runtime_error("index " + std::to_string(i));
+                std::this_thread::sleep_for(std::chrono::milliseconds(30));
+                ++finished;
+            });
+            ADD_FAILURE() << "no exception from index " << thrower;
+        } catch (const std::runtime_error& e) {
+            EXPECT_EQ(std::string(e.what()), "index " + std::to_string(thrower));
+        }
+        EXPECT_EQ(finished.load(), 3) << "thrower " << thrower;
+    }
+    try {
+        run_workers(3, [](int i) { throw std::runtime_error("index " + std::to_string(i)); });
+        ADD_FAILURE() << "no exception";
+    } catch (const std::runtime_error& e) {
+        EXPECT_EQ(std::string(e.what()), "index 0");
+    }
 }
 
 // The start on one CPU is a hint: once running, each thread may use every CPU the caller may.

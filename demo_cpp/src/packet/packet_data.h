@@ -78,7 +78,8 @@ struct Aov {
 // Where a finished tile's pixels go, at its first pixel (as band_sink.h BandPixels): each
 // channel at its own pointer, `step` floats from one pixel to the next (3: rgb and the normal
 // interleaved; 1: planes); the AOVs null when not wanted. Or, with `rgb8` set (no AOVs), the
-// colour as an 8-bit output's bytes, r g b per pixel, rounded when `round` (to_linear8).
+// colour as an 8-bit output's bytes, r g b per pixel (step 3), rounded when `round`
+// (to_linear8).
 struct TilePixels {
     float *r, *g, *b, *id, *depth, *nx, *ny, *nz;
     int step;

@@ -268,6 +268,7 @@ using packet::TilePixels;
 TilePixels at_x(const TilePixels& p, int x) {
     if (p.rgb8) {
         TilePixels bytes{};
+        bytes.step = 3;
         bytes.rgb8 = p.rgb8 + 3 * static_cast<std::ptrdiff_t>(x);
         bytes.round = p.round;
         return bytes;
@@ -447,6 +448,7 @@ public:
         float* p = planes_.get() + floats_ * static_cast<std::size_t>(slot);
         if (rgb8_) {  // 3 bytes a pixel in the slot's first quarter
             TilePixels bytes{};
+            bytes.step = 3;
             bytes.rgb8 = reinterpret_cast<unsigned char*>(p);
             bytes.round = round_;
             return bytes;
