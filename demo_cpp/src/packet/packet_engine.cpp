@@ -264,15 +264,18 @@ namespace {
 
 using packet::TilePixels;
 
+// An 8-bit output's pixels from `rgb8` on: r g b per pixel.
+TilePixels rgb8_pixels(unsigned char* rgb8, bool round) {
+    TilePixels bytes{};
+    bytes.step = 3;
+    bytes.rgb8 = rgb8;
+    bytes.round = round;
+    return bytes;
+}
+
 // Pixel x of a band's (or a tile's) first row.
 TilePixels at_x(const TilePixels& p, int x) {
-    if (p.rgb8) {
-        TilePixels bytes{};
-        bytes.step = 3;
-        bytes.rgb8 = p.rgb8 + 3 * static_cast<std::ptrdiff_t>(x);
-        bytes.round = p.round;
-        return bytes;
-    }
+    if (p.rgb8) return rgb8_pixels(p.rgb8 + 3 * static_cast<std::ptrdiff_t>(x), p.round);
     const std::ptrdiff_t c = static_cast<std::ptrdiff_t>(p.step) * x;
     if (!p.id)
         return {p.r + c, p.g + c, p.b + c, nullptr, nullptr, nullptr, nullptr, nullptr, p.step};
@@ -425,15 +428,15 @@ namespace {
 // colour as the sink's bytes (BandSink::rgb8, a frame without AOVs).
 class BandSlots {
 public:
-    // `rgb8`: null for floats.
-    BandSlots(int bands, std::size_t band_pixels, bool aovs, int step, const PpmRounding* rgb8)
+    // `rgb8`: none for floats.
+    BandSlots(int bands, std::size_t band_pixels, bool aovs, int step,
+              std::optional<PpmRounding> rgb8)
         : count_(slots_for(bands, (aovs ? 8 : 3) * band_pixels)),
           pixels_(band_pixels),
           floats_((aovs ? 8 : 3) * band_pixels),
           aovs_(aovs),
           step_(step),
-          rgb8_(rgb8 != nullptr),
-          round_(rgb8 && *rgb8 == PpmRounding::round),
+          rgb8_(rgb8),
           slot_of_(new std::atomic<int>[static_cast<std::size_t>(bands)]),
           free_(count_ == 64 ? ~0ull : (1ull << count_) - 1),
           // Uninitialised and untouched until used: every pixel of a band is stored by its
@@ -446,13 +449,8 @@ public:
         int slot = slot_of_[b].load(std::memory_order_acquire);
         if (slot < 0) slot = assign(b);
         float* p = planes_.get() + floats_ * static_cast<std::size_t>(slot);
-        if (rgb8_) {  // 3 bytes a pixel in the slot's first quarter
-            TilePixels bytes{};
-            bytes.step = 3;
-            bytes.rgb8 = reinterpret_cast<unsigned char*>(p);
-            bytes.round = round_;
-            return bytes;
-        }
+        if (rgb8_)  // 3 bytes a pixel in the slot's first quarter
+            return rgb8_pixels(reinterpret_cast<unsigned char*>(p), *rgb8_ == PpmRounding::round);
         // Interleaved: r g b run together, as do n.x n.y n.z; planes: one after the other.
         const std::size_t next = step_ == 1 ? pixels_ : 1;
         float* n = p + 5 * pixels_;
@@ -506,7 +504,7 @@ private:
     std::size_t pixels_, floats_;
     bool aovs_;
     int step_;
-    bool rgb8_, round_;
+    std::optional<PpmRounding> rgb8_;
     std::unique_ptr<std::atomic<int>[]> slot_of_;  // per band: its slot, kNone or kAssigning
     std::atomic<std::uint64_t> free_;              // bit s: slot s is free
     std::unique_ptr<float[]> planes_;  // per slot: r g b, then id, depth, n.x n.y n.z with AOVs
@@ -517,9 +515,9 @@ private:
 void render_packet(const Scene& scene, const RenderSettings& settings, Isa isa, BandSink& sink,
                    RayCounts* rays) {
     const int width = settings.width, height = settings.height;
-    const std::optional<PpmRounding> rgb8 = settings.aovs ? std::nullopt : sink.rgb8();
     BandSlots slots((height + kTileH - 1) / kTileH, static_cast<std::size_t>(width) * kTileH,
-                    settings.aovs, sink.step() == 1 ? 1 : 3, rgb8 ? &*rgb8 : nullptr);
+                    settings.aovs, sink.step() == 1 ? 1 : 3,
+                    settings.aovs ? std::nullopt : sink.rgb8());
     auto slot_of = [&](int band) { return slots.acquire(band); };
     auto hand_over = [&](int band) {
         const TilePixels b = slots.acquire(band);  // its own slot, taken
