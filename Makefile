@@ -2,7 +2,7 @@
 VENV      := .venv
 PY        := $(VENV)/bin/python
 STAMP     := $(VENV)/.rtval-installed
-SOURCES   := $(shell find demo_cpp mitsuba_ref compare -type f -not -path '*/__pycache__/*') pyproject.toml scripts/setup.sh
+SOURCES   := $(shell find demo_cpp -type f -not -path '*/__pycache__/*') pyproject.toml scripts/setup.sh
 SCENE     ?= paper
 SHELL     := /bin/bash
 

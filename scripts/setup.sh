@@ -31,5 +31,5 @@ if [ ! -x .venv/bin/python ]; then
   "$PYTHON" -m venv .venv
 fi
 .venv/bin/python -m pip install -q --upgrade pip
-echo "setup: installing rtval into .venv (builds demo_cpp)"
-.venv/bin/python -m pip install -q ".[test]"
+echo "setup: installing rtval into .venv, editable (Python runs from the tree; builds demo_cpp)"
+.venv/bin/python -m pip install -q -e ".[test]"
