@@ -13,4 +13,7 @@ QUIRKS: dict[int, str] = {
     8: "the paper's Fresnel curve 0.1 + 0.9 (1 - cos)^3",
     9: "glass casts partial shadows",
     10: "one ray through each pixel centre",
+    11: "the directly lit colour starts at 1, not 0",
+    12: "no Lambert cosine: lights behind a surface light it too",
+    13: "the hit sphere's own emission is never added",
 }

@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 MITSUBA_MODELS = ("mitsuba", "mitsuba-path")
 DEMO_MODES = ("paper", "classic", "physical")
-QUIRK_COUNT = 10
+QUIRK_COUNT = 13
 # The quirks each mode has (docs/paper-model.md); the C++ twin is quirks_for() in quirks.cpp.
 MODE_QUIRKS: dict[str, frozenset[int]] = {
     "paper": frozenset(range(1, QUIRK_COUNT + 1)),
-    "classic": frozenset(range(1, QUIRK_COUNT + 1)) - {2, 4, 9},
+    "classic": frozenset(range(1, QUIRK_COUNT + 1)) - {2, 4, 9, 11, 12, 13},
     "physical": frozenset(),
 }
 _TOGGLE = re.compile(r"([+-])[Qq](\d+)")
