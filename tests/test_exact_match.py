@@ -99,5 +99,5 @@ def test_rubric_against_is_validated_with_its_line() -> None:
         parse_rubric('[rubric]\npass_score = 50\nagainst = "phong"\n', "r.toml")
     with pytest.raises(RubricError, match=r"line 2: against must be a string"):
         parse_rubric("[rubric]\nagainst = 3\n", "r.toml")
-    with pytest.raises(RubricError, match=r"line 2: model 'classic\+Q11': no quirk Q11"):
-        parse_rubric('[rubric]\nagainst = "classic+Q11"\n', "r.toml")
+    with pytest.raises(RubricError, match=r"line 2: model 'classic\+Q14': no quirk Q14"):
+        parse_rubric('[rubric]\nagainst = "classic+Q14"\n', "r.toml")

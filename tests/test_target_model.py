@@ -38,7 +38,7 @@ def test_mitsuba_models() -> None:
     ("text", "message"),
     [
         ("whitted", "unknown model 'whitted'"),
-        ("classic+Q11", "no quirk Q11"),
+        ("classic+Q14", "no quirk Q14"),
         ("classic+Q0", "no quirk Q0"),
         ("classic Q2", "unknown model"),
         ("classic+", "unknown model"),

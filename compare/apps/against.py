@@ -55,7 +55,7 @@ class LoadedModel:
     reference: Image
     offsets: list[F32] = field(default_factory=list)
     masks: dict[str, BOOL] = field(default_factory=dict)
-    bounds: dict[str, list[Bounds]] = field(default_factory=dict)  # per encoding, filled on use
+    bounds: dict[str, tuple[Bounds, Bounds]] = field(default_factory=dict)  # per encoding, on use
 
 
 def resolve_model(cli: str | None, rubric: Rubric | None, default: str) -> TargetModel:

@@ -53,7 +53,7 @@ class ExactInputs:
     model: str
     offsets: Sequence[F32]
     encoding: str  # linear | srgb | float (images.Image.encoding)
-    cache: dict[str, list[Bounds]] | None = None  # kept across a class (exact_match.Bounds)
+    cache: dict[str, tuple[Bounds, Bounds]] | None = None  # across a class (exact_match.model_bounds)
 
 
 @dataclass

@@ -191,6 +191,23 @@ def channel_matches(model: F32, test: F32, encoding: str) -> BOOL:
     return _within(bounds(model, encoding), _stored(test, encoding), encoding, None)
 
 
+def hull(parts: Sequence[Bounds]) -> Bounds:
+    """Everything any of the renders allows, per channel: the model's own spread. Where its
+    renders agree this is the pixel-centre render's bounds; where they disagree (a ray grazing
+    a silhouette, a chaotic chain of glass and mirrors) every value between them is one the
+    model itself could have produced."""
+    lo = np.minimum.reduce([b.lo for b in parts])
+    hi = np.maximum.reduce([b.hi for b in parts])
+    nan = np.logical_or.reduce([b.nan for b in parts])
+    return Bounds(lo, hi, nan)
+
+
+def model_bounds(renders: Sequence[F32], encoding: str) -> tuple[Bounds, Bounds]:
+    """(pixel-centre bounds, hull of every render's bounds): all exact judging needs."""
+    parts = [bounds(r, encoding) for r in renders]
+    return parts[0], hull(parts)
+
+
 def exact_match(
     renders: Sequence[F32],
     test: F32,
@@ -199,28 +216,23 @@ def exact_match(
     model: str,
     masks: dict[str, BOOL] | None = None,
     region: BOOL | None = None,
-    cache: dict[str, list[Bounds]] | None = None,
+    cache: dict[str, tuple[Bounds, Bounds]] | None = None,
 ) -> ExactMatch:
-    """`renders[0]` is the model at pixel centres, the rest at sub-pixel offsets. `cache`
-    (encoding -> the renders' Bounds) saves recomputing them for every image of a class."""
+    """`renders[0]` is the model at pixel centres, the rest perturbed renders of it. `cache`
+    (encoding -> model_bounds) saves recomputing them for every image of a class."""
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding must be one of {', '.join(ENCODINGS)}, got {encoding!r}")
     if not renders:
         raise ValueError("exact_match needs at least the model's pixel-centre render")
     if cache is not None and encoding not in cache:
-        cache[encoding] = [bounds(r, encoding) for r in renders]
-    allowed = cache[encoding] if cache is not None else None
+        cache[encoding] = model_bounds(renders, encoding)
+    centre_b, hull_b = cache[encoding] if cache is not None else model_bounds(renders, encoding)
     t = _stored(test, encoding)
-    b0 = allowed[0] if allowed else bounds(renders[0], encoding)
-    centre = _within(b0, t, encoding, None)
+    centre = _within(centre_b, t, encoding, None)
     matches = centre.copy()
-    for i, r in enumerate(renders[1:], start=1):
-        rest = ~matches
-        if not rest.any():
-            break
-        # Only the pixels still unmatched: an exact image leaves a handful.
-        b = allowed[i] if allowed else bounds(r[rest], encoding)
-        matches[rest] = _within(b, t[rest], encoding, rest if allowed else None)
+    rest = ~centre
+    if rest.any():  # an exact image leaves a handful
+        matches[rest] = _within(hull_b, t[rest], encoding, rest)
     ambiguous = matches & ~centre
     per_effect = {}
     for name, mask in (masks or {}).items():
