@@ -21,6 +21,9 @@ QuirkSet quirks_for(Mode mode) {
             s.fix(Quirk::Q2);
             s.fix(Quirk::Q4);
             s.fix(Quirk::Q9);
+            s.fix(Quirk::Q11);
+            s.fix(Quirk::Q12);
+            s.fix(Quirk::Q13);
             break;
         case Mode::physical:
             s = QuirkSet::none();
@@ -65,7 +68,7 @@ std::vector<Quirk> parse_quirk_list(const std::string& text) {
             }
         }
         if (!ok || used != item.size() - 1 || n < 1 || n > kQuirkCount)
-            throw std::invalid_argument("unknown quirk '" + item + "' (expected Q1 ... Q10)");
+            throw std::invalid_argument("unknown quirk '" + item + "' (expected Q1 ... Q13)");
         out.push_back(static_cast<Quirk>(n));
     }
     if (out.empty()) throw std::invalid_argument("empty quirk list (expected e.g. Q1,Q5)");

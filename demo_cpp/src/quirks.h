@@ -1,4 +1,4 @@
-// The paper's quirks Q1-Q10 (docs/paper-model.md) as switches, and the three modes as presets.
+// The paper's quirks Q1-Q13 (docs/paper-model.md) as switches, and the three modes as presets.
 #pragma once
 
 #include <bitset>
@@ -7,8 +7,8 @@
 
 namespace rt {
 
-enum class Quirk { Q1 = 1, Q2, Q3, Q4, Q5, Q6, Q7, Q8, Q9, Q10 };
-constexpr int kQuirkCount = 10;
+enum class Quirk { Q1 = 1, Q2, Q3, Q4, Q5, Q6, Q7, Q8, Q9, Q10, Q11, Q12, Q13 };
+constexpr int kQuirkCount = 13;
 
 // A set of quirks that are *present* (the paper's behaviour). Fixing a quirk removes it.
 class QuirkSet {
@@ -34,7 +34,9 @@ private:
 enum class Mode { paper, classic, physical };
 
 // paper: every quirk. classic (the scratchapixel program): Q2 fixed without a TIR branch
-// (so Q3's NaN can appear), binary shadows = Q4 and Q9 fixed. physical: none.
+// (so Q3's NaN can appear), binary shadows = Q4 and Q9 fixed, and its direct light
+// (colour from 0, Lambert cosine, the hit sphere's emission added) = Q11, Q12, Q13 fixed.
+// physical: none.
 QuirkSet quirks_for(Mode mode);
 Mode parse_mode(const std::string& text);  // throws std::invalid_argument
 const char* mode_name(Mode mode);

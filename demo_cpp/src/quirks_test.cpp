@@ -3,14 +3,23 @@
 #include <gtest/gtest.h>
 
 #include <stdexcept>
+#include <string>
 
 namespace rt {
 namespace {
 
 TEST(Quirks, ModesArePresets) {
-    EXPECT_EQ(quirks_for(Mode::paper).present_list(), "Q1,Q2,Q3,Q4,Q5,Q6,Q7,Q8,Q9,Q10");
+    EXPECT_EQ(quirks_for(Mode::paper).present_list(), "Q1,Q2,Q3,Q4,Q5,Q6,Q7,Q8,Q9,Q10,Q11,Q12,Q13");
     EXPECT_EQ(quirks_for(Mode::classic).present_list(), "Q1,Q3,Q5,Q6,Q7,Q8,Q10");
     EXPECT_EQ(quirks_for(Mode::physical).present_list(), "none");
+}
+
+TEST(Quirks, ClassicFixesTheDirectLightQuirksToo) {
+    const QuirkSet classic = quirks_for(Mode::classic);
+    for (Quirk q : {Quirk::Q11, Quirk::Q12, Quirk::Q13}) {
+        EXPECT_TRUE(quirks_for(Mode::paper).has(q));
+        EXPECT_FALSE(classic.has(q));
+    }
 }
 
 TEST(Quirks, FixRemovesOneQuirk) {
@@ -21,17 +30,24 @@ TEST(Quirks, FixRemovesOneQuirk) {
 }
 
 TEST(Quirks, ParseListAcceptsCommaSeparatedIds) {
-    const auto list = parse_quirk_list("Q1,q10,Q3");
-    ASSERT_EQ(list.size(), 3u);
+    const auto list = parse_quirk_list("Q1,q10,Q3,Q13");
+    ASSERT_EQ(list.size(), 4u);
     EXPECT_EQ(list[1], Quirk::Q10);
+    EXPECT_EQ(list[3], Quirk::Q13);
 }
 
 TEST(Quirks, ParseListRejectsUnknownIds) {
-    EXPECT_THROW(parse_quirk_list("Q11"), std::invalid_argument);
+    EXPECT_THROW(parse_quirk_list("Q14"), std::invalid_argument);
+    EXPECT_THROW(parse_quirk_list("Q0"), std::invalid_argument);
     EXPECT_THROW(parse_quirk_list("Q1,,Q2"), std::invalid_argument);
     EXPECT_THROW(parse_quirk_list("Q1x"), std::invalid_argument);
     EXPECT_THROW(parse_quirk_list(""), std::invalid_argument);
     EXPECT_THROW(parse_mode("physics"), std::invalid_argument);
+    try {
+        parse_quirk_list("Q14");
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("Q1 ... Q13"), std::string::npos) << e.what();
+    }
 }
 
 }  // namespace

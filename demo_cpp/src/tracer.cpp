@@ -86,7 +86,9 @@ color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* firs
 
     const Sphere& s = scene_.spheres[hit.index];
     const bool paper_light = opt_.quirks.has(Quirk::Q7);
-    if (!paper_light && s.is_light()) return sphere_radiance(scene_, s);
+    // Q13: the hit sphere's own light is never added; a light is shaded like any surface.
+    const bool own_light = !opt_.quirks.has(Quirk::Q13);
+    if (!paper_light && own_light && s.is_light()) return sphere_radiance(scene_, s);
 
     const point3 p = r.at(hit.t);
     vec3 n = normalize(p - s.center);
@@ -105,7 +107,7 @@ color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* firs
     } else {
         c = shade_direct(hit.index, p, n);
     }
-    return paper_light ? c + s.emission : c;
+    return paper_light && own_light ? c + s.emission : c;
 }
 
 color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const vec3& n,
@@ -164,18 +166,20 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
     // The paper aims shadow rays from the hit point; with Q1 fixed, from the offset origin
     // so that the distance bound is measured from where the ray starts.
     const point3 aim_from = q.has(Quirk::Q1) ? p : origin;
-    float shared_shadow = 1.0f;  // Q4: one shadow factor for all lights, compounded
-    color c(0.0f);
+    float shared_shadow = 1.0f;                // Q4: one shadow factor for all lights, compounded
+    color c(q.has(Quirk::Q11) ? 1.0f : 0.0f);  // Q11: the paper's colour starts at 1
     for (std::size_t li = 0; li < lights_.size(); ++li) {
         const int light = lights_[li];
         const Sphere& l_sphere = scene_.spheres[light];
         const vec3 to_light = l_sphere.center - aim_from;
         const float dist = length(to_light);
         const vec3 l = to_light / dist;
-        const float cos_theta = std::max(0.0f, dot(n, l));
+        // Q12: no Lambert cosine, so a light behind the surface counts too; its shadow ray is
+        // then cast like any other (under Q1 the hit sphere itself can block it).
+        const float lambert = q.has(Quirk::Q12) ? 1.0f : std::max(0.0f, dot(n, l));
         float transmission = 1.0f;
         if (opt_.shadows && !opt_.mistakes.has(Mistake::no_shadows) &&
-            (q.has(Quirk::Q4) || cos_theta > 0)) {
+            (q.has(Quirk::Q4) || lambert > 0)) {
             ++counts_.shadow;
             const ray shadow_ray{origin, l};
             const float max_t =
@@ -200,11 +204,11 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
             }
         }
         if (q.has(Quirk::Q7)) {
-            c += s.surface_color * l_sphere.emission * (transmission * cos_theta);
+            c += s.surface_color * l_sphere.emission * (transmission * lambert);
         } else {
             // Lambert albedo/pi times a point light's I/d^2; I = pi E d0^2 (light_units.h).
             const vec3 from_p = l_sphere.center - p;
-            const float irradiance_scale = transmission * cos_theta / dot(from_p, from_p);
+            const float irradiance_scale = transmission * lambert / dot(from_p, from_p);
             c += s.surface_color * light_intensity_[li] * (irradiance_scale / kPi);
         }
     }

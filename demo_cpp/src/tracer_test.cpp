@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "fresnel.h"
+#include "light_units.h"
 
 namespace rt {
 namespace {
@@ -29,6 +30,14 @@ TraceOptions options_for(Mode mode, std::initializer_list<Quirk> fixes = {}) {
     TraceOptions o;
     o.quirks = quirks_for(mode);
     for (Quirk q : fixes) o.quirks.fix(q);
+    return o;
+}
+
+// Paper mode with its direct-light quirks Q11-Q13 fixed too, where a test is about another
+// quirk: the colour then starts at 0, each light is weighted by n.l, emission is added.
+TraceOptions paper_lit_from_zero(std::initializer_list<Quirk> fixes = {}) {
+    TraceOptions o = options_for(Mode::paper, fixes);
+    for (Quirk q : {Quirk::Q11, Quirk::Q12, Quirk::Q13}) o.quirks.fix(q);
     return o;
 }
 
@@ -58,7 +67,7 @@ TEST(Tracer, PhysicalMirrorReflectsItsColourExactly) {
 
 TEST(Tracer, Q6SpecularAtMaxDepthIsShadedAsDiffuse) {
     const Scene scene = mirror_scene();
-    TraceOptions o = options_for(Mode::paper);
+    TraceOptions o = paper_lit_from_zero();
     o.max_depth = 0;
     // p = (0,0,-4), n = +z, l = normalize(0,5,4): colour * E * n.l
     const float expected = 0.5f * 4.0f / std::sqrt(41.0f);
@@ -82,8 +91,8 @@ TEST(Tracer, Q5OccluderBeyondTheLightStillShadows) {
     scene.spheres.push_back(make_sphere("beyond", {0, 10, -5}, 1, color(1.0f)));
     const point3 p{0, 0, -5};
     const vec3 n{0, 1, 0};
-    EXPECT_EQ(Tracer(scene, options_for(Mode::paper)).shade_direct(0, p, n).x, 0.0f);
-    EXPECT_NEAR(Tracer(scene, options_for(Mode::paper, {Quirk::Q5})).shade_direct(0, p, n).x, 0.8f,
+    EXPECT_EQ(Tracer(scene, paper_lit_from_zero()).shade_direct(0, p, n).x, 0.0f);
+    EXPECT_NEAR(Tracer(scene, paper_lit_from_zero({Quirk::Q5})).shade_direct(0, p, n).x, 0.8f,
                 1e-6f);
 }
 
@@ -106,10 +115,10 @@ TEST(Tracer, Q4SharedShadowFactorCompoundsAcrossLights) {
     const vec3 n{0, 1, 0};
     const float cos_theta = 5.0f / std::sqrt(34.0f);
     // Paper: light A passes 0.5; the shared factor then drops to 0 for light B.
-    EXPECT_NEAR(Tracer(scene, options_for(Mode::paper)).shade_direct(0, p, n).x,
+    EXPECT_NEAR(Tracer(scene, paper_lit_from_zero()).shade_direct(0, p, n).x,
                 0.8f * 0.5f * cos_theta, 1e-5f);
     // Q4 fixed: each light gets its own product of transmissions, 0.5 each.
-    EXPECT_NEAR(Tracer(scene, options_for(Mode::paper, {Quirk::Q4})).shade_direct(0, p, n).x,
+    EXPECT_NEAR(Tracer(scene, paper_lit_from_zero({Quirk::Q4})).shade_direct(0, p, n).x,
                 0.8f * (0.5f + 0.5f) * cos_theta, 1e-5f);
     // Q9 fixed as well (the classic program's binary shadows): glass blocks completely.
     EXPECT_EQ(Tracer(scene, options_for(Mode::classic)).shade_direct(0, p, n).x, 0.0f);
@@ -135,7 +144,7 @@ TEST(Tracer, Q7PhysicalLightFallsOffAndIsCalibratedAtLookAt) {
     scene.camera.look_at = {0, -5, -5};
     EXPECT_NEAR(Tracer(scene, options_for(Mode::physical)).shade_direct(0, {0, 0, -5}, {0, 1, 0}).x,
                 0.8f * 2.0f * 4.0f, 1e-4f);
-    EXPECT_NEAR(Tracer(scene, options_for(Mode::paper)).shade_direct(0, {0, 0, -5}, {0, 1, 0}).x,
+    EXPECT_NEAR(Tracer(scene, paper_lit_from_zero()).shade_direct(0, {0, 0, -5}, {0, 1, 0}).x,
                 0.8f * 2.0f, 1e-6f);
 }
 
@@ -197,11 +206,104 @@ TEST(Tracer, TraceReportsTheSameFirstHitAsPrimary) {
     }
 }
 
-TEST(Tracer, PaperLightSphereShowsItsEmission) {
+TEST(Tracer, ClassicLightSphereShowsItsEmission) {
     const Scene scene = mirror_scene();
-    const Tracer t(scene, options_for(Mode::paper));
+    const Tracer t(scene, options_for(Mode::classic));
     const color c = t.trace({{0, 0, 0}, {0, 1, 0}}, 0);
     EXPECT_NEAR(c.x, 1.0f, 1e-6f);  // black surface, diffuse term 0, plus emission 1
+}
+
+// The ground point p = (0,0,-5) (normal +y) under one light of emission 1 at (3,5,-5):
+// n.l = 5/sqrt(34).
+Scene ground_lit_at_an_angle() {
+    Scene scene = ground_scene();
+    scene.spheres.push_back(make_light("light", {3, 5, -5}, 1.0f));
+    return scene;
+}
+const point3 kGroundTop{0, 0, -5};
+const vec3 kUp{0, 1, 0};
+
+TEST(Tracer, Q11DirectLightStartsAtOne) {
+    const Scene scene = ground_lit_at_an_angle();
+    const float lit = 0.8f * 5.0f / std::sqrt(34.0f);
+    EXPECT_NEAR(Tracer(scene, paper_lit_from_zero()).shade_direct(0, kGroundTop, kUp).x, lit,
+                1e-6f);
+    TraceOptions q11 = paper_lit_from_zero();
+    q11.quirks.add(Quirk::Q11);
+    EXPECT_NEAR(Tracer(scene, q11).shade_direct(0, kGroundTop, kUp).x, 1.0f + lit, 1e-6f);
+    // With no light at all a diffuse surface is white (background 0 here).
+    const Scene dark = ground_scene();
+    EXPECT_EQ(Tracer(dark, q11).trace({{0, 3, -5}, {0, -1, 0}}, 0).x, 1.0f);
+    EXPECT_EQ(Tracer(dark, paper_lit_from_zero()).trace({{0, 3, -5}, {0, -1, 0}}, 0).x, 0.0f);
+    // The physical light terms add to 1 the same way (look_at = p: the light gives E n.l).
+    TraceOptions physical = options_for(Mode::physical);
+    const float physical_lit = Tracer(scene, physical).shade_direct(0, kGroundTop, kUp).x;
+    EXPECT_NEAR(physical_lit, lit, 1e-4f);  // the shadow ray's offset origin moves l a little
+    physical.quirks.add(Quirk::Q11);
+    EXPECT_EQ(Tracer(scene, physical).shade_direct(0, kGroundTop, kUp).x, 1.0f + physical_lit);
+}
+
+TEST(Tracer, Q12NoLambertCosine) {
+    const Scene scene = ground_lit_at_an_angle();
+    TraceOptions q12 = paper_lit_from_zero();
+    q12.quirks.add(Quirk::Q12);
+    EXPECT_NEAR(Tracer(scene, q12).shade_direct(0, kGroundTop, kUp).x, 0.8f, 1e-6f);
+    // Physical light with no cosine: the full E at look_at.
+    TraceOptions physical = options_for(Mode::physical);
+    physical.quirks.add(Quirk::Q12);
+    EXPECT_NEAR(Tracer(scene, physical).shade_direct(0, kGroundTop, kUp).x, 0.8f, 1e-5f);
+}
+
+TEST(Tracer, Q12LightBehindTheSurfaceIsTestedAndShadowedByTheHitSphere) {
+    Scene scene = ground_scene();
+    scene.spheres.push_back(make_light("below", {0, -5, -5}, 1.0f));
+    TraceOptions o = paper_lit_from_zero({Quirk::Q4});  // Q4 alone would cast it anyway
+    const Tracer fixed(scene, o);
+    EXPECT_EQ(fixed.shade_direct(0, kGroundTop, kUp).x, 0.0f);
+    EXPECT_EQ(fixed.ray_counts().shadow, 0u);  // n.l <= 0: no shadow ray
+    o.quirks.add(Quirk::Q12);
+    const Tracer q12(scene, o);
+    // Cast now; under Q1 the ground itself lies on the shadow ray and blocks it.
+    EXPECT_EQ(q12.shade_direct(0, kGroundTop, kUp).x, 0.0f);
+    EXPECT_EQ(q12.ray_counts().shadow, 1u);
+    o.shadows = false;  // unblocked, the light below adds its full colour * E
+    EXPECT_NEAR(Tracer(scene, o).shade_direct(0, kGroundTop, kUp).x, 0.8f, 1e-6f);
+}
+
+// A light sphere of colour 0.5 and emission 2 straight ahead, the only sphere.
+Scene light_ahead() {
+    Scene scene;
+    scene.background = color(0.0f);
+    Sphere light = make_light("light", {0, 0, -5}, 2.0f);
+    light.surface_color = color(0.5f);
+    scene.spheres = {light};
+    return scene;
+}
+
+TEST(Tracer, Q13LightSphereSeenDirectlyAddsNoEmission) {
+    const Scene scene = light_ahead();
+    const ray ahead{{0, 0, 0}, {0, 0, -1}};
+    // It lights itself only from behind its surface: n.l = -1, so 0 from the light terms.
+    EXPECT_EQ(Tracer(scene, paper_lit_from_zero()).trace(ahead, 0).x, 2.0f);
+    TraceOptions q13 = paper_lit_from_zero();
+    q13.quirks.add(Quirk::Q13);
+    EXPECT_EQ(Tracer(scene, q13).trace(ahead, 0).x, 0.0f);
+    // Physical: its radiance I/(pi R^2), or with Q13 shaded like a surface (0 here too).
+    TraceOptions physical = options_for(Mode::physical);
+    EXPECT_EQ(Tracer(scene, physical).trace(ahead, 0).x,
+              sphere_radiance(scene, scene.spheres[0]).x);
+    physical.quirks.add(Quirk::Q13);
+    EXPECT_EQ(Tracer(scene, physical).trace(ahead, 0).x, 0.0f);
+    // Paper mode: 1, plus its own light at full strength (Q12: no cosine, and its shadow ray
+    // skips the light itself), and no emission: 1 + 0.5 * 2.
+    EXPECT_NEAR(Tracer(scene, options_for(Mode::paper)).trace(ahead, 0).x, 2.0f, 1e-6f);
+}
+
+TEST(Tracer, PaperLitDiffuseIsOnePlusColourTimesLight) {
+    const Scene scene = ground_lit_at_an_angle();
+    const Tracer paper(scene, options_for(Mode::paper));
+    EXPECT_NEAR(paper.shade_direct(0, kGroundTop, kUp).x, 1.0f + 0.8f, 1e-6f);
+    EXPECT_NEAR(paper.trace({{0, 3, -5}, {0, -1, 0}}, 0).x, 1.0f + 0.8f, 1e-6f);
 }
 
 }  // namespace

@@ -26,9 +26,9 @@ struct SceneArrays {
 };
 constexpr int kLight = 1, kSpecular = 2;
 
-// Quirks present (q[1] .. q[10]) and effect switches: uniform over a frame.
+// Quirks present (q[1] .. q[13]) and effect switches: uniform over a frame.
 struct Options {
-    bool q[11];
+    bool q[14];
     int max_depth;
     bool shadows, reflection, refraction;
 };

@@ -295,6 +295,7 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
     const SceneStore store(scene);
     const packet::SceneArrays& s = store.view;
     packet::Options opt{};
+    static_assert(sizeof(opt.q) == kQuirkCount + 1, "one flag per quirk, indexed from 1");
     for (int q = 1; q <= kQuirkCount; ++q)
         opt.q[q] = settings.trace.quirks.has(static_cast<Quirk>(q));
     opt.max_depth = settings.trace.max_depth;

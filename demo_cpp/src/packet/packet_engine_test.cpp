@@ -112,8 +112,12 @@ RenderSettings classic_settings(const Scene& scene, int width, int height) {
     return settings;
 }
 
+// paper.json has no light (every colour comes through mirrors and glass); lit.json and
+// classic.json exercise the direct light.
+constexpr const char* kProjectScenes[] = {"classic.json", "paper.json", "lit.json"};
+
 TEST(PacketEngine, EqualsScalarOnProjectScenesInEveryMode) {
-    for (const char* scene : {"classic.json", "paper.json"})
+    for (const char* scene : kProjectScenes)
         for (Mode mode : {Mode::paper, Mode::classic, Mode::physical})
             expect_same({scene, mode, {}});
 }
@@ -126,17 +130,42 @@ TEST(PacketEngine, EqualsScalarAtFullSizeClassic) {
 }
 
 TEST(PacketEngine, EqualsScalarWithEachQuirkFixed) {
-    for (int q = 1; q <= kQuirkCount; ++q) {
-        // Q10 (one sample) fixed allows several samples: take 4 there.
-        Case c{"paper.json", Mode::paper, {static_cast<Quirk>(q)}};
-        if (q == 10) c.spp = 4;
-        expect_same(c);
-    }
+    for (const char* scene : {"paper.json", "lit.json"})
+        for (int q = 1; q <= kQuirkCount; ++q) {
+            // Q10 (one sample) fixed allows several samples: take 4 there.
+            Case c{scene, Mode::paper, {static_cast<Quirk>(q)}};
+            if (q == 10) c.spp = 4;
+            expect_same(c);
+        }
+}
+
+// The direct-light quirks Q11-Q13 fixed in paper mode and added to classic and physical (with
+// Q7 present and fixed, Q1 present and fixed), one at a time and all three.
+TEST(PacketEngine, EqualsScalarWithEachDirectLightQuirkToggled) {
+    const std::vector<std::vector<Quirk>> toggles = {
+        {Quirk::Q11}, {Quirk::Q12}, {Quirk::Q13}, {Quirk::Q11, Quirk::Q12, Quirk::Q13}};
+    for (const char* scene : kProjectScenes)
+        for (const std::vector<Quirk>& t : toggles) {
+            expect_same({scene, Mode::paper, t});
+            for (Mode mode : {Mode::classic, Mode::physical}) {
+                Case c{scene, mode, {}};
+                c.adds = t;
+                expect_same(c);
+            }
+        }
+    // Several lights, lights behind surfaces and a light seen through glass.
+    for (const char* scene : {"stress/coloured_lights.json", "stress/light_inside_glass.json"})
+        for (Quirk q : {Quirk::Q11, Quirk::Q12, Quirk::Q13}) {
+            Case c{scene, Mode::physical, {}};
+            c.adds = {q};
+            expect_same(c);
+            expect_same({scene, Mode::paper, {Quirk::Q4, q}});
+        }
 }
 
 TEST(PacketEngine, EqualsScalarWithQuirkCombinations) {
     expect_same({"classic.json", Mode::classic, {Quirk::Q1, Quirk::Q3}});
-    expect_same({"paper.json", Mode::paper, {Quirk::Q1, Quirk::Q5, Quirk::Q7}});
+    expect_same({"lit.json", Mode::paper, {Quirk::Q1, Quirk::Q5, Quirk::Q7}});
     expect_same({"classic.json", Mode::paper, {Quirk::Q4, Quirk::Q6, Quirk::Q8, Quirk::Q9}});
     expect_same({"paper.json", Mode::classic, {Quirk::Q2, Quirk::Q3, Quirk::Q10}, 9});
 }
@@ -148,7 +177,7 @@ TEST(PacketEngine, EqualsScalarWithQuirksAdded) {
         c.adds = {Quirk::Q2};
         expect_same(c);
     }
-    Case physical{"paper.json", Mode::physical, {}};
+    Case physical{"lit.json", Mode::physical, {}};
     physical.adds = {Quirk::Q5, Quirk::Q8};
     expect_same(physical);
     Case fixed_then_added{"classic.json", Mode::classic, {Quirk::Q3}};
@@ -385,7 +414,7 @@ TEST(PacketEngine, EightBitTilesAreToLinear8OfTheirValues) {
 }
 
 TEST(PacketEngine, EqualsScalarWithSamplesDepthsAndEffectsOff) {
-    expect_same({"paper.json", Mode::physical, {}, 16});
+    expect_same({"lit.json", Mode::physical, {}, 16});
     Case shallow{"classic.json", Mode::classic, {}};
     shallow.max_depth = 0;
     expect_same(shallow);
@@ -393,7 +422,7 @@ TEST(PacketEngine, EqualsScalarWithSamplesDepthsAndEffectsOff) {
     shallow.max_depth = 1;
     expect_same(shallow);
     for (int off = 0; off < 3; ++off) {
-        Case c{"paper.json", Mode::paper, {}};
+        Case c{"lit.json", Mode::paper, {}};
         c.shadows = off != 0;
         c.reflection = off != 1;
         c.refraction = off != 2;
