@@ -87,16 +87,16 @@ def test_exact_implementations_pass_against_classic(work: dict[str, Path], image
     effects = data["score"]["effects"]
     assert {"background", "direct", "shadow", "reflection", "refraction", "edges"} <= set(effects)
     assert all(e["status"] == "pass" for e in effects.values()), effects
-    assert data["exact"]["renders"] == 5
+    assert data["exact"]["renders"] == 9
 
 
 def test_the_foreign_program_needs_the_offsets_and_nothing_more(work: dict[str, Path]) -> None:
     """Float32 numpy against float32 C++: a handful of pixels whose centre ray grazes an edge
-    match only a model render turned by 1e-4 px; none differ beyond that."""
+    match only within the spread of the model's turned renders; none differ beyond that."""
     data = _compare(work, "numpy.ppm", "classic")
     assert data["exact"]["differing"] == 0
     # Measured: 2 at 320x240 and 2 at 640x480, all on the mirror spheres.
-    assert 1 <= data["exact"]["edge_ambiguous"] <= 10
+    assert 1 <= data["exact"]["unstable"] <= 10
 
 
 def test_another_mode_fails_against_classic_naming_the_effects(work: dict[str, Path]) -> None:

@@ -67,27 +67,41 @@ def test_offset_renders_accept_edge_pixels_and_count_them() -> None:
     shifted[1, 1] = 1.0  # a silhouette pixel that flips under a 1e-4 px turn
     test = shifted.copy()
     alone = exact_match([centre], test, "linear", model="classic")
-    assert alone.differing == 1 and alone.edge_ambiguous == 0
+    assert alone.differing == 1 and alone.unstable_pixels == 0
     both = exact_match([centre, shifted], test, "linear", model="classic")
-    assert both.differing == 0 and both.edge_ambiguous == 1 and both.passed
+    assert both.differing == 0 and both.unstable_pixels == 1 and both.passed
+
+
+def test_the_spread_is_symmetric_and_only_where_the_renders_move() -> None:
+    """scratchapixel's raytracer.cpp (-O2) at classic (570, 190): centre 193.71, the turned
+    renders 192.32 ... 193.79, the program 195: within x0 + u (u = 1.39 codes), so it
+    matches; the same 195 where every render says 193.71 does not."""
+    centre = np.full((2, 2, 3), 193.71 / 255, np.float32)
+    turned = centre.copy()
+    turned[0, 0] = 192.32 / 255
+    test = np.full((2, 2, 3), 195 / 255, np.float32)
+    got = exact_match([centre, turned], test, "linear", model="classic")
+    assert got.matches.tolist() == [[True, False], [False, False]]
+    assert got.unstable_pixels == 1
 
 
 def test_effect_bound_and_scores() -> None:
-    h, w = 50, 40  # 2000 pixels per effect: 2 may differ
+    h, w = 50, 40  # 2000 pixels per effect: 4 stray pixels may differ
     model = np.full((h, w, 3), 0.5, np.float32)
     masks = {"direct": np.ones((h, w), bool)}
-    assert allowed_differing(2000) == 2 and allowed_differing(10) == 1
+    assert allowed_differing(2000) == 4 and allowed_differing(10) == 1
+    assert allowed_differing(200) == 2 and allowed_differing(10_000) == 10
     test = model.copy()
     test[0, :2] = 0.0
     ev = evaluate_pair(model, test, masks=masks, exact=ExactInputs("classic", [], "float"))
     assert ev.score is not None and ev.score.status == "pass" and ev.score.basis == "exact"
     assert ev.score.score == pytest.approx(100 * (1 - 2 / 2000))
     assert "maps" not in ev.__dict__  # an exact pass never computes FLIP or SSIM
-    test[0, :3] = 0.0
+    test[0, :5] = 0.0
     ev = evaluate_pair(model, test, masks=masks, exact=ExactInputs("classic", [], "float"))
     assert ev.score is not None and ev.score.status == "fail"
     (reason,) = ev.score.reasons()
-    assert reason.startswith("direct: 3 px (0.15 %) differ from classic beyond half-float")
+    assert reason.startswith("direct: 5 px (0.25 %) differ from classic beyond half-float")
     assert "FLIP" in reason and ev.score.effects["direct"].flip is not None
 
 

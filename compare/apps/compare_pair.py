@@ -186,7 +186,7 @@ def table(c: Comparison) -> str:
         lines.append(
             f"{'effect':<12} {'pixels':>8} {'SSIM':>8} {'FLIP':>8} {'MAE lin':>9} "
             f"{'relMSE':>9} {'over':>7}"
-            + (f" {'differ':>7} {'edge-amb':>8}" if ex else "")
+            + (f" {'differ':>7} {'unstable':>8}" if ex else "")
             + "  status"
         )
         order = sorted(
@@ -200,7 +200,7 @@ def table(c: Comparison) -> str:
             lines.append(
                 f"{name:<12} {pm.pixels:>8} {pm.ssim:>8.4f} {pm.flip_ldr:>8.4f} "
                 f"{pm.mae_linear:>9.3g} {pm.rel_mse_linear:>9.3g} {pm.over_threshold:>7}"
-                + (f" {em.differing:>7} {em.ambiguous:>8}" if em else "")
+                + (f" {em.differing:>7} {em.unstable:>8}" if em else "")
                 + f"  {c._effect_status(name)}"
             )
     lines.append("")
@@ -208,8 +208,8 @@ def table(c: Comparison) -> str:
     if ex is not None:
         lines.append(
             f"exact match against {ex.model}: {ex.differing:,} px differ beyond "
-            f"{ENCODING_WORDS[ex.encoding]}; {ex.edge_ambiguous:,} edge-ambiguous px accepted "
-            f"from {ex.renders - 1} renders at sub-pixel offsets"
+            f"{ENCODING_WORDS[ex.encoding]}; {ex.unstable_pixels:,} px where the model is unstable accepted "
+            f"within the spread of its {ex.renders - 1} renders at sub-pixel offsets"
         )
     against = c.against or f"the reference image {c.ref.path}"
     lines.append(

@@ -3,9 +3,10 @@ shared render cache (cache.py, jobs.py): the image every judgement against that 
 
 Demo models are rtdemo renders; `mitsuba` is the report plan's converged Whitted reference and
 `mitsuba-path` its 64 spp path-traced render (plan.py), so a report and a grading run share
-them. Exact judging also needs the demo model with the camera turned by OFFSET_PIXELS of a
-pixel along each image axis (render_offsets): rtdemo has no jitter option, so each is a copy of
-the scene with `look_at` nudged, cached like any render (docs/metrics.md, "Exact match").
+them. Exact judging also needs the demo model with the camera turned by a tiny fraction of a
+pixel along each image axis (render_offsets), which shows where the model itself is unstable:
+rtdemo has no jitter option, so each is a copy of the scene with `look_at` nudged, cached like
+any render (docs/metrics.md, "Exact match").
 A scene's effect masks (scene_masks) come from the classic model's id/depth AOVs and are
 cached beside it, keyed by the render's key and the mask code (computing them costs more
 than reading them).
@@ -31,9 +32,11 @@ from compare.render.plan import REFERENCE_KEY, plan
 from compare.render.progress import Progress
 from scene_model.scene import load_scene
 
-# A float32 program's pixel-centre ray differs from another's by ~5e-5 px (a few ulps of the
-# direction over a pixel's 1e-3 rad); twice that covers it without reaching real features.
-OFFSET_PIXELS = 1e-4
+# A float32 program's camera ray differs from another's by ~5e-5 px (a few ulps of its
+# direction); its secondary rays, by what rounding in hit points and normals adds, which FMA
+# and double-precision programs show reaching ~1e-3 px (docs/metrics.md). Both scales, far below
+# any real feature (a half-pixel shift is 500 times more).
+OFFSET_PIXELS = (1e-4, 1e-3)
 OFFSETS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 MITSUBA_JOBS = {"mitsuba": REFERENCE_KEY, "mitsuba-path": "mitsuba-path-llvm-64spp"}
 MASK_MODEL = "classic"  # every demo mode gives the same camera-ray AOVs; classic is the plain one
@@ -107,20 +110,22 @@ def render_offsets(
     jobs_in_parallel: int = 1,
     progress: Progress | None = None,
 ) -> list[Path]:
-    """The demo model rendered with the camera turned by OFFSET_PIXELS along +x, -x, +y, -y."""
+    """The demo model rendered with the camera turned by each OFFSET_PIXELS along +x, -x, +y, -y."""
     if not model.is_demo:
         raise ValueError(f"{model.name}: sub-pixel offsets are for demo models only")
     jobs = []
-    for dx, dy in OFFSETS:
-        text = offset_scene(scene_file, size, dx * OFFSET_PIXELS, dy * OFFSET_PIXELS)
+    for magnitude, (dx, dy) in ((m, d) for m in OFFSET_PIXELS for d in OFFSETS):
+        text = offset_scene(scene_file, size, dx * magnitude, dy * magnitude)
         digest = hashlib.sha256(text.encode()).hexdigest()[:16]
         # The scene copy is named by its content, so it is derived data like a figure.
         copy = cache.derived(f"scene-{digest}-offset.json")
         if not copy.is_file():
             write_atomic(copy, text)
         job = model_job(model, copy, size)
-        job.key += f"-offset{dx:+d}{dy:+d}"
-        job.label += f", camera turned ({dx:+d}, {dy:+d}) x {OFFSET_PIXELS:g} px"
+        job.key += f"-offset{dx:+d}{dy:+d}" + (
+            "" if magnitude == OFFSET_PIXELS[0] else f"x{magnitude:g}"
+        )
+        job.label += f", camera turned ({dx:+d}, {dy:+d}) x {magnitude:g} px"
         jobs.append(job)
     run_jobs(jobs, cache, jobs_in_parallel=jobs_in_parallel, progress=progress)
     return [j.exr(cache) for j in jobs]
