@@ -8,7 +8,7 @@ DEBIAN_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libopenexr-dev libpng-dev zlib1g-dev nlohmann-json3-dev libgtest-dev
   libglfw3-dev libglm-dev libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev
-  xvfb xauth libllvm19 chromium poppler-utils
+  xvfb xauth libllvm19 chromium poppler-utils bubblewrap
   clang libclang-rt-14-dev clang-format
   python3-venv
 )
