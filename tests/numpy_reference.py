@@ -1,5 +1,6 @@
 """An independent float64 numpy implementation of docs/paper-model.md (`paper` and `classic`
-modes), written from the spec rather than from demo_cpp, to check the C++ renderer.
+modes: paper has every quirk Q1-Q13, classic fixes Q2, Q4, Q9, Q11, Q12 and Q13), written from
+the spec rather than from demo_cpp, to check the C++ renderer.
 
 Vectorised over rays; the recursion follows both branches for whole batches. The small
 hook methods (background, offset, face_forward, eta, fresnel, occluded) are the single steps
@@ -43,6 +44,11 @@ class ReferenceTracer:
             raise ValueError(mode)
         self.scene = scene
         self.classic = mode == "classic"
+        # The paper's direct light, which the classic program fixes: the colour starts at 1
+        # (Q11), no Lambert cosine (Q12), the hit sphere's emission not added (Q13).
+        self.direct_start = 0.0 if self.classic else 1.0
+        self.lambert = self.classic
+        self.adds_emission = self.classic
         s = scene.spheres
         self.centers = np.array([x.center for x in s], dtype=np.float64).reshape(-1, 3)
         self.radii = np.array([x.radius for x in s])
@@ -91,8 +97,9 @@ class ReferenceTracer:
             )
         diffuse = ~specular
         if diffuse.any():
-            colour[diffuse] = self._direct(p[diffuse], n[diffuse]) * self.colors[idx[diffuse]]
-        out[hit] = colour + self.emission[idx]
+            arriving = self._direct(p[diffuse], n[diffuse])
+            colour[diffuse] = self.direct_start + arriving * self.colors[idx[diffuse]]
+        out[hit] = (colour + self.emission[idx]) if self.adds_emission else colour
         return out
 
     # --- the hooks: one step of the algorithm each ----------------------------------------
@@ -166,6 +173,6 @@ class ReferenceTracer:
                         blocked, np.maximum(0.0, shadow - (1 - self.transparency[j])), shadow
                     )
                     transmission = np.where(blocked, transmission * shadow, transmission)
-            cos = np.maximum(0.0, _dot(n, l_dir))
+            cos = np.maximum(0.0, _dot(n, l_dir)) if self.lambert else 1.0
             colour += (transmission * cos)[:, None] * self.emission[light][None, :]
         return colour

@@ -33,7 +33,7 @@ def share_within_1_255(cpu, gl) -> float:
     return float((np.abs(a - b) <= 1 / 255).all(axis=-1).mean())
 
 
-@pytest.mark.parametrize("scene", ["paper", "classic"])
+@pytest.mark.parametrize("scene", ["paper", "lit", "classic"])
 @pytest.mark.parametrize("mode", ["paper", "classic", "physical"])
 def test_gl_equals_cpu(scene: str, mode: str, rtdemo: str, tmp_path: Path) -> None:
     cpu, gl = render_both(SCENES / f"{scene}.json", mode, rtdemo, tmp_path)
@@ -43,6 +43,34 @@ def test_gl_equals_cpu(scene: str, mode: str, rtdemo: str, tmp_path: Path) -> No
     assert ssim >= 0.999, ssim
     assert (cpu.aovs["id"] == gl.aovs["id"]).mean() >= 0.999
     assert gl.header["rtval.backend"] == "gl" and float(gl.header["rtval.gl_compile_seconds"]) >= 0
+
+
+# The direct light's quirks Q11-Q13 against each mode's preset. Unclamped: with Q11 present
+# every directly lit colour is at least 1, so the clamped comparison would not see them.
+@pytest.mark.parametrize("scene", ["lit", "stress/coloured_lights", "stress/light_inside_glass"])
+@pytest.mark.parametrize(
+    "mode,switches",
+    [
+        ("paper", []),
+        ("paper", ["--fix", "Q11"]),
+        ("paper", ["--fix", "Q12"]),
+        ("paper", ["--fix", "Q13"]),
+        ("classic", ["--quirk", "Q11,Q12,Q13"]),
+        ("physical", ["--quirk", "Q11"]),
+        ("physical", ["--quirk", "Q12"]),
+        ("physical", ["--quirk", "Q13"]),
+    ],
+    ids=lambda v: ("-".join(v) or "preset") if isinstance(v, list) else v,
+)
+def test_gl_equals_cpu_with_direct_light_quirks(
+    scene: str, mode: str, switches: list[str], rtdemo: str, tmp_path: Path
+) -> None:
+    size = ["--width", "160", "--height", "120"]
+    cpu, gl = render_both(SCENES / f"{scene}.json", mode, rtdemo, tmp_path, *switches, *size)
+    assert gl.header["rtval.quirks"] == cpu.header["rtval.quirks"]
+    a, b = np.nan_to_num(cpu.rgb, nan=-1.0), np.nan_to_num(gl.rgb, nan=-1.0)
+    close = np.isclose(a, b, rtol=1 / 255, atol=1 / 255).all(axis=-1).mean()
+    assert close >= 0.999, close
 
 
 # The shader's other paths: several lights (Q4's shared shadow), none, a light inside glass,

@@ -59,6 +59,18 @@ def test_exr_has_colour_aovs_and_header(rtdemo: str, tmp_path: Path) -> None:
     assert int(img.header["rtval.rays_secondary"]) > 0 and int(img.header["rtval.rays_shadow"]) > 0
 
 
+def test_header_lists_the_quirks_present(rtdemo: str, tmp_path: Path) -> None:
+    def quirks(*args: str) -> str:
+        out = tmp_path / "q.exr"
+        return render_demo(rtdemo, CLASSIC, out, *args, size=(16, 12)).header["rtval.quirks"]
+
+    paper = ",".join(f"Q{i}" for i in range(1, 14))
+    assert quirks() == paper
+    assert quirks("--fix", "Q11,Q12,Q13") == paper.removesuffix(",Q11,Q12,Q13")
+    assert quirks("--mode", "classic", "--quirk", "Q12") == "Q1,Q3,Q5,Q6,Q7,Q8,Q10,Q12"
+    assert quirks("--mode", "physical", "--quirk", "Q13,Q11") == "Q11,Q13"
+
+
 def test_ray_counts_follow_the_options(rtdemo: str, tmp_path: Path) -> None:
     def rays(*args: str) -> dict[str, int]:
         h = render_demo(rtdemo, CLASSIC, tmp_path / "r.exr", *args, size=(40, 30)).header
@@ -177,7 +189,8 @@ def test_spp_averages_stratum_centres_and_needs_q10_fixed(rtdemo: str, tmp_path:
     "args,code,needle",
     [
         (["--mode", "physics"], 2, "unknown mode"),
-        (["--fix", "Q11"], 2, "Q11"),
+        (["--fix", "Q14"], 2, "Q1 ... Q13"),
+        (["--quirk", "Q0"], 2, "Q0"),
         (["--width", "0"], 2, "--width"),
         (["--width", "16385"], 2, "--width"),
         (["--width", "abc"], 2, "--width"),

@@ -158,7 +158,7 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
     vec3 origin = p + n * offset_at(p);
     vec3 aim_from = quirk(1) ? p : origin;
     float shared_shadow = 1.0;  // Q4
-    vec3 c = vec3(0.0);
+    vec3 c = vec3(quirk(11) ? 1.0 : 0.0);  // Q11: the paper's colour starts at 1
     vec3 surface = sphere_at(hit).color_reflection.rgb;
 #if LIGHT_COUNT > 0
     for (int li = 0; li < LIGHT_COUNT; ++li) {
@@ -166,9 +166,10 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
         vec3 to_light = center(light) - aim_from;
         float dist = length(to_light);
         vec3 l = to_light / dist;
-        float cos_theta = max(0.0, dot(n, l));
+        // Q12: no Lambert cosine, so a light behind the surface is tested and counts too.
+        float lambert = quirk(12) ? 1.0 : max(0.0, dot(n, l));
         float transmission = 1.0;
-        if (effect(0) && (quirk(4) || cos_theta > 0.0)) {
+        if (effect(0) && (quirk(4) || lambert > 0.0)) {
             float max_t = quirk(5) ? INF : dist;
             for (int j = 0; j < SPHERE_COUNT; ++j) {
                 // Evaluated for every sphere and applied by select: no divergent branch.
@@ -185,10 +186,10 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
             }
         }
         if (quirk(7)) {
-            c += surface * spheres[light].emission_transparency.rgb * (transmission * cos_theta);
+            c += surface * spheres[light].emission_transparency.rgb * (transmission * lambert);
         } else {
             vec3 from_p = center(light) - p;
-            float scale = transmission * cos_theta / dot(from_p, from_p);
+            float scale = transmission * lambert / dot(from_p, from_p);
             c += surface * spheres[light].light_intensity.rgb * (scale / PI);
         }
     }
@@ -223,8 +224,10 @@ vec3 trace(vec3 origin, vec3 dir) {
         vec3 n = inside ? -n0 : n0;
 
         // What this ray adds: the background, a light's radiance, or the surface's direct
-        // light (Q6: specular surfaces at the depth limit get none) and Q7's emission.
-        bool light_hit = hit && !quirk(7) && S.light_intensity.w > 0.0;
+        // light (Q6: specular surfaces at the depth limit get none) and Q7's emission; under
+        // Q13 a sphere's own light is never added (a light is shaded like any surface).
+        bool own_light = !quirk(13);
+        bool light_hit = hit && own_light && !quirk(7) && S.light_intensity.w > 0.0;
         bool surface = hit && !light_hit;
         bool spec = specular_flags(S);
         bool recurse = surface && spec && depth < MAX_DEPTH;
@@ -234,7 +237,7 @@ vec3 trace(vec3 origin, vec3 dir) {
         total += light_hit ? w * S.light_intensity.rgb / (PI * r * r) : vec3(0.0);
         vec3 direct_light = shade_direct(idx, p, n);
         total += direct ? w * direct_light : vec3(0.0);
-        total += (surface && quirk(7)) ? w * S.emission_transparency.rgb : vec3(0.0);
+        total += (surface && own_light && quirk(7)) ? w * S.emission_transparency.rgb : vec3(0.0);
 
         // Its children (step 4 of docs/paper-model.md).
         float d_dot_n = dot(d, n);

@@ -121,15 +121,16 @@ outputs (at least one):
   size known before the time and ray counts are.
 
 algorithm:
-  --mode MODE            paper (default): the paper's program, quirks Q1-Q10 all present
+  --mode MODE            paper (default): the paper's program, quirks Q1-Q13 all present
                          classic: the scratchapixel program it descends from
-                                  (= paper with Q2, Q4, Q9 fixed; Q3's NaN can appear)
+                                  (= paper with Q2, Q4, Q9, Q11, Q12, Q13 fixed; Q3's NaN
+                                  can appear)
                          physical: every quirk fixed (robust intersection, TIR, exact
                                   Fresnel, Lambert albedo/pi, point lights with 1/d^2
                                   calibrated by the exporter's light-units rule, bounded
                                   shadow rays blocked by glass, chains cut at max depth).
                                   Lights are points: no soft shadows (no --light-samples).
-  --fix Q1,Q2,...        fix these quirks on top of --mode (see docs/paper-model.md)
+  --fix Q1,Q2,...        fix these quirks (Q1 ... Q13) on top of --mode (docs/paper-model.md)
   --quirk Q2,Q5,...      add these quirks on top of --mode (classic --quirk Q2 keeps
                          eta = 1/ior when leaving glass); applied in order with --fix
   --mistake NAME,...     add named common mistakes (listed below; CPU tracer only), as
@@ -140,6 +141,21 @@ algorithm:
   --max-depth N          recursion limit, 0-64 (default: the scene's max_depth)
   --no-shadows, --no-reflection, --no-refraction
                          switch one effect off (per-effect ablation in the judge)
+
+quirks (all present in paper mode; docs/paper-model.md):
+  Q1   the tca < 0 early-out, and secondary rays a fixed bias off the surface
+  Q2   eta = 1/ior also when leaving glass
+  Q3   no total internal reflection: sqrt(k < 0) makes the refracted ray NaN
+  Q4   one shadow factor shared by all lights
+  Q5   shadow rays not stopped at the light
+  Q6   specular surfaces lit as diffuse ones at max depth
+  Q7   no 1/pi and no distance falloff; a light sphere shows its emission
+  Q8   the paper's Fresnel curve 0.1 + 0.9 (1 - cos)^3, for mirrors too
+  Q9   glass casts partial shadows (1 - transparency)
+  Q10  one ray through each pixel centre
+  Q11  the directly lit colour starts at 1, each light added to it
+  Q12  no Lambert cosine: lights behind the surface count too (their shadow rays are cast)
+  Q13  the hit sphere's own emission is not added (a light is shaded like a surface)
 
 image:
   --width W, --height H  override the camera's size, 1-16384 each (at most 64 Mpixels)

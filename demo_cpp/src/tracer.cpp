@@ -166,8 +166,9 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
     // The paper aims shadow rays from the hit point; with Q1 fixed, from the offset origin
     // so that the distance bound is measured from where the ray starts.
     const point3 aim_from = q.has(Quirk::Q1) ? p : origin;
-    float shared_shadow = 1.0f;                // Q4: one shadow factor for all lights, compounded
-    color c(q.has(Quirk::Q11) ? 1.0f : 0.0f);  // Q11: the paper's colour starts at 1
+    float shared_shadow = 1.0f;  // Q4: one shadow factor for all lights, compounded
+    // Q11: the paper's colour starts at 1 and each light is added to it.
+    color c(q.has(Quirk::Q11) ? 1.0f : 0.0f);
     for (std::size_t li = 0; li < lights_.size(); ++li) {
         const int light = lights_[li];
         const Sphere& l_sphere = scene_.spheres[light];
