@@ -14,26 +14,51 @@ metrics and figures keyed by their inputs' hashes, tmp/ for renders in progress.
 Several processes may share a cache: every file appears by an atomic rename of a uniquely
 named temporary file, so a reader sees a whole file or none, and two writers of one key
 both succeed (the entry is the same render).
+
+Nothing in it is trusted blindly: its folders must be real folders (a symbolic link planted
+as `renders/` is refused, never followed or emptied), an entry must be two regular files
+whose EXR has the sha256 its sidecar recorded (else it is discarded and rendered again), and a
+cache folder others may write to is named in a warning. It stays under a size cap
+(MAX_SIZE_ENV, `rtval cache --max-size`, else DEFAULT_MAX_BYTES): the entries used longest ago
+go first, never one used in the last GRACE_SECONDS (another process may be about to read it;
+one that has it open keeps reading, as unlinking leaves open files whole).
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import importlib.metadata
 import json
+import math
 import os
+import re
 import shutil
+import stat
+import sys
 import time
+from collections.abc import Iterator
+from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 from typing import Any
 
 from compare.files import atomic_output, sha256_file, unique_sibling, write_atomic
 from compare.render.runner import ToolError, rtdemo_path
-from compare.safe_paths import check_output_target
+from compare.safe_paths import check_output_target, describe_mode, read_bounded
 
 ENV = "RTVAL_CACHE"
+MAX_SIZE_ENV = "RTVAL_CACHE_MAX_SIZE"
+DEFAULT_MAX_BYTES = 4 * 10**9  # a few cold reports of the paper scene at 1200x800
+GRACE_SECONDS = 600  # an entry used this recently is never evicted
 STALE_TMP_SECONDS = 24 * 3600  # a temporary file this old belongs to a process that died
+SIDECAR_MAX_BYTES = 1 << 20
+STATS = ("hits", "misses", "evictions", "discarded")
+
+
+class CacheError(OSError):
+    """The cache folder cannot be used safely; the message names the path and why."""
 
 
 def default_cache_dir() -> Path:
@@ -47,14 +72,14 @@ def default_cache_dir() -> Path:
 
 
 @cache
-def _content_hash(path: str, mtime_ns: int, size: int) -> str:
-    """A file's sha256, hashed again only when its path, time or size changes."""
+def _content_hash(path: str, mtime_ns: int, size: int, inode: int) -> str:
+    """A file's sha256, hashed again only when its path, inode, time or size changes."""
     return sha256_file(Path(path))
 
 
 def _file_hash(path: Path) -> str:
     st = path.stat()
-    return _content_hash(str(path.resolve()), st.st_mtime_ns, st.st_size)
+    return _content_hash(str(path.resolve()), st.st_mtime_ns, st.st_size, st.st_ino)
 
 
 def renderer_identity(tool: str, executable: str | None = None) -> str:
@@ -99,30 +124,71 @@ def render_key(tool: str, args: list[str], scene_file: Path, executable: str | N
 
 class RenderCache:
     def __init__(self, root: Path | str | None = None) -> None:
+        if root is not None and not str(root).strip():
+            raise CacheError("--cache: an empty path names no folder")
         self.root = Path(root) if root is not None else default_cache_dir()
         self.renders = self.root / "renders"
         self.derived_dir = self.root / "derived"
         self.tmp_dir = self.root / "tmp"
+        self._warned = False
 
     def _ready(self) -> None:
         try:
-            for d in (self.renders, self.derived_dir, self.tmp_dir):
+            for d in (self.root, self.renders, self.derived_dir, self.tmp_dir):
                 d.mkdir(parents=True, exist_ok=True)
         except OSError as e:
-            raise OSError(f"render cache {self.root}: cannot create it: {e.strerror}") from None
+            raise CacheError(f"render cache {self.root}: cannot create it: {e.strerror}") from None
+        for d in (self.renders, self.derived_dir, self.tmp_dir):
+            _require_folder(d)
+        self._warn_if_shared()
+
+    def _warn_if_shared(self) -> None:
+        st = self.root.stat()
+        if not self._warned and st.st_mode & stat.S_IWOTH and not st.st_mode & stat.S_ISVTX:
+            self._warned = True
+            print(
+                f"rtval: warning: render cache {self.root} is writable by every user: anyone "
+                "could plant renders in it (use a folder of your own, e.g. --cache)",
+                file=sys.stderr,
+            )
 
     def exr(self, key: str) -> Path:
         return self.renders / f"{key}.exr"
 
+    def _sidecar(self, key: str) -> Path:
+        return self.renders / f"{key}.json"
+
     def info(self, key: str) -> dict[str, Any] | None:
-        """The entry's facts, or None when the render is not (completely) cached."""
-        side = self.renders / f"{key}.json"
-        if not (side.is_file() and self.exr(key).is_file()):
+        """The entry's facts, or None when the render is not (completely, intactly) cached.
+        A damaged or replaced entry is removed, so that it is rendered again."""
+        if not self.renders.is_dir():
+            return None
+        _require_folder(self.renders)
+        exr, side = self.exr(key), self._sidecar(key)
+        if not (_is_plain_file(exr) and _is_plain_file(side)):
+            if os.path.lexists(exr) or os.path.lexists(side):
+                self._discard(key, "is not two regular files")
             return None
         try:
-            return dict(json.loads(side.read_text()))
-        except (OSError, ValueError):
+            facts = dict(json.loads(read_bounded(side, SIDECAR_MAX_BYTES)))
+        except (OSError, ValueError, TypeError):
+            self._discard(key, "has an unreadable sidecar")
             return None
+        if facts.get("sha256") != _file_hash(exr):
+            self._discard(key, "does not match the sha256 its sidecar recorded")
+            return None
+        _touch(side)  # the eviction order: least recently used first
+        return facts
+
+    def _discard(self, key: str, why: str) -> None:
+        print(
+            f"rtval: render cache: entry {key} {why}; discarded, it will be rendered again",
+            file=sys.stderr,
+        )
+        for p in (self.exr(key), self._sidecar(key)):
+            with contextlib.suppress(FileNotFoundError):
+                p.unlink()
+        self.count(discarded=1)
 
     def tmp_path(self, key: str) -> Path:
         """Where a renderer writes a render in progress (then `store` moves it in)."""
@@ -135,42 +201,187 @@ class RenderCache:
         info = {**facts, "sha256": sha256_file(produced), "stored": time.time()}
         check_output_target(self.exr(key))  # only ever replace a regular file
         produced.replace(self.exr(key))
-        write_atomic(self.renders / f"{key}.json", json.dumps(info, indent=1))
+        write_atomic(self._sidecar(key), json.dumps(info, indent=1))
         return info
 
     def derived(self, name: str) -> Path:
         """A file computed from cached inputs; `name` carries the inputs' hashes."""
         self._ready()
-        return self.derived_dir / name
+        path = self.derived_dir / name
+        if _is_plain_file(path):
+            _touch(path)
+        return path
+
+    def _entries(self) -> list[_Entry]:
+        """Every evictable entry: a render (its EXR and sidecar together) or a derived file."""
+        groups: dict[str, _Entry] = {}
+        for d in (self.renders, self.derived_dir):
+            if not _is_folder(d):
+                continue
+            with os.scandir(d) as it:
+                for e in it:
+                    if e.name.startswith(".") or not e.is_file(follow_symlinks=False):
+                        continue
+                    st = e.stat(follow_symlinks=False)
+                    group = str(d / Path(e.name).stem) if d == self.renders else e.path
+                    entry = groups.setdefault(group, _Entry([], 0, 0.0))
+                    entry.paths.append(Path(e.path))
+                    entry.size += st.st_size
+                    entry.used = max(entry.used, st.st_mtime)
+        return list(groups.values())
 
     def size(self) -> tuple[int, int]:
-        """(files, bytes) under the cache folder."""
-        files = total = 0
-        if self.root.is_dir():
-            for p in self.root.rglob("*"):
-                if p.is_file():
-                    files += 1
-                    total += p.stat().st_size
+        """(files, bytes) of the cache's entries and renders in progress."""
+        entries = self._entries()
+        files = sum(len(e.paths) for e in entries)
+        total = sum(e.size for e in entries)
+        for p in _plain_files(self.tmp_dir):
+            files, total = files + 1, total + p.stat().st_size
         return files, total
+
+    def max_bytes(self) -> int:
+        """The size cap: $RTVAL_CACHE_MAX_SIZE, else the cache's own setting, else the default."""
+        chosen = os.environ.get(MAX_SIZE_ENV)
+        if chosen:
+            try:
+                return parse_size(chosen)
+            except ValueError as e:
+                raise ValueError(f"${MAX_SIZE_ENV}: {e}") from None
+        setting = self.root / "settings.json"
+        if _is_plain_file(setting):
+            try:
+                return int(json.loads(read_bounded(setting, SIDECAR_MAX_BYTES))["max_bytes"])
+            except (OSError, ValueError, KeyError, TypeError):
+                raise CacheError(f'{setting}: expected {{"max_bytes": N}}') from None
+        return DEFAULT_MAX_BYTES
+
+    def set_max_bytes(self, n: int) -> None:
+        self._ready()
+        write_atomic(self.root / "settings.json", json.dumps({"max_bytes": n}))
+
+    def evict(self, max_bytes: int | None = None) -> tuple[int, int]:
+        """Removes the least recently used entries until the cache fits its cap; entries
+        used in the last GRACE_SECONDS stay whatever the size. Returns (entries, bytes)."""
+        cap = self.max_bytes() if max_bytes is None else max_bytes
+        entries = sorted(self._entries(), key=lambda e: e.used)
+        total = sum(e.size for e in entries)
+        removed = freed = 0
+        now = time.time()
+        for e in entries:
+            if total <= cap or now - e.used < GRACE_SECONDS:
+                break
+            for p in sorted(e.paths, key=lambda p: p.suffix != ".json"):  # sidecar first
+                with contextlib.suppress(FileNotFoundError):
+                    p.unlink()
+            total, removed, freed = total - e.size, removed + 1, freed + e.size
+        if removed:
+            self.count(evictions=removed)
+        return removed, freed
+
+    def count(self, **events: int) -> None:
+        """Adds to the cache's lifetime counts (hits, misses, evictions, discarded)."""
+        if not any(events.values()) or not _is_folder(self.root):
+            return
+        with _locked(self.root / ".stats.lock"):
+            stats = self.stats()
+            for k, n in events.items():
+                stats[k] = stats.get(k, 0) + n
+            write_atomic(self.root / "stats.json", json.dumps(stats))
+
+    def stats(self) -> dict[str, int]:
+        path = self.root / "stats.json"
+        out = dict.fromkeys(STATS, 0)
+        if _is_plain_file(path):
+            with contextlib.suppress(OSError, ValueError, TypeError, AttributeError):
+                raw = json.loads(read_bounded(path, SIDECAR_MAX_BYTES))
+                out.update({k: int(raw[k]) for k in STATS if isinstance(raw.get(k), int)})
+        return out
 
     def clear(self) -> tuple[int, int]:
         """Removes every entry; returns what was removed. Renders in progress elsewhere
-        are left alone unless stale."""
+        are left alone unless stale; nothing outside the cache's own folders is touched."""
         files, total = 0, 0
         for d in (self.renders, self.derived_dir, self.tmp_dir):
-            if not d.is_dir():
+            if not os.path.lexists(d):
                 continue
-            for p in d.iterdir():
-                if not p.is_file():
+            _require_folder(d)
+            for p in _plain_files(d):
+                st = p.stat(follow_symlinks=False)
+                if d == self.tmp_dir and time.time() - st.st_mtime < STALE_TMP_SECONDS:
                     continue
-                if d == self.tmp_dir and time.time() - p.stat().st_mtime < STALE_TMP_SECONDS:
-                    continue
-                size = p.stat().st_size
                 p.unlink(missing_ok=True)
-                files, total = files + 1, total + size
+                files, total = files + 1, total + st.st_size
         return files, total
 
     def copy_out(self, key: str, target: Path) -> None:
         """A copy of a cached render elsewhere (e.g. grade's references/), atomically."""
         with atomic_output(target) as tmp:
             shutil.copyfile(self.exr(key), tmp)
+
+
+@dataclass
+class _Entry:
+    paths: list[Path]
+    size: int
+    used: float  # the newest mtime of its files: info() and derived() touch them on use
+
+
+def parse_size(text: str) -> int:
+    """'2GB', '500 MB', '1e9' -> bytes (decimal units, as `rtval cache` prints them)."""
+    m = re.fullmatch(r"\s*([0-9]+(?:\.[0-9]*)?(?:[eE][0-9]+)?)\s*([kKmMgGtT]?)[bB]?\s*", text)
+    if not m:
+        raise ValueError(f"expected a size such as 2GB or 500MB, got {text!r}")
+    n = float(m.group(1)) * 1000 ** " kmgt".index(m.group(2).lower() or " ")
+    if not math.isfinite(n) or n < 0 or n > 1e18:
+        raise ValueError(f"expected a size from 0 to 1000 PB, got {text!r}")
+    return int(n)
+
+
+def _is_plain_file(path: Path) -> bool:
+    try:
+        return stat.S_ISREG(os.lstat(path).st_mode)
+    except OSError:
+        return False
+
+
+def _is_folder(path: Path) -> bool:
+    try:
+        return stat.S_ISDIR(os.lstat(path).st_mode)
+    except OSError:
+        return False
+
+
+def _require_folder(path: Path) -> None:
+    """A cache folder must be a real folder: a symbolic link there would send writes and
+    deletions elsewhere."""
+    try:
+        mode = os.lstat(path).st_mode
+    except OSError as e:
+        raise CacheError(f"render cache {path}: {e.strerror}") from None
+    if not stat.S_ISDIR(mode):
+        raise CacheError(
+            f"render cache {path}: is {describe_mode(mode)}, not a folder; "
+            "the cache never follows links (remove it, or use another --cache)"
+        )
+
+
+def _plain_files(folder: Path) -> list[Path]:
+    if not _is_folder(folder):
+        return []
+    with os.scandir(folder) as it:
+        return [Path(e.path) for e in it if e.is_file(follow_symlinks=False)]
+
+
+def _touch(path: Path) -> None:
+    with contextlib.suppress(OSError):
+        os.utime(path, follow_symlinks=False)
+
+
+@contextlib.contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)

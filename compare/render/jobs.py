@@ -105,6 +105,7 @@ def run_jobs(
         else:
             seen.add(job.cache_key)
             todo.append(job)
+    cache.count(hits=len(jobs) - len(todo), misses=len(seen))
     demo = [j for j in todo if j.tool == "rtdemo"]
     mitsuba = [j for j in todo if j.tool != "rtdemo"]
     timings: dict[str, float] = {}
@@ -124,6 +125,8 @@ def run_jobs(
                 raise ToolError(f"{job.label}: no render in the cache after running it")
             job.cached, job.info = True, info
             counter.finished(job)
+    if todo:
+        cache.evict()  # what this run just used is within the grace period and stays
     return timings
 
 
