@@ -8,7 +8,7 @@ Mapping (also written into the XML as comments):
              paper mapping eta/k fitted to the paper's 0.1 + 0.9 (1 - cos)^3
   light   -> sphere with an `area` emitter; with light="point" also a `point` emitter at its
              centre (light_units.py gives both values)
-  background -> `constant` emitter
+  background -> `constant` emitter, the only emitter of a scene without lights
   a sphere of radius >= 100 (the paper's floor) -> a spherical-cap mesh (cap_mesh.py) unless
              keep_huge_spheres
 """
@@ -213,8 +213,14 @@ def export_scene(scene: Scene, options: ExportOptions = ExportOptions()) -> Expo
         "constant",
         {"radiance": RGB(scene.background)},
         id="background",
-        comment="the paper's background colour",
+        comment="the paper's background colour: what camera and specular rays that miss see",
     )
+    if not scene.lights:
+        # Mitsuba renders a scene whose only emitter is the environment (any integrator).
+        exported.notes.append(
+            "no light: the background (constant emitter) is the only emitter; in rtval_whitted "
+            "diffuse surfaces stay black, the path tracer lights them from the sky"
+        )
 
     for i, s in enumerate(scene.spheres):
         sid = shape_id(i)

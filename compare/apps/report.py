@@ -16,6 +16,7 @@ import datetime as _dt
 import functools
 import hashlib
 import importlib.metadata
+import itertools
 import json
 import os
 import platform
@@ -48,21 +49,23 @@ from compare.escape import json_for_script
 from compare.files import json_safe as _json_safe
 from compare.files import sha256_file, write_atomic
 from compare.judge.convergence import mitsuba_to_converged, time_to_converged
-from compare.judge.effects import effect_masks
+from compare.judge.effects import EFFECTS, effect_masks
 from compare.judge.images import Image, ImageError, ImageSizeError, read_image
 from compare.judge.metrics import metrics_from_dict
 from compare.judge.pareto import pareto_front
 from compare.judge.penumbra import penumbra_numbers
-from compare.judge.scoring import score_effects
+from compare.judge.scoring import ABSENT, score_effects
 from compare.judge.sentences import contribution_sentence, difference_sentences
 from compare.render.cache import RenderCache
 from compare.render.jobs import RenderJob, run_jobs
 from compare.render.plan import (
+    AREA_KEY,
     DEMO_YARDSTICK_SPP,
     EFFECT_SWITCHES,
-    QUIRKS,
     REFERENCE_KEY,
     REFERENCE_SPP,
+    ladder_steps,
+    not_applicable,
     plan,
 )
 from compare.render.progress import Progress
@@ -88,6 +91,7 @@ SAME_ESTIMATOR_AS_REFERENCE = {
     "mitsuba-whitted-llvm-4spp",
 }
 SCENE_COPY = "scene.json"  # the scene beside the page; the printed commands read it
+NO_CHANGE = "changes nothing in this scene"  # a ladder step whose render equals the last
 
 
 def _versions() -> dict[str, str]:
@@ -274,13 +278,28 @@ def build_report(
         for j in render_jobs
         if j.family not in ("reference", "ablation", "ladder", "reference area")
     ]
-    ladder_keys = (
-        ["demo-paper-cpu"] + [f"ladder-{i:02d}" for i in range(1, 10)] + ["demo-physical-cpu-16spp"]
-    )
+    steps_of_ladder = ladder_steps()
+    ladder_keys = [step.key for step in steps_of_ladder]
+    skipped = not_applicable(scene)  # what the plan left out, and why
     with steps("metrics"):
+        # A ladder step whose render equals the step before (its quirk has nothing to act on
+        # in this scene) has that step's metrics: its FLIP is not computed again.
+        changed: list[int | None] = [None] + [
+            _changed_pixels(imgs, cache, a.key, b.key)
+            for a, b in itertools.pairwise(steps_of_ladder)
+        ]
+        same_as: dict[str, str] = {}
+        for i, step in enumerate(steps_of_ladder):
+            if changed[i] == 0 and by_key[step.key].family == "ladder":
+                before = steps_of_ladder[i - 1].key
+                same_as[step.key] = same_as.get(before, before)
         # Per effect (with HDR FLIP) for the featured renders, global for the charts'.
         pairs = [(k, True) for k, _ in featured]
-        pairs += [(k, False) for k in dict.fromkeys([j.key for j in chart_jobs] + ladder_keys)]
+        pairs += [
+            (k, False)
+            for k in dict.fromkeys([j.key for j in chart_jobs] + ladder_keys)
+            if k not in same_as
+        ]
         start = time.perf_counter()
         found = ev.evaluate_all(
             [(imgs.loader(k), hashes[k], per_effect) for k, per_effect in pairs],
@@ -293,6 +312,8 @@ def build_report(
             ),
         )
         metrics: dict[tuple[str, bool], dict[str, Any]] = dict(zip(pairs, found, strict=True))
+        for k, twin in same_as.items():
+            metrics[k, False] = metrics[twin, False]
         results = {k: metrics[k, True] for k, _ in featured}
 
     with steps("difference maps"):
@@ -363,18 +384,20 @@ def build_report(
         slopes = fitted
 
         # Ablation ladder: paper -> Q1 fixed -> Q1,Q2 fixed ... -> physical (Q10: 16 spp).
-        ladder_names = ["paper"] + [f"+{q}" for q in QUIRKS[:9]] + ["+Q10 = physical 16 spp"]
         ladder = []
-        for name, k in zip(ladder_names, ladder_keys, strict=False):
-            g = metrics[k, False]["global"]
+        for i, step in enumerate(steps_of_ladder):
+            g = metrics[step.key, False]["global"]
             ladder.append(
                 {
-                    "step": name,
-                    "key": k,
+                    "step": step.name,
+                    "key": step.key,
+                    "quirk": step.quirk,
                     "flip": g["flip_ldr"],
                     "one_minus_ssim": 1.0 - (g["ssim"] or 0.0),
-                    "seconds": imgs.facts(k)["seconds"],
-                    "command": command(k),
+                    "seconds": imgs.facts(step.key)["seconds"],
+                    "command": command(step.key),
+                    "changed_pixels": changed[i],  # against the step before; 0: no change
+                    "note": NO_CHANGE if changed[i] == 0 else "",
                 }
             )
         derived_figure(
@@ -387,7 +410,9 @@ def build_report(
 
     with steps("analysis"):
         test_effects = {k: metrics_from_dict(v) for k, v in results[test_key]["per_effect"].items()}
-        verdict = score_effects(test_effects).as_dict() | {"against": "mitsuba"}
+        # The per-effect metrics leave out masks with no pixel: those effects do not occur.
+        absent = tuple(k for k in EFFECTS if k not in test_effects)
+        verdict = score_effects(test_effects, absent=absent).as_dict() | {"against": "mitsuba"}
         mitsuba_jobs = [
             j for j in render_jobs if j.family.startswith("mitsuba") or j.key == REFERENCE_KEY
         ]
@@ -397,7 +422,7 @@ def build_report(
             # Effect contributions at pixel centres: what shadows / reflection / refraction add.
             contributions = []
             if not test_image:
-                for effect in EFFECT_SWITCHES:
+                for effect in [e for e in EFFECT_SWITCHES if e not in skipped]:
                     for demo_mode in ("paper", "physical"):
                         base = (
                             "demo-paper-cpu" if demo_mode == "paper" else "demo-physical-cpu-1spp"
@@ -435,8 +460,10 @@ def build_report(
                 "sentences": difference_sentences(
                     ref.rgb, imgs[test_key].rgb, masks(), test_effects, label
                 ),
-                "penumbra": penumbra_numbers(
-                    ref.rgb, imgs["ref-area"].rgb, imgs["demo-physical-cpu-16spp"].rgb
+                "penumbra": None
+                if AREA_KEY not in by_key
+                else penumbra_numbers(
+                    ref.rgb, imgs[AREA_KEY].rgb, imgs["demo-physical-cpu-16spp"].rgb
                 ),
                 "converged": converged,
                 "effect_pixels": {k: int(v.sum()) for k, v in masks().items()},
@@ -548,9 +575,11 @@ def build_report(
         "convergence_slopes": slopes,
         "ladder": ladder,
         "penumbra": penumbra,
+        "not_applicable": skipped,  # renders left out: what switching them would not change
         "time_to_converged": converged,
         "renders": renders,
         "effect_pixels": analysis["effect_pixels"],
+        "absent_effects": dict.fromkeys(absent, ABSENT),
     }
     # Nothing of an earlier run stays (another test image, the EXRs of the layout before the
     # shared cache): images/ holds what this page links to.
@@ -584,6 +613,19 @@ def build_report(
     return out / "index.html"
 
 
+def _changed_pixels(imgs: LazyImages, cache: RenderCache, before: str, after: str) -> int:
+    """Pixels in which two renders differ (NaN equals NaN), kept in the cache by their hashes
+    so that a warm run reads neither render."""
+
+    def count() -> dict[str, Any]:
+        a, b = imgs[before].rgb, imgs[after].rgb
+        same = (a == b) | (np.isnan(a) & np.isnan(b))
+        return {"pixels": int((~same.all(axis=-1)).sum())}
+
+    key = imgs.hashes[before] + imgs.hashes[after]
+    return int(memo_json(cache, "changed-pixels", key, count)["pixels"])
+
+
 def _model_verdict(
     test: Image,
     against: str | None,
@@ -604,19 +646,20 @@ def _model_verdict(
     loaded = load(prepare(model, scene_file, size, cache, progress=progress))
     ev = judge(test, loaded)
     assert ev.score is not None
-    # Ladder step i fixes Q(i) on top of Q1..Q(i-1): its FLIP drop is what that quirk costs
-    # there (cumulative, so conditional on the earlier fixes).
+    # Each ladder step fixes one quirk on top of the earlier ones: its FLIP drop is what that
+    # quirk costs there (cumulative, so conditional on the earlier fixes).
     present = model.quirks if model.is_demo else frozenset()
     costs = [
         {
-            "quirk": q,
-            "present": int(q[1:]) in present,
-            "flip_with": ladder[i - 1]["flip"],
-            "flip_fixed": ladder[i]["flip"],
-            "cost": ladder[i - 1]["flip"] - ladder[i]["flip"],
+            "quirk": step["quirk"],
+            "present": int(step["quirk"][1:]) in present,
+            "flip_with": before["flip"],
+            "flip_fixed": step["flip"],
+            "cost": before["flip"] - step["flip"],
+            "note": step["note"],
         }
-        for i, q in enumerate(QUIRKS, start=1)
-        if i < len(ladder) and int(q[1:]) in MODE_QUIRKS["paper"]
+        for before, step in itertools.pairwise(ladder)
+        if int(step["quirk"][1:]) in MODE_QUIRKS["paper"]
     ]
     return {
         "model": model.name,

@@ -4,7 +4,9 @@ For every stress scene (scenes/stress/*.json) and method (demo paper/classic/phy
 and GL, Mitsuba whitted and path): NaN/Inf counts, error against the Whitted reference, and
 stability — how far the image moves (mean FLIP) when the scene is nudged: bias x10 and /10,
 the camera moved by 1e-4, and (path only) another seed. Writes reports/stress/index.html
-(an atlas: thumbnails and a sentence per failure) and stress.json.
+(an atlas: thumbnails and a sentence per failure) and stress.json. Each scene also says which
+effects it shows and which do not occur in it (no light: no direct light, no shadows), from
+the reference's camera-ray AOVs.
 """
 
 from __future__ import annotations
@@ -19,13 +21,15 @@ from typing import Any
 import numpy as np
 from jinja2 import Environment, PackageLoader, select_autoescape
 
-from compare.files import write_atomic
+from compare.files import json_safe, write_atomic
+from compare.judge.effects import EFFECTS, effect_masks
 from compare.judge.evaluate import evaluate_pair
-from compare.judge.images import read_image, write_png
+from compare.judge.images import Image, read_image, write_png
+from compare.judge.scoring import ABSENT
 from compare.render.cache import RenderCache
 from compare.render.jobs import RenderJob, run_jobs
 from compare.render.progress import Progress
-from scene_model.scene import load_scene
+from scene_model.scene import Scene, load_scene
 
 DEMO_METHODS = [
     (f"demo {mode} {backend}", mode, backend)
@@ -73,6 +77,13 @@ def _perturbed(scene_file: Path, folder: Path) -> dict[str, Path]:
         p.write_text(json.dumps(j))
         out[name] = p
     return out
+
+
+def _effects(scene: Scene, reference: Image) -> tuple[list[str], dict[str, str]]:
+    """The effects the scene shows (mask pixels in the reference), and those it does not."""
+    masks = effect_masks(scene, reference.aovs["id"], reference.aovs["depth"])
+    shown = [k for k in EFFECTS if masks[k].any()]
+    return shown, {k: ABSENT for k in EFFECTS if k not in shown}
 
 
 def _flip(a: np.ndarray, b: np.ndarray) -> float:
@@ -167,13 +178,19 @@ def run_stress(
         )
         for n, (scene, jobs) in enumerate(per_scene, 1):
             renders: dict[str, dict[str, np.ndarray]] = {}
+            shown: tuple[list[str], dict[str, str]] = ([], {})
             for job in jobs:
                 method, name = job.key.split("|")
-                renders.setdefault(method, {})[name] = read_image(job.exr(cache)).rgb
+                image = read_image(job.exr(cache))
+                renders.setdefault(method, {})[name] = image.rgb
+                if job.key == "mitsuba whitted|base":
+                    shown = _effects(scene, image)
             reference = renders["mitsuba whitted"]["base"]
             scene_result: dict[str, Any] = {
                 "scene": scene.name,
                 "description": scene.description,
+                "effects": shown[0],
+                "absent_effects": shown[1],
                 "methods": [],
             }
             for method, per in renders.items():
@@ -212,6 +229,7 @@ def run_stress(
             results.append(scene_result)
             progress(f"[{n}/{len(scene_files)}] {scene.name}")
     data = {"size": list(size), "unstable_flip": UNSTABLE_FLIP, "scenes": results}
+    data = dict(json_safe(data))  # an undefined SSIM (images under 11 px) is null, not NaN
     write_atomic(out_dir / "stress.json", json.dumps(data, indent=2, default=float) + "\n")
     env = Environment(
         loader=PackageLoader("compare.apps", "templates"),

@@ -53,7 +53,9 @@ class ExactInputs:
     model: str
     offsets: Sequence[F32]
     encoding: str  # linear | srgb | float (images.Image.encoding)
-    cache: dict[str, tuple[Bounds, Bounds]] | None = None  # across a class (exact_match.model_bounds)
+    cache: dict[str, tuple[Bounds, Bounds]] | None = (
+        None  # across a class (exact_match.model_bounds)
+    )
 
 
 @dataclass
@@ -145,6 +147,12 @@ class Evaluation:
     def effect_metrics(self) -> dict[str, Metrics]:
         return {k: v.metrics for k, v in self.per_effect.items()}
 
+    @property
+    def absent_effects(self) -> tuple[str, ...]:
+        """Effects whose mask (within the region) has no pixel: they do not occur here, so
+        they have no metrics and no score."""
+        return tuple(k for k in EFFECTS if k in self.masks and self._pixels(k) is None)
+
     def exact_reasons(self) -> list[str]:
         """'refraction: 2,310 px (41 %) differ from classic beyond 8-bit linear quantisation;
         FLIP 0.31' for every failing effect, the most differing first."""
@@ -193,11 +201,19 @@ def evaluate_pair(
         )
         if result.masks:
             result.score = score_exact(
-                result.exact, result.effect_flip, rules, pass_score=pass_score
+                result.exact,
+                result.effect_flip,
+                rules,
+                pass_score=pass_score,
+                absent=result.absent_effects,
             )
         return result
     if result.masks:
         result.score = score_effects(
-            result.effect_metrics(), rules, flip_at_zero=flip_at_zero, pass_score=pass_score
+            result.effect_metrics(),
+            rules,
+            flip_at_zero=flip_at_zero,
+            pass_score=pass_score,
+            absent=result.absent_effects,
         )
     return result

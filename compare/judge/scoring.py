@@ -7,7 +7,9 @@ of sigma 0.002 scores SSIM 0.65 in the classic scene's shadows at FLIP 0.04). An
 score is 100 (1 - FLIP / flip_at_zero), clamped to [0, 100] (flip_at_zero defaults to 0.5:
 half the perceptual range scores nothing). The overall score is the mean of the effect scores
 weighted by pixel count times the rule's weight; the verdict passes when every effect does
-(and, with `pass_score`, when the overall score reaches it).
+(and, with `pass_score`, when the overall score reaches it). An effect whose mask has no
+pixels does not occur in the scene: it has no score, is not counted in the overall score
+and is listed as absent (`absent_effects`), so that a page can say so.
 
 Against a demo model the basis is the exact match instead (score_exact): an effect passes when
 at most 0.1 % of its pixels differ from the model beyond the test's quantisation
@@ -27,6 +29,7 @@ if TYPE_CHECKING:
     from compare.judge.exact_match import ExactMatch
 
 FLIP_AT_ZERO_SCORE = 0.5
+ABSENT = "does not occur in this scene"
 
 
 @dataclass(frozen=True)
@@ -72,6 +75,7 @@ class Score:
     flip_at_zero_score: float = FLIP_AT_ZERO_SCORE
     pass_score: float | None = None
     basis: str = "flip"  # flip: the rubric's FLIP/SSIM rules; exact: the exact match
+    absent: tuple[str, ...] = ()  # effects with no pixels: not scored, not counted
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -79,6 +83,7 @@ class Score:
             "score": self.score,
             "basis": self.basis,
             "effects": {k: e.as_dict() for k, e in self.effects.items()},
+            "absent_effects": dict.fromkeys(self.absent, ABSENT),
             "flip_at_zero_score": self.flip_at_zero_score,
             "pass_score": self.pass_score,
         }
@@ -140,9 +145,10 @@ def score_exact(
     rules: dict[str, EffectRule] | None = None,
     *,
     pass_score: float | None = None,
+    absent: tuple[str, ...] = (),
 ) -> Score:
     """The exact match -> the scored verdict; `flip_of(effect)` is asked for failing effects
-    only (it computes the FLIP map on first use)."""
+    only (it computes the FLIP map on first use). `absent`: effects with no pixels."""
     rules = rules or {}
     effects = {}
     for name, e in exact.per_effect.items():
@@ -163,7 +169,13 @@ def score_exact(
     if pass_score is not None and overall < pass_score:
         ok = False
     return Score(
-        "pass" if ok else "fail", overall, effects, FLIP_AT_ZERO_SCORE, pass_score, "exact"
+        "pass" if ok else "fail",
+        overall,
+        effects,
+        FLIP_AT_ZERO_SCORE,
+        pass_score,
+        "exact",
+        _absent(absent, effects),
     )
 
 
@@ -173,8 +185,10 @@ def score_effects(
     *,
     flip_at_zero: float = FLIP_AT_ZERO_SCORE,
     pass_score: float | None = None,
+    absent: tuple[str, ...] = (),
 ) -> Score:
-    """Per-effect metrics -> the scored verdict."""
+    """Per-effect metrics -> the scored verdict. `absent`: effects whose masks have no pixels
+    (they have no metrics either)."""
     rules = rules or {}
     effects = {
         name: score_effect(m, rules.get(name, EffectRule()), flip_at_zero)
@@ -184,4 +198,16 @@ def score_effects(
     ok = bool(effects) and all(e.status == "pass" for e in effects.values())
     if pass_score is not None and overall < pass_score:
         ok = False
-    return Score("pass" if ok else "fail", overall, effects, flip_at_zero, pass_score)
+    return Score(
+        "pass" if ok else "fail",
+        overall,
+        effects,
+        flip_at_zero,
+        pass_score,
+        absent=_absent(absent, effects),
+    )
+
+
+def _absent(absent: tuple[str, ...], effects: dict[str, EffectScore]) -> tuple[str, ...]:
+    """The absent effects, once each; one that was scored is not absent."""
+    return tuple(k for k in dict.fromkeys(absent) if k not in effects)

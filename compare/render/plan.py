@@ -3,21 +3,69 @@
 The converged reference is Mitsuba with rtval_whitted (the demo's physical light transport,
 sphere lights as calibrated points), box-filtered with REFERENCE_SPP random samples per pixel.
 Everything is measured against it.
+
+What cannot change a scene is not rendered: without a light there is no area-light
+reference (no penumbrae) and no shadow ablation; without glass no refraction ablation
+(`not_applicable` says why, for the page).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+from compare.judge.quirks import QUIRKS as QUIRK_TEXT
 from compare.render.jobs import RenderJob
+from scene_model.scene import Scene, load_scene
 
 REFERENCE_KEY = "ref-converged"
 REFERENCE_SPP = 32
 AREA_SPP = 16  # soft shadows only need to show where the penumbrae are
 DEMO_YARDSTICK_SPP = 64  # the demo's own finest render: its error at fewer spp (convergence.py)
-QUIRKS = [f"Q{i}" for i in range(1, 11)]
+QUIRKS = [f"Q{n}" for n in sorted(QUIRK_TEXT)]  # every quirk of the paper's program
+SAMPLING_QUIRK = "Q10"  # the ladder fixes it last, with LADDER_SPP: its end is physical mode
+LADDER_SPP = 16
+# The order in which the ladder fixes the quirks: by number, pixel-centre sampling last.
+LADDER_ORDER = [q for q in QUIRKS if q != SAMPLING_QUIRK] + [SAMPLING_QUIRK]
 EFFECT_SWITCHES = ("shadows", "reflection", "refraction")
+AREA_KEY = "ref-area"
+
+
+@dataclass(frozen=True)
+class LadderStep:
+    name: str  # "paper", "+Q1", ..., "+Q10 = physical 16 spp"
+    key: str  # the render of this step
+    quirk: str | None  # the quirk this step fixes on top of the earlier ones (None: the start)
+
+
+def ladder_steps() -> list[LadderStep]:
+    """paper -> Q1 fixed -> Q1,Q2 fixed ... -> every quirk but Q10 fixed -> physical 16 spp."""
+    steps = [LadderStep("paper", "demo-paper-cpu", None)]
+    for i, q in enumerate(LADDER_ORDER[:-1], start=1):
+        steps.append(LadderStep(f"+{q}", f"ladder-{i:02d}", q))
+    end = f"demo-physical-cpu-{LADDER_SPP}spp"
+    steps.append(LadderStep(f"+{SAMPLING_QUIRK} = physical {LADDER_SPP} spp", end, SAMPLING_QUIRK))
+    return steps
+
+
+def not_applicable(scene: Scene) -> dict[str, str]:
+    """What the scene lacks for a render to show anything: effect switch (or "area light")
+    -> why switching it changes nothing. Switches not named here can change the image."""
+    kinds = {s.kind for s in scene.spheres}
+    why = {}
+    if not scene.lights:
+        why["shadows"] = "the scene has no light, so nothing casts a shadow"
+        why["area light"] = "the scene has no light, so there are no penumbrae"
+    if not kinds & {"mirror", "glass"}:
+        why["reflection"] = "the scene has no mirror and no glass"
+    if "glass" not in kinds:
+        why["refraction"] = "the scene has no glass"
+    return why
 
 
 def plan(scene: str, size: tuple[int, int] | None) -> list[RenderJob]:
+    loaded = load_scene(scene)
+    skipped = not_applicable(loaded)
+    lights = "point lights" if loaded.lights else "no light"  # a label must not invent one
     size_demo = ["--width", str(size[0]), "--height", str(size[1])] if size else []
     size_ref = ["--size", f"{size[0]}x{size[1]}"] if size else []
 
@@ -46,7 +94,7 @@ def plan(scene: str, size: tuple[int, int] | None) -> list[RenderJob]:
     jobs = [
         ref(
             REFERENCE_KEY,
-            f"Mitsuba whitted, point lights, {REFERENCE_SPP} spp (converged reference)",
+            f"Mitsuba whitted, {lights}, {REFERENCE_SPP} spp (converged reference)",
             "reference",
             "--integrator",
             "whitted",
@@ -159,48 +207,45 @@ def plan(scene: str, size: tuple[int, int] | None) -> list[RenderJob]:
             spp=1,
         )
     )
-    jobs.append(
-        ref(
-            "ref-area",
-            f"Mitsuba whitted, area lights, {AREA_SPP} spp (soft shadows)",
-            "reference area",
-            "--integrator",
-            "whitted",
-            "--light",
-            "area",
-            "--spp",
-            str(AREA_SPP),
-            spp=AREA_SPP,
-        )
-    )
-    # Ablation ladder: the paper's program with quirks fixed one after another (cumulative).
-    for i in range(1, 10):
-        fixed = ",".join(QUIRKS[:i])
+    if "area light" not in skipped:
         jobs.append(
-            demo(
-                f"ladder-{i:02d}",
-                f"paper + {fixed} fixed",
-                "ladder",
-                "--mode",
-                "paper",
-                "--fix",
-                fixed,
+            ref(
+                AREA_KEY,
+                f"Mitsuba whitted, area lights, {AREA_SPP} spp (soft shadows)",
+                "reference area",
+                "--integrator",
+                "whitted",
+                "--light",
+                "area",
+                "--spp",
+                str(AREA_SPP),
+                spp=AREA_SPP,
             )
         )
-    # Effect ablation at pixel centres: each side with one effect switched off.
-    jobs.append(
-        ref(
-            "ref-centre",
-            "Mitsuba whitted, point lights, pixel centres",
-            "ablation",
-            "--integrator",
-            "whitted",
-            "--light",
-            "point",
-            "--centre-rays",
+    # Ablation ladder: the paper's program with quirks fixed one after another (cumulative);
+    # its first and last steps are the paper-mode and physical-mode renders above.
+    for i, step in enumerate(ladder_steps()[1:-1], start=1):
+        fixed = ",".join(LADDER_ORDER[:i])
+        jobs.append(
+            demo(step.key, f"paper + {fixed} fixed", "ladder", "--mode", "paper", "--fix", fixed)
         )
-    )
-    for effect in EFFECT_SWITCHES:
+    # Effect ablation at pixel centres: each side with one effect switched off, for the
+    # switches that can change this scene (the others would give three copies of their base).
+    switches = [e for e in EFFECT_SWITCHES if e not in skipped]
+    if switches:
+        jobs.append(
+            ref(
+                "ref-centre",
+                f"Mitsuba whitted, {lights}, pixel centres",
+                "ablation",
+                "--integrator",
+                "whitted",
+                "--light",
+                "point",
+                "--centre-rays",
+            )
+        )
+    for effect in switches:
         jobs.append(
             ref(
                 f"ref-centre-no-{effect}",
