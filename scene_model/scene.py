@@ -2,6 +2,8 @@
 
 Every rule of the format is enforced; an error names the file, the JSON path and what was
 expected, e.g. ``scenes/x.json: spheres[3].radius: expected a finite number > 0, got -1``.
+Numbers are checked as the renderers will hold them, in float32 (a radius of 1e-50 is 0 there,
+a fov of 179.9999999 is 180), so that this loader and the C++ one accept the same files.
 """
 
 from __future__ import annotations
@@ -14,6 +16,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 Vec3 = tuple[float, float, float]
 
 FORMAT = "rtval-scene/1"
@@ -23,6 +28,7 @@ MAX_SCENE_BYTES = 16 << 20  # the built-in scenes are ~2 KB; a stress scene ~100
 MAX_NESTING = 64
 _BOM = "\ufeff"
 _STRUCTURE = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{}]')  # a whole string, or a bracket
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
 
 class SceneError(ValueError):
@@ -98,7 +104,10 @@ class _Checker:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise self.fail(path, f"expected a number {rule}".rstrip(), v)
         f = float(v)
-        if not math.isfinite(f) or abs(f) > FLOAT32_MAX or not ok(f):
+        if math.isfinite(f):
+            with np.errstate(over="ignore"):
+                f = float(np.float32(f))  # as the renderers hold it (may round to inf)
+        if not math.isfinite(f) or not ok(f):
             raise self.fail(path, f"expected a finite number {rule}".rstrip(), v)
         return f
 
@@ -116,6 +125,10 @@ class _Checker:
     def string(self, v: Any, path: str) -> str:
         if not isinstance(v, str):
             raise self.fail(path, "expected a string", v)
+        try:
+            v.encode("utf-8")
+        except UnicodeEncodeError:  # a lone UTF-16 surrogate, which UTF-8 cannot hold
+            raise self.fail(path, "expected Unicode text (a lone surrogate is not)") from None
         return v
 
 
@@ -125,10 +138,6 @@ def _any(_: float) -> bool:
 
 def _non_negative(f: float) -> bool:
     return f >= 0
-
-
-def _sub(a: Vec3, b: Vec3) -> Vec3:
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
 def _parse_camera(j: Any, c: _Checker) -> Camera:
@@ -148,17 +157,36 @@ def _parse_camera(j: Any, c: _Checker) -> Camera:
         width=c.integer(j["width"], "camera.width", 1, 16384) if "width" in j else d.width,
         height=c.integer(j["height"], "camera.height", 1, 16384) if "height" in j else d.height,
     )
-    view = _sub(cam.look_at, cam.position)
-    view_len = math.sqrt(sum(x * x for x in view))
-    if view_len == 0:
-        raise c.fail("camera.look_at", "expected a point different from camera.position")
-    f = tuple(x / view_len for x in view)
-    u = cam.up
-    side = (f[1] * u[2] - f[2] * u[1], f[2] * u[0] - f[0] * u[2], f[0] * u[1] - f[1] * u[0])
-    up_len = math.sqrt(sum(x * x for x in u))
-    if up_len == 0 or math.sqrt(sum(x * x for x in side)) < 1e-6 * up_len:
-        raise c.fail("camera.up", "expected a direction not parallel to the view direction")
+    _check_view(cam, c)
     return cam
+
+
+def _dot32(a: NDArray[np.float32], b: NDArray[np.float32]) -> np.float32:
+    """x*x + y*y + z*z in float32, in the C++ order."""
+    return np.float32(np.float32(a[0] * b[0]) + np.float32(a[1] * b[1])) + np.float32(a[2] * b[2])
+
+
+def _check_view(cam: Camera, c: _Checker) -> None:
+    """The C++ loader's test, in float32 as it computes it: a view direction whose length is
+    neither zero (nor underflows to it) nor overflows, and an up that is not parallel to it."""
+    f32 = np.float32
+    with np.errstate(all="ignore"):
+        view = np.array(cam.look_at, f32) - np.array(cam.position, f32)
+        up = np.array(cam.up, f32)
+        vv, uu = _dot32(view, view), _dot32(up, up)
+        if not (0 < vv < np.inf):
+            raise c.fail("camera.look_at", "expected a point different from camera.position")
+        forward = view / np.sqrt(vv)
+        side = np.array(
+            [
+                forward[1] * up[2] - forward[2] * up[1],
+                forward[2] * up[0] - forward[0] * up[2],
+                forward[0] * up[1] - forward[1] * up[0],
+            ],
+            f32,
+        )
+        if not (0 < uu < np.inf and np.sqrt(_dot32(side, side)) >= f32(1e-6) * np.sqrt(uu)):
+            raise c.fail("camera.up", "expected a direction not parallel to the view direction")
 
 
 def _parse_sphere(j: Any, path: str, c: _Checker) -> Sphere:
@@ -175,6 +203,8 @@ def _parse_sphere(j: Any, path: str, c: _Checker) -> Sphere:
     name = c.string(j["name"], f"{path}.name")
     if not name:
         raise c.fail(f"{path}.name", "expected a non-empty string", name)
+    if _CONTROL.search(name):  # names land in XML, HTML and file names
+        raise c.fail(f"{path}.name", "expected a name without control characters", name)
     return Sphere(
         name=name,
         center=c.triple(j["center"], f"{path}.center", "", _any),
@@ -227,6 +257,8 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
     # RFC 8259 lets a parser ignore a leading byte order mark; the C++ loader (nlohmann
     # json) skips it, so this one does too: both accept the same files.
     text = text.removeprefix(_BOM)
+    if "\0" in text:
+        raise SceneError(f"{source}: invalid JSON: contains a NUL byte")
     depth = _nesting_depth(text)
     if depth > MAX_NESTING:
         raise SceneError(

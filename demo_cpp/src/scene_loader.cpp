@@ -1,10 +1,11 @@
 #include "scene_loader.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <initializer_list>
+#include <limits>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <set>
 #include <sstream>
 
@@ -83,6 +84,49 @@ private:
     std::string source_;
 };
 
+// The scene's name becomes part of file names: [a-z0-9_-]+ (a loop: std::regex recurses per
+// character and overflows the stack on a long name).
+bool is_file_name_word(const std::string& name) {
+    if (name.empty()) return false;
+    for (const char c : name)
+        if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-'))
+            return false;
+    return true;
+}
+
+// A sphere name lands in XML, HTML and file names: no control characters (NUL among them).
+bool has_control_character(const std::string& text) {
+    for (const char c : text)
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) return true;
+    return false;
+}
+
+// The deepest nesting of [ and { outside strings: nlohmann json recurses once per level and a
+// deep document would overflow the stack (the same scan and limit as scene_model/scene.py).
+int nesting_depth(const std::string& text) {
+    int depth = 0, deepest = 0;
+    bool in_string = false;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (in_string) {
+            if (c == '\\')
+                ++i;
+            else if (c == '"')
+                in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            deepest = std::max(deepest, ++depth);
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
+    return deepest;
+}
+
+constexpr int kMaxNesting = 64;
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
+
 const auto any = [](float) { return true; };
 const auto non_negative = [](float f) { return f >= 0; };
 const auto positive = [](float f) { return f > 0; };
@@ -114,11 +158,13 @@ Camera parse_camera(const json& j, const Validator& v) {
     if (j.contains("width")) cam.width = v.integer(j["width"], "camera.width", 1, 16384);
     if (j.contains("height")) cam.height = v.integer(j["height"], "camera.height", 1, 16384);
 
+    // Lengths that are neither zero (nor underflow to it) nor overflow; NaN fails every test.
     const vec3 view = cam.look_at - cam.position;
-    if (dot(view, view) == 0.0f)
+    const float vv = dot(view, view), uu = dot(cam.up, cam.up);
+    if (!(vv > 0.0f && vv < kInfinity))
         v.fail("camera.look_at", "expected a point different from camera.position");
-    const vec3 side = cross(normalize(view), cam.up);
-    if (dot(cam.up, cam.up) == 0.0f || length(side) < 1e-6f * length(cam.up))
+    const vec3 side = cross(view / std::sqrt(vv), cam.up);
+    if (!(uu > 0.0f && uu < kInfinity && std::sqrt(dot(side, side)) >= 1e-6f * std::sqrt(uu)))
         v.fail("camera.up", "expected a direction not parallel to the view direction");
     return cam;
 }
@@ -133,6 +179,8 @@ Sphere parse_sphere(const json& j, const std::string& path, const Validator& v) 
     Sphere s;
     s.name = v.string(j["name"], path + ".name");
     if (s.name.empty()) v.fail(path + ".name", "expected a non-empty string", &j["name"]);
+    if (has_control_character(s.name))
+        v.fail(path + ".name", "expected a name without control characters", &j["name"]);
     s.center = v.triple(j["center"], path + ".center", "", any);
     s.radius = v.number(j["radius"], path + ".radius", "> 0", positive);
     s.surface_color = v.triple(j["color"], path + ".color", ">= 0", non_negative);
@@ -151,6 +199,12 @@ Sphere parse_sphere(const json& j, const std::string& path, const Validator& v) 
 }  // namespace
 
 Scene parse_scene(const std::string& text, const std::string& source) {
+    if (text.find('\0') != std::string::npos)
+        throw SceneError(source + ": invalid JSON: contains a NUL byte");
+    const int depth = nesting_depth(text);
+    if (depth > kMaxNesting)
+        throw SceneError(source + ": invalid JSON: nested " + std::to_string(depth) +
+                         " levels deep, at most " + std::to_string(kMaxNesting) + " allowed");
     json root;
     try {
         root = json::parse(text);
@@ -174,8 +228,7 @@ Scene parse_scene(const std::string& text, const std::string& source) {
         v.fail("format", "expected exactly \"rtval-scene/1\"", &root["format"]);
     if (!root.contains("name")) v.fail("name", "missing; expected a name matching [a-z0-9_-]+");
     scene.name = v.string(root["name"], "name");
-    static const std::regex name_rule("[a-z0-9_-]+");
-    if (!std::regex_match(scene.name, name_rule))
+    if (!is_file_name_word(scene.name))
         v.fail("name", "expected a name matching [a-z0-9_-]+", &root["name"]);
     if (root.contains("description"))
         scene.description = v.string(root["description"], "description");

@@ -185,6 +185,36 @@ TEST(SceneLoader, MissingFileIsASceneError) {
     EXPECT_THROW(load_scene_file("/nonexistent/scene.json"), SceneError);
 }
 
+// The hostile-input pass: each of these crashed rtdemo (stack overflow) or was accepted where
+// the Python loader refuses it.
+TEST(SceneLoader, HostileDocumentsAreSceneErrorsNotCrashes) {
+    const std::string head = R"({"format": "rtval-scene/1", "name": ")";
+    EXPECT_THROW(parse_scene(head + std::string(1000000, 'a') + "x!\", \"spheres\": []}", "n"),
+                 SceneError);  // std::regex recursed once per character
+    EXPECT_THROW(parse_scene(std::string(1000000, '['), "a.json"), SceneError);
+    std::string braces;
+    for (int i = 0; i < 100000; ++i) braces += "{\"a\":";
+    EXPECT_THROW(parse_scene(braces, "o.json"), SceneError);
+    const std::string ok = R"({"format": "rtval-scene/1", "name": "e", "spheres": []})";
+    EXPECT_NO_THROW(parse_scene(ok, "e.json"));
+    EXPECT_THROW(parse_scene(ok + std::string(1, '\0'), "nul.json"), SceneError);
+    const std::string nul_name = R"({"format": "rtval-scene/1", "name": "e", "spheres": [
+        {"name": "a\u0000b", "center": [0, 0, -5], "radius": 1, "color": [1, 1, 1]}]})";
+    EXPECT_THROW(parse_scene(nul_name, "nul_name.json"), SceneError);
+}
+
+TEST(SceneLoader, NestingUpToTheLimitStillParses) {
+    // 64 levels inside a string do not count; 64 real levels are allowed (then a field error).
+    const std::string deep = std::string(64, '[') + std::string(64, ']');
+    try {
+        parse_scene(deep, "deep.json");
+        FAIL() << "accepted";
+    } catch (const SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("expected a JSON object"), std::string::npos)
+            << e.what();
+    }
+}
+
 TEST(SceneLoader, EmptySphereListIsAllowed) {
     const Scene s =
         parse_scene(R"({"format": "rtval-scene/1", "name": "e", "spheres": []})", "e.json");
