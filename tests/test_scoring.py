@@ -10,8 +10,10 @@ import math
 import numpy as np
 import pytest
 
+from compare.judge.effects import EFFECTS
 from compare.judge.evaluate import evaluate_pair
 from compare.judge.metrics import Metrics
+from compare.judge.rubric import RubricError, parse_rubric
 from compare.judge.scoring import EffectRule, effect_score, score_effects
 from compare.judge.tolerances import Tolerances
 
@@ -68,6 +70,34 @@ def test_rule_weight_multiplies_the_pixel_share() -> None:
     s = score_effects({"direct": metrics(300, 0.05), "shadow": metrics(100, 0.25)}, rules)
     assert s.score == pytest.approx(74.0)
     assert s.status == "pass"  # FLIP 0.25 <= 0.3 under the rule
+
+
+def test_weights_of_effects_the_image_lacks_fall_back_to_pixels() -> None:
+    """Only shadows weighted, in an image without shadows (the paper's lightless scene):
+    the overall score is the pixel-weighted mean, never 0 for a perfect image."""
+    rules = {k: EffectRule(weight=0.0) for k in ("direct", "reflection")}
+    s = score_effects({"direct": metrics(300, 0.0), "reflection": metrics(100, 0.0)}, rules)
+    assert s.score == pytest.approx(100.0) and s.status == "pass"
+
+
+def test_rubric_weights_are_bounded_and_not_all_zero() -> None:
+    """The hostile-input pass: weight = 1e308 on two effects made every score NaN (and bare
+    NaN in gradebook.json); all weights 0 failed everyone."""
+    with pytest.raises(RubricError, match=r"line 2: weight must be a number from 0 to 1000"):
+        parse_rubric("[effects.direct]\nweight = 1e308\n", "r.toml")
+    zero = "".join(f"[effects.{e}]\nweight = 0\n" for e in EFFECTS)
+    with pytest.raises(RubricError, match="every effect has weight 0"):
+        parse_rubric(zero, "r.toml")
+    r = parse_rubric("[effects.direct]\nweight = 1000\n[effects.shadow]\nweight = 1000\n")
+    big = 16384 * 16384
+    s = score_effects({"direct": metrics(big, 0.05), "shadow": metrics(big, 0.25)}, r.effects)
+    assert math.isfinite(s.score) and s.score == pytest.approx(70.0)
+
+
+def test_a_rubric_nested_too_deeply_is_an_error_not_a_crash() -> None:
+    deep = "x = " + "[" * 100_000 + "]" * 100_000 + "\n"
+    with pytest.raises(RubricError, match="nested too deeply"):
+        parse_rubric(deep, "deep.toml")
 
 
 @pytest.mark.parametrize(

@@ -8,7 +8,7 @@
     [effects.reflection]     # any of: background emitter direct shadow reflection refraction edges
     min_ssim = 0.5
     max_flip = 0.15
-    weight = 2.0             # multiplies the effect's pixel share in the overall score
+    weight = 2.0             # multiplies the effect's pixel share in the overall score (0-1000)
 
 Every error names the file and the line.
 """
@@ -26,6 +26,9 @@ import tomllib
 from compare.judge.effects import EFFECTS
 from compare.judge.scoring import FLIP_AT_ZERO_SCORE, EffectRule
 from compare.judge.target_model import ModelError, parse_model
+
+# Weights up to this keep the weighted sums of effect scores finite for any image size.
+MAX_WEIGHT = 1000.0
 
 DEFAULT_RUBRIC_TEXT = """\
 # rtval default rubric: every effect needs mean FLIP <= 0.10 and SSIM >= 0.5 to pass;
@@ -75,6 +78,8 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise RubricError(f"{source}: invalid TOML: {e}") from None
+    except RecursionError:  # tomllib recurses per nested array or inline table
+        raise RubricError(f"{source}: invalid TOML: nested too deeply") from None
 
     def fail(msg: str, key: str | None, section: str | None) -> RubricError:
         return RubricError(f"{source}: line {_line_of(text, key, section)}: {msg}")
@@ -131,7 +136,7 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
                     section,
                 )
             lo = -1.0 if key == "min_ssim" else 0.0  # SSIM ranges over [-1, 1]
-            hi = 1.0 if key == "min_ssim" else math.inf
+            hi = {"min_ssim": 1.0, "weight": MAX_WEIGHT}.get(key, math.inf)
             # `not lo <= v < hi` also refuses NaN (TOML has nan and inf), which compares false
             if (
                 isinstance(value, bool)
@@ -142,6 +147,8 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
                 raise fail(f"{key} must be a number {span} (finite), got {value!r}", key, section)
             rule[key] = float(value)
         effects[name] = EffectRule(**rule)
+    if all(name in effects and effects[name].weight == 0 for name in EFFECTS):
+        raise fail("every effect has weight 0: at least one must count", None, "effects")
     return Rubric(
         pass_score=values.get("pass_score", 60.0),
         flip_at_zero=values.get("flip_at_zero", FLIP_AT_ZERO_SCORE),

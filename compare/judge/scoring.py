@@ -133,9 +133,12 @@ def score_effect(m: Metrics, rule: EffectRule, flip_at_zero: float) -> EffectSco
 
 
 def _overall(effects: dict[str, EffectScore]) -> float:
+    """Effect scores weighted by pixels x weight; by pixels alone when no weighted effect
+    occurs in the image (the rubric weights only effects the scene lacks)."""
     total_w = sum(e.pixels * e.rule.weight for e in effects.values())
     if not total_w:
-        return 0.0
+        total_w = sum(e.pixels for e in effects.values())
+        return sum(e.pixels * e.score for e in effects.values()) / total_w if total_w else 0.0
     return sum(e.pixels * e.rule.weight * e.score for e in effects.values()) / total_w
 
 
