@@ -9,6 +9,7 @@ a quirk present ("+Q2"), an effect off ("shadows") or a named mistake (mistakes.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -57,6 +58,47 @@ class BlackBackground(StudentTracer):
         return np.zeros(3)  # a miss returns black, not the scene's colour
 
 
+class WhiteBackground(StudentTracer):
+    def background(self) -> F64:
+        return np.ones(3)  # a hard-coded white sky (1, 1, 1), as the paper's program returns
+
+
+class DeepRecursion(StudentTracer):
+    """`#define MAX_RAY_DEPTH 10`, whatever the scene asks."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(dataclasses.replace(scene, max_depth=10))
+
+
+class HardCodedIor(StudentTracer):
+    """Every glass sphere refracts with ior 1.5 (a constant in the program)."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        self.ior = np.where(self.transparency > 0, 1.5, self.ior)
+
+
+class GlassColourMissing(StudentTracer):
+    """Glass mixes reflection and refraction but never multiplies by its colour: (R F +
+    T (1 - F) transparency) instead of that times the colour. Mirrors keep their colour."""
+
+    def _specular(
+        self, d: F64, p: F64, n: F64, inside: NDArray[np.bool_], idx: NDArray[np.int_], depth: int
+    ) -> F64:
+        out = super()._specular(d, p, n, inside, idx, depth)
+        glass = self.transparency[idx] > 0
+        out[glass] /= self.colors[idx][glass]  # the scenes' glass colours have no zero channel
+        return out
+
+
+class RefractionMisses(StudentTracer):
+    """The refracted direction is never computed (a zero-length vector, here NaN): the ray hits
+    nothing, so glass shows the background through its (1 - F) transparency share."""
+
+    def eta(self, ior: F64, inside: NDArray[np.bool_]) -> F64:
+        return np.full(len(ior), np.nan)  # a NaN direction misses every sphere, as in C++
+
+
 # variant -> (what diagnose should name, the tracer with that mistake)
 _TRACERS: dict[str, tuple[str, type[StudentTracer]]] = {
     "wrong_eta_leaving": ("+Q2", WrongEtaLeaving),
@@ -66,6 +108,15 @@ _TRACERS: dict[str, tuple[str, type[StudentTracer]]] = {
     "constant_fresnel": ("fresnel_constant", ConstantFresnel),
     "black_background": ("black_background", BlackBackground),
 }
+# Programs the diagnosis must explain with a scene constant or a depth, or must call not
+# explained (no candidate reproduces their pixels): variant -> the words it should find.
+MORE: dict[str, tuple[str, type[StudentTracer]]] = {
+    "white_background": ("background (1, 1, 1)", WhiteBackground),
+    "depth_10": ("max depth 10", DeepRecursion),
+    "ior_1_5": ("ior 1.5", HardCodedIor),
+    "glass_colour_missing": ("not explained: refraction", GlassColourMissing),
+    "refraction_misses": ("not explained: refraction", RefractionMisses),
+}
 VARIANTS: dict[str, str] = {name: cause for name, (cause, _) in _TRACERS.items()}
 
 
@@ -73,9 +124,10 @@ def student_tracer(scene: Scene, variant: str = "exact") -> StudentTracer:
     """The classic program with one of VARIANTS (or none: "exact")."""
     if variant == "exact":
         return StudentTracer(scene)
-    if variant not in _TRACERS:
+    tracers = _TRACERS | MORE
+    if variant not in tracers:
         raise ValueError(variant)
-    return _TRACERS[variant][1](scene)
+    return tracers[variant][1](scene)
 
 
 def write_truncating_ppm(path: Path, rgb: F64) -> None:
@@ -86,6 +138,15 @@ def write_truncating_ppm(path: Path, rgb: F64) -> None:
     path.write_bytes(f"P6\n{w} {h}\n255\n".encode() + data.tobytes())
 
 
-def render_variant(scene: Scene, variant: str, width: int, height: int, path: Path) -> Path:
-    write_truncating_ppm(path, student_tracer(scene, variant).render(width, height))
+def render_variant(
+    scene: Scene, variant: str, width: int, height: int, path: Path, *, flip: str = ""
+) -> Path:
+    """The variant's PPM; flip "lr" mirrors it left to right, "ud" upside down (as a program
+    that draws its rows or columns the wrong way round shows it)."""
+    rgb = student_tracer(scene, variant).render(width, height)
+    if "lr" in flip:
+        rgb = rgb[:, ::-1]
+    if "ud" in flip:
+        rgb = rgb[::-1]
+    write_truncating_ppm(path, rgb)
     return path

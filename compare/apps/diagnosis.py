@@ -19,7 +19,7 @@ import numpy as np
 
 from compare.files import json_safe, write_atomic
 from compare.judge.candidate import Candidate
-from compare.judge.diagnose import Diagnosis, Step, diagnose
+from compare.judge.diagnose import Diagnosis, Step, diagnose, unmirror
 from compare.judge.images import Image, linear_to_srgb
 from compare.judge.mistakes import catalogue
 from compare.judge.quirks import QUIRKS
@@ -31,7 +31,9 @@ DIFF_GAIN = 8  # |difference| x 8 in display values, as grade's difference pictu
 
 def describe_cause(cause: str) -> str:
     """A step's cause in words for a gradebook: "+Q2" -> "Q2 (eta = 1/ior also when leaving
-    glass)", "no_offset" -> "mistake no_offset", "--no-shadows" -> "shadows switched off"."""
+    glass)", "no_offset" -> "mistake no_offset", "--no-shadows" -> "shadows switched off",
+    "ior 1.5" -> "ior 1.5 for every glass sphere", "mirrored left-right" -> "image mirrored
+    left-right"."""
     if cause[:2] in ("+Q", "-Q") and cause[2:].isdigit():
         q = int(cause[2:])
         what = QUIRKS.get(q, "")
@@ -40,8 +42,14 @@ def describe_cause(cause: str) -> str:
         return f"{cause[5:]} switched off"
     if cause.startswith("+") and not cause[1:].startswith("Q"):
         return f"{cause[1:]} switched on"
-    if cause.startswith("max depth"):
+    if cause.startswith(("max depth", "scene ")):
         return cause
+    if cause.startswith("mirrored"):
+        return f"image {cause}"
+    if cause.startswith("background"):
+        return f"{cause} hard-coded"
+    if cause.startswith("ior"):
+        return f"{cause} for every glass sphere"
     name = cause.lstrip("-")
     if name in catalogue():
         return f"mistake {name}" if not cause.startswith("-") else f"without mistake {name}"
@@ -50,15 +58,48 @@ def describe_cause(cause: str) -> str:
 
 def short_reason(d: Diagnosis, assigned: str | None = None) -> str:
     """One gradebook cell: "looks like Q2 (eta = 1/ior also when leaving glass)", "looks like
-    mistake no_offset", "unexplained: refraction". The mode is named when it is not the
-    assigned model's ("looks like paper, Q8 fixed (...)")."""
-    items = [describe_cause(s.cause) for s in d.steps]
+    mistake no_offset", "not explained: refraction (6,078 px, 100 %)". The mode is named when
+    it is not the assigned model's ("looks like paper, Q8 fixed (...)"). It says "looks like"
+    a candidate only for what the candidate explains, and never that the image matches a model
+    it does not match exactly (the verdict's judging, compare/judge/exact_match.py)."""
+    items = [describe_cause(c) for c in d.causes]
     if assigned is not None and d.start != assigned:
         items.insert(0, d.start)
     text = f"looks like {', '.join(items)}" if items else ""
+    partly = [f for f in d.effects.values() if f.state == "partly explained"]
+    if partly:
+        text += "; still differing: " + ", ".join(
+            f"{f.effect} {f.final_differing:,} px" for f in partly
+        )
     if d.unexplained:
-        text += ("; " if text else "") + f"unexplained: {', '.join(d.unexplained)}"
-    return text or f"looks like {d.result} (no difference beyond one 8-bit level)"
+        text += (
+            ("; " if text else "")
+            + "not explained: "
+            + ", ".join(
+                f"{k} ({d.effects[k].final_differing:,} px, "
+                f"{d.effects[k].final_differing / d.effects[k].pixels:.0%})"
+                for k in d.unexplained
+            )
+        )
+    if text:
+        return text
+    return f"looks like {d.result}" if d.matches else f"nearest to {d.result}"
+
+
+def render_command(d: Diagnosis, scene_file: str | Path) -> str:
+    """The rtdemo command that renders the diagnosis, with what a copy of the scene must
+    change first (a hard-coded background or ior) and how the image was mirrored."""
+    changes = d.scene_changes
+    words = []
+    if "background" in changes:
+        words.append("background " + ", ".join(f"{v:g}" for v in changes["background"]))
+    if "ior" in changes:
+        words.append(f"ior {changes['ior']:g} for every glass sphere")
+    scene = f"{scene_file}" + (f" (a copy with {' and '.join(words)})" if words else "")
+    text = f"rtdemo render {scene} {' '.join(d.rtdemo_args)}"
+    if d.mirrored:
+        text += f", then mirrored {d.mirrored}"
+    return text
 
 
 def _display_png(path: Path, data: np.ndarray) -> None:
@@ -81,7 +122,9 @@ def _write_evidence(
 ) -> list[dict[str, Any]]:
     """Per step (or, with none, for the result): the candidate after it and the image's
     difference from the candidate before and after, as PNGs in `folder`."""
-    test = linear_to_srgb(np.nan_to_num(image.rgb, nan=0.0, posinf=1.0))
+    # Against the un-mirrored image: the candidates are what the program computed.
+    rgb = unmirror(image.rgb, d.mirrored)
+    test = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
     shown: dict[str, str] = {}  # candidate name -> its PNG (a candidate is written once)
     diffs: dict[str, str] = {}
 
@@ -171,6 +214,7 @@ def diagnose_image(
         out = d.as_dict()
         out |= {
             "short": short_reason(d, assigned),
+            "command": render_command(d, Path(scene_file).name),
             "evidence": evidence,
             "assigned": assigned,
             "cache": {"rendered": render.rendered, "hits": render.cache_hits},

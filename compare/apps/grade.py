@@ -116,6 +116,7 @@ def _grade_scene(
     diagnosis = None
     if verdict["status"] != "pass" and task.diagnose and model.target.is_demo:
         diagnosis = _diagnose_scene(img, scene_name, renders, task, page_dir)
+        diagnosis["short"] = _beside_verdict(diagnosis, renders.model, verdict)
         reasons.append(diagnosis["short"])
     # Pictures for the student's page: the submission and |difference| x 8 (display).
     from PIL import Image as PILImage
@@ -142,6 +143,19 @@ def _grade_scene(
         "diagnosis": diagnosis["short"] if diagnosis else "",
         "diagnosis_detail": diagnosis,
     }
+
+
+def _beside_verdict(diagnosis: dict[str, Any], model: str, verdict: dict[str, Any]) -> str:
+    """The diagnosis' cell, never contradicting the failed verdict beside it. Both judge by
+    exact match, so the diagnosis finds the assigned model matching only when every effect
+    is within the allowance and the score alone (a pass_score above it) failed."""
+    short = str(diagnosis["short"])
+    if diagnosis.get("matches") and diagnosis.get("result") == model and not diagnosis["causes"]:
+        return (
+            f"matches {model} in every effect within the exact-match allowance; the score "
+            f"{verdict['score']:.2f} is below the pass score"
+        )
+    return short
 
 
 def _diagnose_scene(

@@ -13,6 +13,7 @@ EXIT_RENDERER = 1
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
+    from compare.apps.diagnosis import render_command
     from compare.cli.common import stderr_progress
     from compare.files import write_atomic
     from compare.judge.candidate import Candidate
@@ -54,10 +55,11 @@ def run_diagnose(args: argparse.Namespace) -> int:
         raise ToolError(str(e)) from None
     if args.json:
         write_atomic(args.json, json.dumps(result.as_dict(), indent=2) + "\n")
-    print(f"{args.image}: {result.result}")
+    mirrored = f", mirrored {result.mirrored}" if result.mirrored else ""
+    print(f"{args.image}: {result.result}{mirrored}")
     for line in result.sentences:
         print(f"  {line}")
-    print(f"  (rtdemo render {scene_file} {' '.join(result.rtdemo_args)} renders it)")
+    print(f"  ({render_command(result, scene_file)} renders it)")
     sys.stdout.flush()
     return EXIT_DIAGNOSED
 
@@ -69,9 +71,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "diagnose",
         help="explain a foreign image as the nearest demo model, quirks and named mistakes",
         description="Explains IMAGE (a render of SCENE by another program) as the nearest demo "
-        "model: mode, quirks present or absent, effects switched off, max depth and named "
-        "mistakes (rtdemo render --help lists them), effect by effect, with FLIP before and "
-        "after. A region nothing explains is named: a new bug, not a quirk. Exit 0 diagnosed, "
+        "model: mode, quirks present or absent, effects switched off, max depth (up to 32), a "
+        "hard-coded background or ior, named mistakes (rtdemo render --help lists them) and a "
+        "mirrored image, effect by effect, judged by exact match as the verdict judges (FLIP "
+        "before and after for the eye). An effect is explained when the result makes at least "
+        "half of its differing pixels match; a region nothing explains is named with its "
+        "remaining error: a new bug, not a quirk. Exit 0 diagnosed, "
         "1 renderer failure, 3 invalid scene, 4 unreadable image or unwritable --json, "
         "64 bad arguments (also --json naming IMAGE or the scene).",
     )
