@@ -10,6 +10,21 @@
     max_flip = 0.15
     weight = 2.0             # multiplies the effect's pixel share in the overall score (0-1000)
 
+    [program]                # a class of programs (compare/apps/programs.py, docs/sandbox.md)
+    build = "g++ -O2 -o rt *.cpp"
+    run = "./rt {scene} {out}"   # the placeholders of rtval check --renderer
+    output = "untitled.ppm"  # or: the fixed file it writes instead of {out}
+    output_format = "ppm"    # what {out} is: exr, pfm, png, ppm
+
+    [program.limits]         # per build and per run; the flags win
+    build_timeout = 120      # seconds
+    run_timeout = 60
+    cpu = 600                # CPU seconds per process
+    memory = "2G"            # address space per process
+    file_size = "256M"       # the largest file it may write
+    processes = 128
+    open_files = 256
+
 Every error names the file and the line.
 """
 
@@ -20,6 +35,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import tomllib
 
@@ -51,6 +67,7 @@ class Rubric:
     source: str = "default rubric"
     digest: str = ""
     against: str | None = None  # the target model's canonical name; None: the command's default
+    program: dict[str, Any] | None = None  # the [program] table, checked; None: images
 
     def rule(self, effect: str) -> EffectRule:
         return self.effects.get(effect, EffectRule())
@@ -85,9 +102,11 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
         return RubricError(f"{source}: line {_line_of(text, key, section)}: {msg}")
 
     for key in raw:
-        if key not in ("rubric", "effects"):
+        if key not in ("rubric", "effects", "program"):
             raise fail(
-                f"unknown table or key '{key}' (expected [rubric] and [effects.NAME])", key, None
+                f"unknown table or key '{key}' (expected [rubric], [effects.NAME], [program])",
+                key,
+                None,
             )
     top = raw.get("rubric", {})
     values: dict[str, float] = {}
@@ -156,7 +175,72 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
         source=source,
         digest=hashlib.sha256(text.encode()).hexdigest()[:16],
         against=against,
+        program=_program(raw["program"], fail) if "program" in raw else None,
     )
+
+
+PROGRAM_KEYS = ("build", "run", "output", "output_format")
+# [program.limits]: key -> its kind (seconds, a size such as "2G", a count)
+PROGRAM_LIMITS = {
+    "build_timeout": "seconds",
+    "run_timeout": "seconds",
+    "cpu": "seconds",
+    "memory": "size",
+    "file_size": "size",
+    "processes": "count",
+    "open_files": "count",
+}
+
+
+def limit_value(key: str, value: Any) -> float | int:
+    """A program limit (a [program.limits] value or a flag's) checked for its kind."""
+    from compare.sandbox import parse_size
+
+    kind = PROGRAM_LIMITS[key]
+    if kind == "size":
+        if isinstance(value, bool) or not isinstance(value, (str, int)):
+            raise ValueError(f'{key} must be a size such as "2G", got {value!r}')
+        return parse_size(value)
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind == "count":
+        ok = ok and isinstance(value, int)
+    if not (ok and 0 < value < 1e7):  # also refuses NaN
+        what = "a whole number from 1" if kind == "count" else "a number of seconds > 0"
+        raise ValueError(f"{key} must be {what}, got {value!r}")
+    return value  # type: ignore[no-any-return]
+
+
+def _program(table: Any, fail: Any) -> dict[str, Any]:
+    """[program] and [program.limits], their keys and types checked (the commands themselves
+    are parsed when grading starts, with the flags)."""
+    if not isinstance(table, dict):
+        raise fail("[program] must be a table", None, "program")
+    for key, value in table.items():
+        if key == "limits":
+            continue
+        if key not in PROGRAM_KEYS:
+            raise fail(
+                f"unknown key '{key}' in [program] (expected {', '.join(PROGRAM_KEYS)}, limits)",
+                key,
+                "program",
+            )
+        if not isinstance(value, str) or not value.strip():
+            raise fail(f"{key} must be a non-empty string, got {value!r}", key, "program")
+    limits = table.get("limits", {})
+    if not isinstance(limits, dict):
+        raise fail("[program.limits] must be a table", None, "program.limits")
+    for key, value in limits.items():
+        if key not in PROGRAM_LIMITS:
+            raise fail(
+                f"unknown key '{key}' in [program.limits] (expected {', '.join(PROGRAM_LIMITS)})",
+                key,
+                "program.limits",
+            )
+        try:
+            limit_value(key, value)
+        except ValueError as e:
+            raise fail(str(e), key, "program.limits") from None
+    return {**table, "limits": dict(limits)}
 
 
 def load_rubric(path: str | Path | None) -> Rubric:
