@@ -32,3 +32,17 @@ def test_a_difference_outside_the_penumbra_is_counted() -> None:
     n = penumbra_numbers(point, area, demo)
     assert n["differing_pixels_outside_penumbra"] == 1
     assert n["error_share_in_penumbra"] < 0.6
+
+
+def test_references_that_agree_everywhere_give_no_penumbra_and_no_nan() -> None:
+    """Point and area references of a scene whose shadows cannot differ: no penumbra pixel,
+    every number finite (the report skips the study for a scene without a light; a lit scene
+    with no visible shadow edge ends up here)."""
+    ref = np.full((6, 8, 3), 0.7, np.float32)
+    demo = ref.copy()
+    demo[2, 3] = 0.9
+    n = penumbra_numbers(ref, ref.copy(), demo)
+    assert n["penumbra_pixels"] == 0 and n["penumbra_share"] == 0.0
+    assert n["error_share_in_penumbra"] == 0.0 and n["mae_vs_area_inside"] == 0.0
+    assert n["differing_pixels_outside_penumbra"] == 1
+    assert all(np.isfinite(v) for v in n.values())

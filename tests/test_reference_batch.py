@@ -16,24 +16,26 @@ from compare.judge.images import read_image
 pytestmark = pytest.mark.slow
 RTVAL = str(Path(sys.executable).with_name("rtval"))
 SCENE = str(SCENES / "classic.json")
+PAPER = str(SCENES / "paper.json")  # no light: the background is its only emitter
 WHITTED = ["--integrator", "whitted", "--light", "point", "--centre-rays", "--size", "24x18"]
 PATH = ["--integrator", "path", "--light", "point", "--spp", "3", "--seed", "5", "--size", "24x18"]
 
 
 def test_batch_renders_what_single_commands_render(tmp_path: Path) -> None:
     jobs = {"jobs": [[SCENE, "-o", str(tmp_path / "w.exr"), *WHITTED],
-                     [SCENE, "-o", str(tmp_path / "p.exr"), *PATH]]}  # fmt: skip
+                     [SCENE, "-o", str(tmp_path / "p.exr"), *PATH],
+                     [PAPER, "-o", str(tmp_path / "l.exr"), *PATH]]}  # fmt: skip
     (tmp_path / "jobs.json").write_text(json.dumps(jobs))
     proc = run([RTVAL, "reference", "--batch", str(tmp_path / "jobs.json")])
     assert proc.returncode == 0, proc.stderr
     events = [json.loads(line) for line in proc.stdout.splitlines()]
     done = [e for e in events if e["event"] == "done"]
-    assert [e["job"] for e in done] == [0, 1] and all(e["seconds"] > 0 for e in done)
+    assert [e["job"] for e in done] == [0, 1, 2] and all(e["seconds"] > 0 for e in done)
     progress = [e for e in events if e["event"] == "progress" and e["job"] == 1]
     assert progress and progress[-1]["done"] == progress[-1]["total"] == 3
-    for name, options in (("w", WHITTED), ("p", PATH)):
+    for name, scene, options in (("w", SCENE, WHITTED), ("p", SCENE, PATH), ("l", PAPER, PATH)):
         alone = tmp_path / f"{name}-alone.exr"
-        single = run([RTVAL, "reference", SCENE, "-o", str(alone), *options])
+        single = run([RTVAL, "reference", scene, "-o", str(alone), *options])
         assert single.returncode == 0, single.stderr
         a, b = read_image(tmp_path / f"{name}.exr"), read_image(alone)
         # Same seed, same samples, same image, up to the order in which the JIT's parallel

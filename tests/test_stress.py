@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from helpers import SCENES, render_demo, run
 
+from compare.judge.effects import EFFECTS
 from mitsuba_ref.reference import ReferenceSettings, render_reference
 from scene_model.scene import load_scene
 
@@ -61,10 +62,16 @@ def test_stress_command_writes_an_atlas(tmp_path: Path) -> None:
     picks = [
         str(SCENES / "stress" / f"{n}.json") for n in ("camera_inside_glass", "coloured_lights")
     ]
+    picks.append(str(SCENES / "paper.json"))  # the paper's own scene: no light either
     proc = run([rtval, "stress", *picks, "--out", str(tmp_path), "--size", "48x36"])
     assert proc.returncode == 0, proc.stderr
-    data = json.loads((tmp_path / "stress.json").read_text())
-    assert [s["scene"] for s in data["scenes"]] == ["camera_inside_glass", "coloured_lights"]
+
+    def refuse(name: str) -> None:
+        raise AssertionError(f"stress.json holds {name}")
+
+    data = json.loads((tmp_path / "stress.json").read_text(), parse_constant=refuse)
+    names = ["camera_inside_glass", "coloured_lights", "paper"]
+    assert [s["scene"] for s in data["scenes"]] == names
     methods = {m["method"] for m in data["scenes"][0]["methods"]}
     assert {
         "demo paper cpu",
@@ -82,4 +89,15 @@ def test_stress_command_writes_an_atlas(tmp_path: Path) -> None:
         coloured["demo paper cpu"]["flip_vs_reference"]
         > coloured["demo physical cpu"]["flip_vs_reference"]
     )
-    assert "camera_inside_glass" in (tmp_path / "index.html").read_text()
+    # The atlas says what each scene does not show: the camera inside glass sees only glass;
+    # the paper scene has no light (no shadow, no emitter) and no diffuse surface.
+    absent = {s["scene"]: set(s["absent_effects"]) for s in data["scenes"]}
+    assert absent["camera_inside_glass"] == set(EFFECTS) - {"refraction"}
+    assert absent["coloured_lights"] == {"emitter", "reflection"}
+    assert absent["paper"] == {"emitter", "direct", "shadow"}
+    paper = data["scenes"][2]
+    assert set(paper["effects"]) == {"background", "reflection", "refraction", "edges"}
+    assert {m["nan"] for m in paper["methods"]} == {0}
+    html = (tmp_path / "index.html").read_text()
+    assert "camera_inside_glass" in html
+    assert "Not in this scene: emitter, direct, shadow (does not occur in this scene)" in html

@@ -17,7 +17,7 @@ def test_whitted_llvm_is_bit_identical_from_run_to_run() -> None:
     # Summing each front's light into its camera ray by atomic adds from 2 threads changed
     # 5 078 of 921 600 values between two such renders (max 7.6e-6); the sum up the tree
     # of fronts is in a fixed order.
-    scene = load_scene(SCENES / "paper.json")
+    scene = load_scene(SCENES / "lit.json")
     settings = ReferenceSettings(integrator="whitted", light="point", centre_rays=True)
     first = render_reference(scene, settings).rgb
     second = render_reference(scene, settings).rgb
@@ -27,7 +27,7 @@ def test_whitted_llvm_is_bit_identical_from_run_to_run() -> None:
 def test_whitted_llvm_traces_each_front_once() -> None:
     import drjit as dr
 
-    scene = load_scene(SCENES / "paper.json")
+    scene = load_scene(SCENES / "lit.json")
     settings = ReferenceSettings(integrator="whitted", spp=1, size=(64, 48))
     render_reference(scene, settings)  # loads Mitsuba; its kernels are not counted
     dr.set_flag(dr.JitFlag.KernelHistory, True)
@@ -37,7 +37,7 @@ def test_whitted_llvm_traces_each_front_once() -> None:
         kernels = sum(1 for k in dr.kernel_history() if k["type"] == dr.KernelType.JIT)
     finally:
         dr.set_flag(dr.JitFlag.KernelHistory, False)
-    # Measured 51 for the paper scene (max depth 5: 6 fronts; per front trace + classify,
+    # Measured 51 for the lit scene (max depth 5: 6 fronts; per front trace + classify,
     # shade, the sampler's draw, the next front's gather, the links and one gather back up),
     # 187 (at 640x480) when every mask test and gather traced the front again.
     assert kernels <= 10 * (scene.max_depth + 1), kernels
