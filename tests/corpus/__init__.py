@@ -1,0 +1,1 @@
+"""A corpus of foreign programs of the classic and paper models (see programs.py)."""
