@@ -18,6 +18,7 @@ from helpers import ROOT, SCENES, run
 
 from compare.apps import check
 from compare.render import foreign
+from scene_model.scene import load_scene
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
 FOREIGN = ROOT / "tests" / "foreign"
@@ -145,20 +146,60 @@ def test_against_the_classic_model_without_baselines(tmp_path: Path, cpp_tracer:
     assert "px (100 %) differ from classic beyond 8-bit linear quantisation" in out, out
     assert not list(tmp_path.iterdir())  # nothing written where baselines would be
     # The float64 numpy program is within half-float precision of rtdemo's float32 everywhere
-    # but where pixel-centre rays graze a silhouette more closely than the sub-pixel-offset
-    # model renders reach: 7 edge pixels at 160x120 (measured), so only `edges` fails.
+    # but where rays graze a silhouette or a chain of mirrors more closely than one value:
+    # there it lies within the spread of the model's renders with the camera turned by 1e-4
+    # and 1e-3 px. Measured at 160x120: 1 reflection pixel of 4,896 is outside even that,
+    # within the allowance (4), so the program passes.
     js = tmp_path / "c.json"
     py = ["--renderer", PYTRACER, "--output-format", "pfm", "--json", str(js)]
     code, out = _rtval("--scenes", scene, "--against", "classic", *py)
     (case,) = json.loads(js.read_text())["cases"]
-    assert code == 2 and case["failed_effects"] == ["edges"], out
-    assert (
-        0 < case["effects"]["edges"]["failing_pixels"] <= 0.01 * case["effects"]["edges"]["pixels"]
-    )
+    assert code == 0 and case["status"] == "pass", out
+    assert sum(e["failing_pixels"] for e in case["effects"].values()) <= 2
     code, out = _rtval("--scenes", scene, "--against", "classic+Q99", "--renderer", PYTRACER)
     assert code == 64 and "--against" in out, out
     code, out = _rtval("--scenes", scene, "--against", "classic", "--spp", "4", *cpp)
     assert code == 64 and "--spp 1 only" in out, out
+
+
+def test_a_renderer_with_no_size_option_is_checked_at_the_scenes_size(
+    tmp_path: Path, cpp_tracer: Path
+) -> None:
+    # scratchapixel's program has no size option: it always writes 640x480, the classic
+    # scene's own size, and without --size check renders the scene at that size.
+    scene = str(SCENES / "classic.json")
+    fixed = ["--renderer", f"{cpp_tracer} {{out}} 640 480", "--output-format", "ppm"]
+    js = tmp_path / "c.json"
+    proc = run([RTVAL, "check", "--scenes", scene, "--against", "classic", *fixed, "--json",
+                str(js)])  # fmt: skip
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    (case,) = json.loads(js.read_text())["cases"]
+    assert case["size"] == [640, 480] and case["status"] == "pass"
+    # Asked for another size, which it cannot render, it fails saying what to do.
+    code, out = _rtval("--scenes", scene, "--against", "classic", *fixed)  # --size 160x120
+    assert code == 2 and "image is 640x480, expected 160x120" in out, out
+    assert "leave out --size to render at the scene's size" in out
+
+
+def test_without_size_a_case_renders_at_its_baselines_size(
+    tmp_path: Path, cpp_tracer: Path
+) -> None:
+    scene = str(SCENES / "classic.json")
+    scalable = ["--renderer", f"{cpp_tracer} {{out}} {{width}} {{height}}", "--output-format",
+                "ppm", "--renderer-name", "cpp"]  # fmt: skip
+    base = ["--baseline", str(tmp_path), "--scenes", scene, *scalable]
+    code, out = _rtval(*base, "--update")  # written at 160x120
+    assert code == 0 and "updated baselines: cpp/classic" in out, out
+    js = tmp_path / "c.json"
+    proc = run([RTVAL, "check", *base, "--json", str(js)])
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert json.loads(js.read_text())["cases"][0]["size"] == [160, 120]
+    # With no baseline (a first --update), the scene's own size.
+    settings = check.CheckSettings(scenes=[scene], baseline_dir=tmp_path / "none")
+    classic = load_scene(scene)
+    assert check.case_size(settings, classic, tmp_path / "none.exr") == ((640, 480), "scene")
+    settings.size = (96, 72)
+    assert check.case_size(settings, classic, None) == ((96, 72), "--size")
 
 
 def test_rtdemo_against_its_own_model_and_another(tmp_path: Path) -> None:

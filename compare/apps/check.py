@@ -20,6 +20,7 @@ Tolerances: BASELINE/tolerances.json, overlaid by BASELINE/<renderer-name>/toler
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import tempfile
@@ -35,7 +36,7 @@ from compare.apps import against
 from compare.apps.against import LoadedModel
 from compare.judge.effects import BOOL, EFFECTS
 from compare.judge.evaluate import evaluate_pair
-from compare.judge.images import F32, Image, ImageError, read_image, write_exr
+from compare.judge.images import F32, Image, ImageError, image_size, read_image, write_exr
 from compare.judge.target_model import ModelError, TargetModel, parse_model
 from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
 from compare.render import foreign
@@ -49,7 +50,6 @@ from scene_model.scene import Scene, load_scene
 
 DEFAULT_SCENES = ("scenes/paper.json", "scenes/classic.json")
 DEFAULT_MODES = ("paper", "classic", "physical")
-DEFAULT_SIZE = (320, 240)
 # A change of 2/255 on 0.02 % of pixels (15 at 320x240) passes: compilers may round a
 # silhouette pixel differently; every deliberate bug of the fault-injection test moves more.
 DEFAULT_TOLERANCES = Tolerances(fail=2 / 255, failpercent=0.02, warn=1 / 255, warnpercent=0.0)
@@ -92,6 +92,7 @@ class CaseResult:
     renderer: str = "rtdemo"
     against: str = "baseline"  # what the render was judged against: a target model's name
     scene_file: str = ""
+    size: tuple[int, int] | None = None  # (width, height) it was rendered at
     test_encoding: str = "float"  # how the render's file was decoded (images.Image.encoding)
     effects: dict[str, EffectOutcome] = field(default_factory=dict)
     failed_effects: list[str] = field(default_factory=list)  # failures, named by effect
@@ -255,7 +256,7 @@ def judge_against(case: CaseResult, test: Image, model: LoadedModel, *, keep: bo
 class CheckSettings:
     scenes: list[str]
     baseline_dir: Path
-    size: tuple[int, int] = DEFAULT_SIZE
+    size: tuple[int, int] | None = None  # None: case_size's rule
     modes: list[str] | None = None  # None: every demo mode, or the --against model's own
     backends: list[str] = field(default_factory=lambda: ["cpu"])
     update: bool = False
@@ -268,17 +269,34 @@ class CheckSettings:
     keep_images: bool = False  # keep failing cases' pictures (for --html)
 
 
+def case_size(
+    settings: CheckSettings, scene: Scene, baseline: Path | None
+) -> tuple[tuple[int, int], str]:
+    """((width, height), where it came from) of a case's render: --size when given, else its
+    stored baseline's size (a baseline made at another size keeps being checked at it), else
+    the scene's own camera size, so that a renderer that always writes the scene's size needs
+    no option."""
+    if settings.size is not None:
+        return settings.size, "--size"
+    if baseline is not None and baseline.is_file():
+        with contextlib.suppress(ImageError):
+            h, w = image_size(baseline)
+            return (w, h), "baseline"
+    return (scene.camera.width, scene.camera.height), "scene"
+
+
 def _render_rtdemo(
     settings: CheckSettings,
     scene_path: str,
     backend: str,
     mode_args: list[str],
     cache: RenderCache,
+    size: tuple[int, int],
 ) -> tuple[Image, float, bool]:
     """rtdemo's render of one case, through the shared cache: its key holds the binary's hash,
     so a changed build always renders afresh. Returns (image, seconds, from the cache)."""
     args = ["render", "{scene}", "-o", "{out}", *mode_args, "--backend", backend]
-    args += ["--width", str(settings.size[0]), "--height", str(settings.size[1]), "-q"]
+    args += ["--width", str(size[0]), "--height", str(size[1]), "-q"]
     if settings.spp != 1:
         args += ["--spp", str(settings.spp)]
     name = "-".join(a.lstrip("-") for a in mode_args)
@@ -380,22 +398,27 @@ def _one_case(
         against=model.target.name if model else "baseline",
         scene_file=str(scene_path),
     )
+    baseline = baseline_path(settings.baseline_dir, cmd.name if cmd else None, scene.name, mode)
+    # Against a model there is no baseline: the model was rendered at --size or the scene's.
+    size, size_from = case_size(settings, scene, None if model else baseline)
+    case.size = size
     try:
         if cmd is None:
             demo = model is not None and model.target.is_demo and mode == model.target.name
             mode_args = model.target.rtdemo_args() if model and demo else ["--mode", mode]
             test, case.seconds, case.cached = _render_rtdemo(
-                settings, scene_path, backend, mode_args, cache
+                settings, scene_path, backend, mode_args, cache, size
             )
         else:
             got = foreign.render(
                 cmd,
                 scene=scene,
                 scene_file=Path(scene_path),
-                size=settings.size,
+                size=size,
                 spp=settings.spp,
                 mode=mode,
                 timeout=settings.timeout,
+                size_from=size_from,
             )
             test, case.seconds = got.image, got.seconds
     except (foreign.RenderFailed, ToolError, ImageError) as e:
@@ -404,7 +427,6 @@ def _one_case(
         case.overhead_seconds = time.perf_counter() - start - case.seconds
         return case
     case.test_encoding = test.encoding
-    baseline = baseline_path(settings.baseline_dir, cmd.name if cmd else None, scene.name, mode)
     ref = (
         model.reference.rgb if model else (read_image(baseline).rgb if baseline.is_file() else None)
     )
@@ -421,7 +443,7 @@ def _one_case(
     elif model is not None:
         judge_against(case, test, model, keep=settings.keep_images)
     else:
-        masks = scene_masks(Path(scene_path), settings.size, cache)
+        masks = scene_masks(Path(scene_path), size, cache)
         judge_case(case, ref, test.rgb, tol, masks, keep=settings.keep_images)
     if settings.update and case.status == "fail":
         baseline.parent.mkdir(parents=True, exist_ok=True)

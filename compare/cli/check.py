@@ -79,7 +79,7 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    from compare.apps.check import DEFAULT_MODES, DEFAULT_SCENES, DEFAULT_SIZE
+    from compare.apps.check import DEFAULT_MODES, DEFAULT_SCENES
     from compare.render.foreign import OUTPUT_FORMATS
 
     p = sub.add_parser(
@@ -96,7 +96,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "or another output).",
         epilog="Renderer placeholders: {scene} (scene JSON), {scene_xml} (its Mitsuba XML "
         "export), {out} (the image to write), {width}, {height}, {spp}, {mode} (with it, one "
-        "case per --modes entry). Example: rtval check --renderer 'python3 my_tracer.py "
+        "case per --modes entry); {width}x{height} is the scene's own size unless --size says "
+        "otherwise. Example: rtval check --renderer 'python3 my_tracer.py "
         "{scene} -o {out} --size {width}x{height}' --update. Baselines: "
         "BASELINE/<renderer-name>/<scene>/<mode or default>.exr (rtdemo: "
         "BASELINE/<scene>/<mode>.exr).",
@@ -115,9 +116,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--size",
         type=size_type,
-        default=DEFAULT_SIZE,
+        default=None,
         metavar="WxH",
-        help=f"render size (default {DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]})",
+        help="render size ({width}x{height}); default: the size of the case's stored baseline, "
+        "else the scene's own (its camera's width and height), so a renderer that ignores "
+        "{width}/{height} works as it is",
     )
     p.add_argument("--spp", type=positive_int, default=1, help="samples per pixel ({spp})")
     p.add_argument(

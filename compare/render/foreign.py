@@ -53,6 +53,12 @@ class RendererCommand:
     def uses_xml(self) -> bool:
         return any("{scene_xml}" in w for w in self.words)
 
+    @property
+    def uses_size(self) -> bool:
+        """The command passes the size on ({width} or {height}), or can read it ({scene_xml}'s
+        film has it)."""
+        return self.uses_xml or any("{width}" in w or "{height}" in w for w in self.words)
+
 
 def renderer_name(words: list[str]) -> str:
     """A default name: the stem of the program, or of its script after an interpreter."""
@@ -122,9 +128,11 @@ def render(
     spp: int = 1,
     mode: str = "default",
     timeout: float | None = None,
+    size_from: str = "--size",
 ) -> ForeignRender:
     """Runs the renderer on one scene and reads its image. Raises RenderFailed naming the
-    command, the exit status or time limit, and the end of its stderr."""
+    command, the exit status or time limit, and the end of its stderr. `size_from`: where the
+    size came from ("--size", "baseline", "scene"), for the advice on a wrongly sized image."""
     width, height = size
     with tempfile.TemporaryDirectory(prefix="rtval-render-") as tmp:
         folder = Path(tmp)
@@ -176,12 +184,26 @@ def render(
         except ImageError as e:
             raise RenderFailed(f"unreadable image: {e}{tail}") from None
         if image.shape != (height, width):
+            got = f"{image.shape[1]}x{image.shape[0]}"
             raise RenderFailed(
-                f"image is {image.shape[1]}x{image.shape[0]}, expected {width}x{height} "
-                f"({{width}}x{{height}}): {shown}{tail}"
+                f"image is {got}, expected {width}x{height} ({{width}}x{{height}}"
+                f"{_size_advice(cmd, size_from, got)}): {shown}{tail}"
             )
         image.path = f"{cmd.name}:{scene.name}"
         return ForeignRender(image, seconds, argv)
+
+
+def _size_advice(cmd: RendererCommand, size_from: str, got: str) -> str:
+    """What to do about an image of another size than asked, when the command cannot be
+    told the size."""
+    if cmd.uses_size or size_from == "scene":
+        return ""
+    if size_from == "baseline":
+        return (
+            f"; that is its baseline's size, and the command has no {{width}}/{{height}}: "
+            f"--size {got} --update rewrites the baseline at the size it writes"
+        )
+    return "; the command has no {width}/{height}: leave out --size to render at the scene's size"
 
 
 def _kill_group(proc: subprocess.Popen[bytes]) -> None:
