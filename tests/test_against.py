@@ -87,7 +87,7 @@ def test_exact_implementations_pass_against_classic(work: dict[str, Path], image
     effects = data["score"]["effects"]
     assert {"background", "direct", "shadow", "reflection", "refraction", "edges"} <= set(effects)
     assert all(e["status"] == "pass" for e in effects.values()), effects
-    assert data["exact"]["renders"] == 9
+    assert data["exact"]["renders"] == 11
 
 
 def test_the_foreign_program_needs_the_offsets_and_nothing_more(work: dict[str, Path]) -> None:

@@ -47,46 +47,18 @@ def _rtdemo_has_direct_light_quirks() -> bool:
     return "Q13" in proc.stdout + proc.stderr
 
 
-# Correct variants that pass today but keep a few pixels outside the model's spread, so their
-# score is below 100 (measured at the sizes below; tests/corpus/measure.py lists the pixels).
-_FLOOR = (
-    "exact-match rule: the model's float32 hit on the radius-10^4 floor wanders by ~1e-3 "
-    "with rounding (|L|^2 - tca^2; 1-ulp changes of the ray move it), more than its 8 "
-    "camera-turned renders explore, so a shadow ray from the floor that grazes a sphere is a "
-    "coin toss between correct programs: "
-)
-_PAIR = _FLOOR + "2 shadow px (83, 204), (236, 204) by the glass, lit where the model is dark"
-_FMA = _FLOOR + "1 shadow px (291, 237) by the gold sphere, lit where the model is dark"
+# Correct variants that pass but keep a few pixels outside the model's spread, so their score
+# is below 100 (measured at the sizes below; tests/corpus/measure.py lists the pixels).
 _CHAINS = (
-    "exact-match rule: pixels of the paper's mirror and glass chains (its floor a mirror of "
-    "radius 10^4) that every turned render of the model agrees on and a correct program does "
-    "not: "
+    "stray pixels: pixels of the paper's depth-10 mirror and glass chains that every perturbed "
+    "render of the model agrees on and a correct program does not: "
 )
+# Measured after the spread gained the sphere-perturbed renders (docs/metrics.md): every
+# classic program scores 100; the paper student keeps 2 stray pixels of its depth-10 chains,
+# within the 4 an effect tolerates, so it passes.
 _STRAY = {
-    "scratch-gcc-O2": _FLOOR
-    + "2 direct px (159, 410), (480, 410) by the glass, dark where the model is lit",
-    "scratch-gcc-O3": _FLOOR
-    + "2 direct px (159, 410), (480, 410) by the glass, dark where the model is lit",
-    "scratch-gcc-O2-fma": _FMA,
-    "scratch-clang-O2-fma": _FMA,
-    "scratch-gcc-O3-native": _FMA,
-    "scratch-gcc-O2-fastmath": _PAIR,
-    # double precision has no such noise: the same two pixels at 320x240, 8 px at 640x480
-    "double-gcc-O0": _PAIR,
-    "double-gcc-O2": _FLOOR
-    + "direct 2, shadow 1 and 2 reflection px (the floor in the mirrors), and 3 refraction px "
-    "(229, 96), (314, 97), (325, 97) 3 codes off where every turned render agrees",
-    "double-gcc-O3": _PAIR,
-    "double-clang-O2": _PAIR,
-    "double-gcc-O2-fma": _PAIR,
-    "double-gcc-O2-fastmath": _PAIR,
-    "rust-O": _PAIR,
-    "go": _PAIR,
-    "go-amd64v3": _PAIR,
-    "js-node": _PAIR,
-    "paper-gcc-O2": _CHAINS + "4 px, e.g. (72, 128) red 15 where the model says 36.0",
-    "paper-clang-O2": _CHAINS + "4 px, e.g. (72, 128) red 15 where the model says 36.0",
-    "paper-lit-gcc-O2": _CHAINS + "7 px of the mirror floor's reflections, 1-2 codes off",
+    "paper-gcc-O2": _CHAINS + "2 px: (72, 128) red 15 where the model says 36.0, (54, 136) edges",
+    "paper-clang-O2": _CHAINS + "2 px: (72, 128) red 15 where the model says 36.0, (54, 136) edges",
 }
 _NO_Q11 = "rtdemo without Q11-Q13 (the paper's direct light): rebuild it (make setup)"
 

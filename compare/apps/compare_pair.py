@@ -209,7 +209,7 @@ def table(c: Comparison) -> str:
         lines.append(
             f"exact match against {ex.model}: {ex.differing:,} px differ beyond "
             f"{ENCODING_WORDS[ex.encoding]}; {ex.unstable_pixels:,} px where the model is unstable accepted "
-            f"within the spread of its {ex.renders - 1} renders at sub-pixel offsets"
+            f"within the spread of its {ex.renders - 1} perturbed renders"
         )
     against = c.against or f"the reference image {c.ref.path}"
     lines.append(

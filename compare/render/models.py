@@ -3,10 +3,11 @@ shared render cache (cache.py, jobs.py): the image every judgement against that 
 
 Demo models are rtdemo renders; `mitsuba` is the report plan's converged Whitted reference and
 `mitsuba-path` its 64 spp path-traced render (plan.py), so a report and a grading run share
-them. Exact judging also needs the demo model with the camera turned by a tiny fraction of a
-pixel along each image axis (render_offsets), which shows where the model itself is unstable:
-rtdemo has no jitter option, so each is a copy of the scene with `look_at` nudged, cached like
-any render (docs/metrics.md, "Exact match").
+them. Exact judging also needs the demo model perturbed far below any real feature
+(render_offsets): the camera turned by tiny fractions of a pixel, every sphere grown and shrunk
+by two float32 ulps; where those renders move, the model itself is unstable. rtdemo has no
+jitter option, so each is a copy of the scene, cached like any render (docs/metrics.md, "Exact
+match").
 A scene's effect masks (scene_masks) come from the classic model's id/depth AOVs and are
 cached beside it, keyed by the render's key and the mask code (computing them costs more
 than reading them).
@@ -38,6 +39,9 @@ from scene_model.scene import load_scene
 # any real feature (a half-pixel shift is 500 times more).
 OFFSET_PIXELS = (1e-4, 1e-3)
 OFFSETS = ((1, 0), (-1, 0), (0, 1), (0, -1))
+# A float32 intersection is off by about an ulp of the largest number in it; two ulps either
+# way covers the corpus's double-precision, FMA and -ffast-math programs (docs/metrics.md).
+SPHERE_ULPS = (2, -2)
 MITSUBA_JOBS = {"mitsuba": REFERENCE_KEY, "mitsuba-path": "mitsuba-path-llvm-64spp"}
 MASK_MODEL = "classic"  # every demo mode gives the same camera-ray AOVs; classic is the plain one
 
@@ -101,6 +105,39 @@ def offset_scene(scene_file: Path, size: tuple[int, int] | None, dx: float, dy: 
     return json.dumps(raw, indent=1)
 
 
+def grown_scene(scene_file: Path, ulps: int) -> str:
+    """The scene's JSON with every sphere's radius grown by `ulps` float32 ulps of its largest
+    coordinate (shrunk when negative): what rounding in a float32 intersection moves a hit by
+    (on the radius-1e4 floor, ~1e-3: a shadow ray from there grazing a sphere may go either
+    way)."""
+    load_scene(scene_file)  # validates
+    raw = json.loads(Path(scene_file).read_text(encoding="utf-8-sig"))
+    for s in raw["spheres"]:
+        largest = max(max(abs(float(c)) for c in s["center"]), float(s["radius"]))
+        r = float(s["radius"])
+        s["radius"] = max(r / 2, r + ulps * float(np.spacing(np.float32(largest))))  # stays > 0
+    return json.dumps(raw, indent=1)
+
+
+def _perturbed_scenes(scene_file: Path, size: tuple[int, int] | None) -> list[tuple[str, str, str]]:
+    """(key suffix, label suffix, scene text) of every perturbation exact judging uses."""
+    out = []
+    for magnitude, (dx, dy) in ((m, d) for m in OFFSET_PIXELS for d in OFFSETS):
+        scale = "" if magnitude == OFFSET_PIXELS[0] else f"x{magnitude:g}"
+        out.append(
+            (
+                f"-offset{dx:+d}{dy:+d}{scale}",
+                f", camera turned ({dx:+d}, {dy:+d}) x {magnitude:g} px",
+                offset_scene(scene_file, size, dx * magnitude, dy * magnitude),
+            )
+        )
+    for ulps in SPHERE_ULPS:
+        out.append(
+            (f"-spheres{ulps:+d}", f", spheres {ulps:+d} ulps", grown_scene(scene_file, ulps))
+        )
+    return out
+
+
 def render_offsets(
     model: TargetModel,
     scene_file: Path,
@@ -110,22 +147,20 @@ def render_offsets(
     jobs_in_parallel: int = 1,
     progress: Progress | None = None,
 ) -> list[Path]:
-    """The demo model rendered with the camera turned by each OFFSET_PIXELS along +x, -x, +y, -y."""
+    """The demo model's perturbed renders: the camera turned by each OFFSET_PIXELS along +x,
+    -x, +y, -y, and every sphere grown and shrunk by SPHERE_ULPS (docs/metrics.md)."""
     if not model.is_demo:
-        raise ValueError(f"{model.name}: sub-pixel offsets are for demo models only")
+        raise ValueError(f"{model.name}: perturbed renders are for demo models only")
     jobs = []
-    for magnitude, (dx, dy) in ((m, d) for m in OFFSET_PIXELS for d in OFFSETS):
-        text = offset_scene(scene_file, size, dx * magnitude, dy * magnitude)
+    for key, label, text in _perturbed_scenes(scene_file, size):
         digest = hashlib.sha256(text.encode()).hexdigest()[:16]
         # The scene copy is named by its content, so it is derived data like a figure.
-        copy = cache.derived(f"scene-{digest}-offset.json")
+        copy = cache.derived(f"scene-{digest}-perturbed.json")
         if not copy.is_file():
             write_atomic(copy, text)
         job = model_job(model, copy, size)
-        job.key += f"-offset{dx:+d}{dy:+d}" + (
-            "" if magnitude == OFFSET_PIXELS[0] else f"x{magnitude:g}"
-        )
-        job.label += f", camera turned ({dx:+d}, {dy:+d}) x {magnitude:g} px"
+        job.key += key
+        job.label += label
         jobs.append(job)
     run_jobs(jobs, cache, jobs_in_parallel=jobs_in_parallel, progress=progress)
     return [j.exr(cache) for j in jobs]
