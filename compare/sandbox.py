@@ -388,10 +388,11 @@ class _Watch:
     timed_out: bool = False
 
     def usage(self) -> tuple[int, int, float] | None:
-        """bwrap's (wait status, peak resident KiB, CPU seconds), when the launcher said."""
+        """bwrap's wait status, the peak resident KiB and the CPU seconds, when the launcher
+        said."""
         try:
-            status, rss, user, system = self.report.split()
-            return int(status), int(rss), float(user) + float(system)
+            status, rss, cpu = self.report.split()
+            return int(status), int(rss), float(cpu)
         except ValueError:
             return None
 
@@ -400,15 +401,23 @@ class _Watch:
         return int(m.group(1)) if m else None
 
 
-# The launcher between rtval and bwrap: it forks bwrap, waits and reports bwrap's rusage.
-# Without it the peak memory would be rtval's own: a process forked from rtval starts with
-# rtval's resident set, and exec keeps that peak. The launcher is small (about 8 MiB, the
-# floor of every peak it reports); it drops to the sandbox user in the child only.
+# The launcher between rtval and bwrap: it forks bwrap, reaps it and reports how it ended.
+# It is a child subreaper: bwrap returns as soon as its init says the program ended, and the
+# init (PID 1 of the sandbox, which takes every process of the namespace down with it) then
+# comes back to the launcher, which waits for it too. So (1) when the launcher ends, nothing
+# of the sandbox is left, and (2) the CPU time and peak memory of the program's processes
+# reach the report (bwrap's own rusage lacks them). The peak is that of the largest process;
+# a few MiB at least, since bwrap starts with the small launcher's resident set (rtval does not
+# fork bwrap itself: a forked process starts with its parent's, hundreds of MiB in a grading
+# worker). The sandbox user is taken in the child only.
 _LAUNCHER = """
 import os, signal, sys
-report, uid, gid = (int(v) for v in sys.argv[1:4])
-argv = sys.argv[4:]
+report, uid, gid, reap = (int(v) for v in sys.argv[1:5])
+argv = sys.argv[5:]
 os.set_inheritable(report, False)
+if reap:
+    import ctypes
+    ctypes.CDLL(None, use_errno=True).prctl(36, 1, 0, 0, 0)  # PR_SET_CHILD_SUBREAPER
 pid = os.fork()
 if pid == 0:
     for sig in (signal.SIGPIPE, signal.SIGXFSZ):  # Python ignores them; exec would keep that
@@ -423,8 +432,20 @@ if pid == 0:
         os.write(2, f"cannot start {argv[0]}: {e.strerror}\\n".encode())
     os._exit(127)
 _, status, ru = os.wait4(pid, 0)
-os.write(report, f"{status} {ru.ru_maxrss} {ru.ru_utime} {ru.ru_stime}\\n".encode())
+rss, cpu = ru.ru_maxrss, ru.ru_utime + ru.ru_stime
+while reap:  # the sandbox's init, once bwrap let it go: gone only when all of it is
+    try:
+        _, _, ru = os.wait4(-1, 0)
+    except ChildProcessError:
+        break
+    rss, cpu = max(rss, ru.ru_maxrss), cpu + ru.ru_utime + ru.ru_stime
+os.write(report, f"{status} {rss} {cpu}\\n".encode())
 """
+
+
+def _launcher(report_fd: int, uid: int, gid: int, reap: bool) -> list[str]:
+    args = (report_fd, uid, gid, int(reap))
+    return [sys.executable, "-I", "-S", "-c", _LAUNCHER, *(str(a) for a in args)]
 
 
 def run_sandboxed(
@@ -447,7 +468,7 @@ def run_sandboxed(
     start = time.monotonic()
     try:
         proc = subprocess.Popen(
-            [sys.executable, "-I", "-S", "-c", _LAUNCHER, str(report_w), str(uid), str(gid), *full],
+            [*_launcher(report_w, uid, gid, sandboxed), *full],
             stdin=subprocess.DEVNULL,
             stdout=log_w,
             stderr=log_w,
@@ -558,7 +579,8 @@ def _kill(proc: subprocess.Popen[bytes], watch: _Watch, sandboxed: bool) -> None
     process in the namespace with it before bwrap, waiting for it, returns. Before bwrap has
     said who PID 1 is, bwrap itself is killed (its child dies with it: --die-with-parent)."""
     child = watch.child_pid() if sandboxed else None
-    if child is not None and _parent(_parent(child)) == proc.pid:  # not a reused PID
+    # Not a reused PID: the init's parent is bwrap, or the launcher once bwrap has returned.
+    if child is not None and proc.pid in (_parent(child), _parent(_parent(child))):
         try:
             fd = os.pidfd_open(child)
         except OSError:

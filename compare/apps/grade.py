@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from compare.apps.against import ModelRenders
+from compare.apps.programs import ProgramJob, ProgramOptions, ProgramSpec, resolve_spec
 from compare.apps.submissions import IMAGE_SUFFIXES  # noqa: F401  (re-exported)
 from compare.csv_safe import csv_text
 from compare.files import atomic_output, sha256_file, write_atomic
@@ -52,6 +53,9 @@ class GradeTask:
     out_dir: str
     diagnose: int = 0  # diagnose failing scenes with this many renders at once; 0: never
     candidates_dir: str = ""  # the diagnosis' candidate renders, inside the render cache
+    # A program submission (compare/apps/programs.py): built and run first, in the sandbox.
+    program: ProgramJob | None = None
+    scene_problems: dict[str, str] = dataclasses.field(default_factory=dict)  # failed runs
 
 
 def task_key(task: GradeTask) -> str:
@@ -59,6 +63,8 @@ def task_key(task: GradeTask) -> str:
     h.update((task.problem or "").encode())
     h.update(task.models_key.encode())
     h.update(f"diagnose={bool(task.diagnose)}".encode())
+    if task.program is not None:  # its code, commands, limits and scenes
+        h.update(task.program.digest().encode())
     for scene in sorted(task.files):
         f = task.files[scene]
         h.update(scene.encode())
@@ -75,6 +81,8 @@ def _grade_scene(
 
     renders = task.models[scene_name]
     base = {"scene": scene_name, "model": renders.model, "diagnosis": ""}
+    if scene_name in task.scene_problems:  # the program's run gave no image: why
+        return base | {"status": "error", "score": 0.0, "reason": task.scene_problems[scene_name]}
     if path is None:
         return base | {
             "status": "missing",
@@ -199,6 +207,17 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
     rubric = parse_rubric(task.rubric_text, task.rubric_source)
     page_dir = out / "students" / slug
     page_dir.mkdir(parents=True, exist_ok=True)
+    program = None
+    if task.program is not None and not task.problem:  # build and run it, then grade as images
+        from compare.apps.programs import build_and_run
+
+        program = build_and_run(task.program, out / "programs" / slug)
+        task = dataclasses.replace(
+            task,
+            files=program.files,
+            problem=program.problem,
+            scene_problems=program.scene_problems,
+        )
     start = time.perf_counter()
     scenes: list[dict[str, Any]]
     if task.problem:
@@ -243,6 +262,8 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
         "seconds": time.perf_counter() - start,
         "page": f"students/{slug}/index.html",
     }
+    if program is not None:  # build and run logs, times and peak memory for the page
+        result["program"] = program.info
     env = Environment(
         loader=PackageLoader("compare.apps", "templates"),
         autoescape=select_autoescape(["html", "j2"]),
@@ -281,6 +302,25 @@ def collect(
     ]
 
 
+def _entries(
+    submissions: Path,
+    models: dict[str, ModelRenders],
+    spec: ProgramSpec | None,
+    size: tuple[int, int] | None,
+    out: Path,
+    cache_root: Path,
+    progress: Callable[[str], None],
+) -> list[tuple[str, dict[str, str | None], str | None, ProgramJob | None]]:
+    """(student, scene -> file, problem, program) for every submission: images, or programs
+    to build and run when the class has a [program] (compare/apps/programs.py)."""
+    if spec is None:
+        found = collect(submissions, list(models), exclude=[out], notice=progress)
+        return [(student, files, problem, None) for student, files, problem in found]
+    from compare.apps.programs import program_entries
+
+    return program_entries(submissions, models, spec, size, out, cache_root, progress)
+
+
 def _beside(renders: ModelRenders, scene_name: str, folder: Path) -> ModelRenders:
     """The model's renders copied out of the shared cache beside the grades, as
     references/SCENE-MODEL.exr (and -offsetN.exr): the tasks (maybe on other machines) read
@@ -316,6 +356,7 @@ def run_grading(
     diagnose: bool = True,
     cache_dir: Path | str | None = None,
     progress: Callable[[str], None] = print,
+    program: ProgramOptions | None = None,
 ) -> list[dict[str, Any]]:
     from compare.apps.against import GRADE_DEFAULT, prepare, resolve_model
     from compare.judge.rubric import DEFAULT_RUBRIC_TEXT, load_rubric
@@ -326,6 +367,11 @@ def run_grading(
     rubric = load_rubric(rubric_path)  # validates before any work
     rubric_text = Path(rubric_path).read_text() if rubric_path else DEFAULT_RUBRIC_TEXT
     model = resolve_model(against, rubric, GRADE_DEFAULT)
+    spec = resolve_spec(program, rubric.program)  # None: a class of images
+    if spec is not None and spec.sandboxed:
+        from compare.sandbox import require_sandbox
+
+        require_sandbox()  # before any work: refuse rather than run students' code bare
     out.mkdir(parents=True, exist_ok=True)
     cache = RenderCache(cache_dir)
     models: dict[str, ModelRenders] = {}
@@ -358,9 +404,10 @@ def run_grading(
             str(out),
             diagnose_parallel,
             str(cache.root / "candidates"),
+            job,
         )
-        for student, files, problem in collect(
-            submissions, list(models), exclude=[out], notice=progress
+        for student, files, problem, job in _entries(
+            submissions, models, spec, size, out, cache.root, progress
         )
     ]
     progress(f"grading {len(tasks)} submissions against {model.name} ({executor} executor)")

@@ -6,6 +6,10 @@ scene). Nothing is followed outside: a symbolic link (dangling or not, to the re
 name that is not UTF-8 or two entries for one id (alice.ppm and alice.png). Hidden entries
 and the --out folder (when it lies inside) are skipped with a printed notice. Nothing here
 reads a file's contents: a FIFO can never block the listing.
+
+A class of programs (collect_programs) has one program per student instead: a folder, or a
+.zip / .tar.gz / .tgz / .tar file (the id is the name without that suffix); the same rules
+hold for links, special files, names and two entries for one id.
 """
 
 from __future__ import annotations
@@ -140,3 +144,71 @@ def _same(e: os.DirEntry[str], excluded: set[tuple[int, int]]) -> bool:
     except OSError:
         return False
     return (s.st_dev, s.st_ino) in excluded
+
+
+@dataclass
+class ProgramEntry:
+    student: str
+    source: str | None  # the folder or archive; None when there is none to build
+    problems: list[str] = field(default_factory=list)
+    names: list[str] = field(default_factory=list)
+
+
+def collect_programs(
+    submissions: Path,
+    *,
+    exclude: list[Path] | None = None,
+    notice: Callable[[str], None] | None = None,
+) -> list[ProgramEntry]:
+    """One ProgramEntry per student id, sorted by id; skipped entries as in collect_entries."""
+    from compare.apps.archives import ARCHIVE_SUFFIXES, archive_suffix
+
+    st = os.stat(submissions)
+    if not stat.S_ISDIR(st.st_mode):
+        raise NotADirectoryError(f"{submissions}: not a folder of submissions")
+    say = notice or (lambda _m: None)
+    excluded = _identities(exclude)
+    by_id: dict[str, ProgramEntry] = {}
+    with os.scandir(submissions) as it:
+        entries = sorted(it, key=lambda e: os.fsencode(e.name))
+    for e in entries:
+        shown, utf8 = displayable_name(e.name)
+        mode = e.stat(follow_symlinks=False).st_mode
+        if stat.S_ISDIR(mode) and _same(e, excluded):
+            say(f"skipping {shown}/: it is the output folder")
+            continue
+        if e.name.startswith("."):
+            say(f"skipping hidden entry {shown} (rename it without the leading dot to grade it)")
+            continue
+        suffix = archive_suffix(shown) if not stat.S_ISDIR(mode) else None
+        student = shown[: -len(suffix)] if suffix else shown
+        entry = by_id.setdefault(student, ProgramEntry(student, None))
+        entry.names.append(shown)
+        if not utf8:
+            entry.problems.append(f"the name {shown} is not UTF-8; rename it")
+        elif stat.S_ISDIR(mode) or (stat.S_ISREG(mode) and suffix):
+            entry.source = e.path
+        elif not stat.S_ISREG(mode):
+            entry.problems.append(f"{shown} {_not_regular_reason(mode, Path(e.path))}")
+        else:
+            entry.problems.append(
+                f"{shown} is not a program: hand in a folder or a "
+                f"{', '.join(ARCHIVE_SUFFIXES)} file"
+            )
+    for entry in by_id.values():
+        if len(entry.names) > 1:
+            entry.problems.insert(
+                0, f"{len(entry.names)} submissions for one id ({', '.join(entry.names)}); keep one"
+            )
+    return [by_id[k] for k in sorted(by_id)]
+
+
+def _identities(paths: list[Path] | None) -> set[tuple[int, int]]:
+    found = set()
+    for p in paths or []:
+        try:
+            s = os.stat(p)
+            found.add((s.st_dev, s.st_ino))
+        except OSError:
+            pass
+    return found

@@ -5,8 +5,12 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from compare.cli.common import add_cache_argument, positive_int, size_type
+from compare.cli.common import add_cache_argument, positive_float, positive_int, size_type
+
+if TYPE_CHECKING:
+    from compare.apps.programs import ProgramOptions
 
 
 def run_grade(args: argparse.Namespace) -> int:
@@ -35,6 +39,7 @@ def run_grade(args: argparse.Namespace) -> int:
         diagnose=not args.no_diagnose,
         cache_dir=args.cache,
         progress=Progress(sys.stderr),
+        program=_program_options(args),
     )
     passed = sum(r["status"] == "pass" for r in results)
     print(f"{passed} passed, {len(results) - passed} failed")
@@ -42,12 +47,76 @@ def run_grade(args: argparse.Namespace) -> int:
     return 0
 
 
+def _program_options(args: argparse.Namespace) -> ProgramOptions:
+    """The program flags; what they leave out comes from the rubric's [program]."""
+    from compare.apps.programs import LIMIT_KEYS, ProgramOptions
+
+    limits = {k: getattr(args, k) for k in LIMIT_KEYS if getattr(args, k) is not None}
+    return ProgramOptions(
+        build=args.build,
+        run=args.run,
+        output=args.output,
+        output_format=args.output_format,
+        unsandboxed=args.unsandboxed,
+        limits=limits,
+    )
+
+
+def _add_program_arguments(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group(
+        "programs",
+        "Grade students' code: each submission (a folder, .zip or .tar.gz) is built once and "
+        "run once per scene in a sandbox (docs/sandbox.md), then graded as its images. "
+        "The rubric's [program] table says the same; flags win.",
+    )
+    g.add_argument(
+        "--build", metavar="CMD", help="build command, e.g. 'g++ -O2 -o rt *.cpp' or make"
+    )
+    g.add_argument(
+        "--run",
+        metavar="CMD",
+        help="run command with rtval check's placeholders: {scene} {out} {width} {height} "
+        "{spp} {scene_xml}, e.g. './rt {scene} {out}'",
+    )
+    g.add_argument(
+        "--output",
+        metavar="NAME",
+        help="the file the program writes in its folder instead of {out} (e.g. untitled.ppm)",
+    )
+    g.add_argument(
+        "--output-format",
+        choices=("exr", "pfm", "png", "ppm"),
+        default=None,
+        help="the format {out} names (default ppm)",
+    )
+    g.add_argument(
+        "--unsandboxed",
+        action="store_true",
+        help="run the programs with limits but no isolation where no sandbox can be made "
+        "(bwrap missing): only for code you trust",
+    )
+    g.add_argument(
+        "--build-timeout", type=positive_float, metavar="S", help="per build (default 120)"
+    )
+    g.add_argument("--run-timeout", type=positive_float, metavar="S", help="per run (default 60)")
+    g.add_argument(
+        "--cpu", type=positive_float, metavar="S", help="CPU seconds per process (default 600)"
+    )
+    g.add_argument("--memory", metavar="SIZE", help="address space per process (default 2G)")
+    g.add_argument("--file-size", metavar="SIZE", help="largest file written (default 256M)")
+    g.add_argument(
+        "--processes", type=positive_int, metavar="N", help="processes and threads (default 128)"
+    )
+    g.add_argument("--open-files", type=positive_int, metavar="N", help="per process (default 256)")
+
+
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser(
         "grade",
         help="grade a folder of submissions: per-student pages and a gradebook",
         description="Grades every submission (an image named after the student, or a folder of "
-        "images named after the scenes) against a target model (--against) with a rubric; "
+        "images named after the scenes; with --run, a student's program, built and run in a "
+        "sandbox) against a target model (--against) with a rubric; "
         "writes OUT/gradebook.csv, gradebook.json and OUT/students/ID/index.html. "
         "Re-runs skip what is done.",
     )
@@ -94,5 +163,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--explain", metavar="ID", help="print how student ID's score came about, then exit"
     )
+    _add_program_arguments(p)
     add_cache_argument(p)
     p.set_defaults(func=run_grade)
