@@ -48,7 +48,7 @@ from compare.render.runner import ToolError
 from compare.safe_paths import read_bounded
 from scene_model.scene import Scene, load_scene
 
-DEFAULT_SCENES = ("scenes/paper.json", "scenes/classic.json")
+DEFAULT_SCENES = ("scenes/paper.json", "scenes/lit.json", "scenes/classic.json")
 DEFAULT_MODES = ("paper", "classic", "physical")
 # A change of 2/255 on 0.02 % of pixels (15 at 320x240) passes: compilers may round a
 # silhouette pixel differently; every deliberate bug of the fault-injection test moves more.
@@ -117,6 +117,20 @@ class CaseResult:
         return {**d, "name": self.name}
 
 
+class TolerancesFileError(OSError):
+    """An invalid tolerances.json: an unreadable input, exit 4 like any other."""
+
+
+# null in tolerances.json means "no limit" (docs/check.md): the value that never fails. A
+# display error is at most 1 and only errors strictly over the threshold count.
+_NO_LIMIT = {"fail": 1.0, "warn": 1.0, "failpercent": 100.0, "warnpercent": 100.0}
+
+
+def _tolerances_of(values: dict[str, Any]) -> Tolerances:
+    given = {k: (_NO_LIMIT[k] if v is None and k in _NO_LIMIT else v) for k, v in values.items()}
+    return Tolerances(**{**DEFAULT_TOLERANCES.as_dict(), **given})
+
+
 def load_tolerances(baseline_dir: Path, renderer: str | None = None) -> dict[str, Tolerances]:
     """tolerances.json: {"default": {...}, "<scene>": {...}}; keys are Tolerances fields (which
     checks each number; null hardfail: no hard limit). A renderer's own
@@ -137,11 +151,11 @@ def load_tolerances(baseline_dir: Path, renderer: str | None = None) -> dict[str
                 if not isinstance(values, dict):
                     raise TypeError(f"{name!r}: expected an object of tolerance fields")
                 try:
-                    merged[name] = Tolerances(**{**DEFAULT_TOLERANCES.as_dict(), **values})
+                    merged[name] = _tolerances_of(values)
                 except (TypeError, ValueError) as e:
                     raise TypeError(f"{name!r}: {e}") from None
         except (json.JSONDecodeError, TypeError) as e:
-            raise ValueError(f"{path}: invalid tolerances: {e}") from None
+            raise TolerancesFileError(f"{path}: invalid tolerances: {e}") from None
     return merged
 
 
