@@ -6,7 +6,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -108,7 +107,16 @@ def test_interrupted_report_leaves_no_complete_looking_files(
         text=True,
         start_new_session=True,
     )
-    time.sleep(4)
+    # Interrupt once the first render is done (an event, not a guess at the clock: on a loaded
+    # machine a sleep could outlast the whole report).
+    assert proc.stderr is not None
+    seen = []
+    for line in proc.stderr:
+        seen.append(line)
+        if line.startswith("[1/"):
+            break
+    else:
+        pytest.fail("the report printed no render line:\n" + "".join(seen))
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
