@@ -4,6 +4,7 @@ judge's code, so that a warm `rtval report` reads no render and draws nothing.""
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import functools
 import hashlib
@@ -25,15 +26,45 @@ from compare.judge.images import Image, read_image, write_exr, write_png
 from compare.judge.tolerances import Tolerances
 from compare.render.cache import RenderCache
 
+# The judge modules whose code the derived results come from; judge_identity follows their
+# imports within compare.judge. Other judge code (diagnose, rubric, ...) leaves them valid.
+JUDGE_ROOTS = ("evaluate", "effects", "convergence", "penumbra", "pareto", "scoring", "sentences")
+
+
+def judge_modules(judge: Path) -> list[str]:
+    """JUDGE_ROOTS and every compare.judge module they import, directly or not."""
+    todo, seen = list(JUDGE_ROOTS), set()
+    while todo:
+        name = todo.pop()
+        source = judge / f"{name}.py"
+        if name in seen or not source.is_file():
+            continue
+        seen.add(name)
+        for node in ast.walk(ast.parse(source.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module == "compare.judge":
+                todo += [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                todo += _judge_module(node.module)
+            elif isinstance(node, ast.Import):
+                todo += [m for a in node.names for m in _judge_module(a.name)]
+    return sorted(seen)
+
+
+def _judge_module(dotted: str) -> list[str]:
+    parts = dotted.split(".")
+    return [parts[2]] if len(parts) >= 3 and parts[:2] == ["compare", "judge"] else []
+
 
 @functools.cache
 def judge_identity() -> str:
-    """The judge's and the figures' code: derived results are keyed by it as well, so that
-    a change to a metric or a chart is never hidden by the cache."""
+    """The code of the judge modules the derived results come from, and of the figures:
+    derived results are keyed by it as well, so that a change to a metric or a chart is never
+    hidden by the cache."""
     h = hashlib.sha256()
     root = Path(__file__).resolve().parents[1]
-    for p in [*sorted((root / "judge").glob("*.py")), root / "apps" / "report_figures.py"]:
-        h.update(p.read_bytes())
+    sources = [root / "judge" / f"{m}.py" for m in judge_modules(root / "judge")]
+    for p in [*sources, root / "apps" / "report_figures.py"]:
+        h.update(p.name.encode() + b"\0" + p.read_bytes())
     return h.hexdigest()[:16]
 
 
