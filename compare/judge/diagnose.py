@@ -647,12 +647,25 @@ def diagnose(
         else getattr(render, "search_quirks", SEARCH_QUIRKS)
     )
     s = _Search(image, scene, render, parallel, turns)
-
     starts = (
         [start if isinstance(start, Candidate) else Candidate.from_model(start)]
         if start is not None
         else [Candidate.of_mode(m) for m in ("classic", "paper", "physical")]
     )
+    mirrored, begin = _begin(s, starts, say)
+    modes = {c.name: float(s.whole_differing(c)) for c in starts}
+    found = _explain(s, begin, quirks, max_renders, t0, say)
+    findings, summary = _report(s, found.begin, found.result, found.steps, mirrored, say)
+    seconds = time.perf_counter() - t0
+    say(f"diagnose: {found.result.name} after {len(s.scores)} renders in {seconds:.1f} s")
+    return _diagnosis(s, found, findings, summary, mirrored, modes, seconds)
+
+
+def _begin(
+    s: _Search, starts: list[Candidate], say: Callable[[str], None]
+) -> tuple[str, Candidate]:
+    """Renders the starts (each also with the tone mistakes), decides whether the image is
+    mirrored (judging the un-mirrored image from then on) and picks the nearest start."""
     toned = [c.with_mistake(m, True) for c in starts for m in TONE_MISTAKES]
     say(
         f"diagnose: rendering {', '.join(c.name for c in starts)} "
@@ -662,10 +675,31 @@ def diagnose(
     s.evaluate(starts + toned)
     mirrored = _mirrored(s, starts + toned, say)
     begin = _nearest(s, starts, say)
-    mode_objectives = {c.name: float(s.whole_differing(c)) for c in starts}
     s.kept = {c: im for c, im in s.kept.items() if c == begin}
     s.keep = {begin}
+    return mirrored, begin
 
+
+@dataclass(frozen=True)
+class _Found:
+    begin: Candidate  # the mode the result is told from
+    result: Candidate
+    steps: list[Step]
+    invisible: set[int]
+    untested: set[int]
+    or_more: bool  # the result's depth: every deeper limit fits as well
+
+
+def _explain(
+    s: _Search,
+    begin: Candidate,
+    quirks: Sequence[int],
+    max_renders: int,
+    t0: float,
+    say: Callable[[str], None],
+) -> _Found:
+    """The search, then the result without what explains nothing, retold from the mode it
+    differs least from in the quirks the scene shows."""
     current = _shallowest(s, _greedy(s, begin, quirks, max_renders, t0, say))
     # Changes that explain nothing go first, so that they cannot decide the mode below.
     current, _ = _justified(s, begin, current, say, False)
@@ -678,54 +712,59 @@ def diagnose(
         s.evaluate([begin])
     or_more = _depth_or_more(s, simpler)
     current, steps = _justified(s, begin, simpler, say, or_more)
-    or_more = or_more and _depth(current, scene) == _depth(simpler, scene)
+    or_more = or_more and _depth(current, s.scene) == _depth(simpler, s.scene)
+    return _Found(begin, current, steps, invisible, untested, or_more)
 
-    findings, summary = _report(s, begin, current, steps, turns, mirrored, say)
-    unexplained = [k for k, f in findings.items() if f.state == "unexplained"]
+
+def _diagnosis(
+    s: _Search,
+    found: _Found,
+    findings: dict[str, EffectFinding],
+    summary: str,
+    mirrored: str,
+    modes: dict[str, float],
+    seconds: float,
+) -> Diagnosis:
+    c, scene = found.result, s.scene
+    hidden = found.invisible | found.untested
     sentences = [summary] + [f.sentence for f in findings.values()]
-    if invisible:
+    if found.invisible:
         sentences.append(
             "not visible in this scene (toggling them changes no pixel): "
-            + ", ".join(f"Q{q}" for q in sorted(invisible))
+            + ", ".join(f"Q{q}" for q in sorted(found.invisible))
         )
-    if untested:
+    if found.untested:
         sentences.append(
             "not searched (this rtdemo cannot render them): "
-            + ", ".join(f"Q{q}" for q in sorted(untested))
+            + ", ".join(f"Q{q}" for q in sorted(found.untested))
         )
-    seconds = time.perf_counter() - t0
-    say(f"diagnose: {current.name} after {len(s.scores)} renders in {seconds:.1f} s")
     return Diagnosis(
         scene=scene.name,
-        image=image.path,
-        start=begin.name,
-        mode_objectives=mode_objectives,
-        result=current.name,
-        rtdemo_args=current.rtdemo_args(),
-        scene_changes=current.scene_changes(),
+        image=s.image.path,
+        start=found.begin.name,
+        mode_objectives=modes,
+        result=c.name,
+        rtdemo_args=c.rtdemo_args(),
+        scene_changes=c.scene_changes(),
         mirrored=mirrored,
-        mode=current.mode,
-        quirks_present=sorted(set(current.quirks) - invisible - untested),
-        quirks_absent=sorted(
-            set(range(1, QUIRK_COUNT + 1)) - current.quirks - invisible - untested
-        ),
-        quirks_invisible=sorted(invisible),
-        quirks_untested=sorted(untested),
-        effects_off=[e for e in SWITCHABLE_EFFECTS if e in current.effects_off],
-        max_depth=_depth(current, scene),
-        depth_or_more=or_more,
-        mistakes=(["mirrored"] if mirrored else [])
-        + current.ordered_mistakes()
-        + _aliases(current, scene),
-        steps=steps,
+        mode=c.mode,
+        quirks_present=sorted(set(c.quirks) - hidden),
+        quirks_absent=sorted(set(range(1, QUIRK_COUNT + 1)) - c.quirks - hidden),
+        quirks_invisible=sorted(found.invisible),
+        quirks_untested=sorted(found.untested),
+        effects_off=[e for e in SWITCHABLE_EFFECTS if e in c.effects_off],
+        max_depth=_depth(c, scene),
+        depth_or_more=found.or_more,
+        mistakes=(["mirrored"] if mirrored else []) + c.ordered_mistakes() + _aliases(c, scene),
+        steps=found.steps,
         effects=findings,
-        unexplained=unexplained,
+        unexplained=[k for k, f in findings.items() if f.state == "unexplained"],
         matches=all(f.matched for f in findings.values()),
         summary=summary,
         sentences=sentences,
         renders=len(s.scores),
         seconds=seconds,
-        candidate=current,
+        candidate=c,
     )
 
 
@@ -987,7 +1026,6 @@ def _report(
     begin: Candidate,
     final: Candidate,
     steps: list[Step],
-    turns: Sequence[tuple[float, float]],
     mirrored: str,
     say: Callable[[str], None],
 ) -> tuple[dict[str, EffectFinding], str]:
