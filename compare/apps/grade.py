@@ -207,6 +207,7 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
     rubric = parse_rubric(task.rubric_text, task.rubric_source)
     page_dir = out / "students" / slug
     page_dir.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
     program = None
     if task.program is not None and not task.problem:  # build and run it, then grade as images
         from compare.apps.programs import build_and_run
@@ -218,7 +219,6 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
             problem=program.problem,
             scene_problems=program.scene_problems,
         )
-    start = time.perf_counter()
     scenes: list[dict[str, Any]]
     if task.problem:
         scenes = [

@@ -274,7 +274,7 @@ def _build(job: ProgramJob, folder: Path) -> dict[str, Any]:
             except TreeError as e:
                 record |= {"status": "refused", "reason": f"build failed: the build left {e}"}
     record |= {"key": key, "cached": False}
-    write_atomic(where / "outcome.json", json.dumps(record, indent=1))  # last: the mark of done
+    _keep(where / "outcome.json", record)
     return record
 
 
@@ -377,8 +377,15 @@ def _run(job: ProgramJob, folder: Path, scene: SceneJob, build_key: str) -> dict
                 write_atomic(folder / "runs" / image, data)
                 record["image"] = image
     record |= {"key": key, "cached": False}
-    write_atomic(where / "outcome.json", json.dumps(record, indent=1))
+    _keep(where / "outcome.json", record)
     return record
+
+
+def _keep(path: Path, record: dict[str, Any]) -> None:
+    """Stores a finished step, last (the mark that it is done). A sandbox that could not
+    start is the machine's trouble, not the program's outcome: it is tried again next time."""
+    if record["status"] != "sandbox":
+        write_atomic(path, json.dumps(record, indent=1))
 
 
 def _run_argv(spec: ProgramSpec, scene: SceneJob, ws: Workspace) -> tuple[list[str], str]:

@@ -181,7 +181,10 @@ def collect_programs(
             say(f"skipping hidden entry {shown} (rename it without the leading dot to grade it)")
             continue
         suffix = archive_suffix(shown) if not stat.S_ISDIR(mode) else None
-        student = shown[: -len(suffix)] if suffix else shown
+        if stat.S_ISDIR(mode):
+            student = shown
+        else:  # alice.tar.gz and alice.ppm are both alice
+            student = shown[: -len(suffix)] if suffix else os.path.splitext(shown)[0]
         entry = by_id.setdefault(student, ProgramEntry(student, None))
         entry.names.append(shown)
         if not utf8:
