@@ -364,9 +364,17 @@ def _objective(per: dict[str, float]) -> float:
     return float(sum(per.values()))  # every effect counts alike, whatever its size
 
 
-def _explained(before: dict[str, float], after: dict[str, float]) -> tuple[str, ...]:
-    """The effects whose distance a change lowers clearly (by EXPLAINS and 10 %)."""
-    return tuple(k for k in before if before[k] - after[k] > max(EXPLAINS, 0.1 * before[k]))
+def _explained(
+    before: dict[str, float], after: dict[str, float], open_effects: set[str]
+) -> tuple[str, ...]:
+    """The effects still to explain whose distance a change lowers clearly (by EXPLAINS and
+    10 %). An effect already within the exact-match allowance has nothing left to explain:
+    moving its last stray pixels is float noise (a float64 program's rounding)."""
+    return tuple(
+        k
+        for k in before
+        if k in open_effects and before[k] - after[k] > max(EXPLAINS, 0.1 * before[k])
+    )
 
 
 def _excess(enc: I16, target: I16) -> I16:
@@ -538,9 +546,14 @@ class _Search:
         """Differing pixels an exact match allows in this effect (as exact_match says)."""
         return self.allowance[effect]
 
+    def open_effects(self, c: Candidate) -> set[str]:
+        """Effects with more pixels differing from the candidate's centre render than an exact
+        match allows."""
+        return {k for k, n in self.scores[c].differing.items() if n > self.allowed(k)}
+
     def matched(self, c: Candidate) -> bool:
         """Every effect within the exact-match allowance of the candidate's centre render."""
-        return all(n <= self.allowed(k) for k, n in self.scores[c].differing.items())
+        return not self.open_effects(c)
 
     def fits_as_well(self, a: Candidate, b: Candidate) -> bool:
         """a leaves no more pixels of any effect differing than b, up to the exact-match
@@ -828,11 +841,11 @@ def _greedy(
         ]
         cands = [ch.apply(current, s.scene) for ch in tried]
         s.evaluate(cands)
-        base = s.per(current)
+        base, still = s.per(current), s.open_effects(current)
         # Only a change that clearly explains some effect counts: small drops spread over
         # every effect are noise fitting (e.g. acne patterns that float rounding decides).
         gains = [
-            _objective(base) - _objective(s.per(c)) if _explained(base, s.per(c)) else 0.0
+            _objective(base) - _objective(s.per(c)) if _explained(base, s.per(c), still) else 0.0
             for c in cands
         ]
         if full:
