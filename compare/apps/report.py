@@ -42,6 +42,7 @@ from compare.apps.report_derived import (
     derived_map,
     derived_png,
     digest,
+    figures_identity,
     judge_identity,
     memo_json,
 )
@@ -360,7 +361,7 @@ def build_report(
             for error in ("flip", "one_minus_ssim")
         }
         chart = json.dumps(_json_safe(chart_rows), sort_keys=True)
-        slopes_path = cache.derived(f"slopes-{digest(chart + judge_identity())}.json")
+        slopes_path = cache.derived(f"slopes-{digest(chart + figures_identity())}.json")
         derived_figure(
             cache,
             "speed-accuracy",

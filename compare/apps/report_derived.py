@@ -57,13 +57,22 @@ def _judge_module(dotted: str) -> list[str]:
 
 @functools.cache
 def judge_identity() -> str:
-    """The code of the judge modules the derived results come from, and of the figures:
-    derived results are keyed by it as well, so that a change to a metric or a chart is never
-    hidden by the cache."""
+    """The code of the judge modules the derived results come from: metrics and analyses are
+    keyed by it as well, so that a change to a metric is never hidden by the cache."""
+    root = Path(__file__).resolve().parents[1] / "judge"
+    return _code_hash([root / f"{m}.py" for m in judge_modules(root)])
+
+
+@functools.cache
+def figures_identity() -> str:
+    """The judge's code and the figures' (report_figures.py): the key of every drawn figure.
+    Redrawing a chart recomputes no metric."""
+    return _code_hash([Path(__file__).with_name("report_figures.py")]) + judge_identity()
+
+
+def _code_hash(sources: list[Path]) -> str:
     h = hashlib.sha256()
-    root = Path(__file__).resolve().parents[1]
-    sources = [root / "judge" / f"{m}.py" for m in judge_modules(root / "judge")]
-    for p in [*sources, root / "apps" / "report_figures.py"]:
+    for p in sources:
         h.update(p.name.encode() + b"\0" + p.read_bytes())
     return h.hexdigest()[:16]
 
@@ -260,7 +269,7 @@ def derived_figure(
     cache: RenderCache, name: str, inputs: str, target: Path, draw: Callable[[Path], None]
 ) -> None:
     """A chart drawn once per input data (and figure code)."""
-    cached = cache.derived(f"{name}-{digest(inputs + judge_identity())}.png")
+    cached = cache.derived(f"{name}-{digest(inputs + figures_identity())}.png")
     if not cached.is_file():
         draw(cached)
     copy_file(cached, target)
