@@ -2,11 +2,15 @@
 
   background  camera ray missed every sphere
   emitter     camera ray hit a light
-  direct      a diffuse surface with no light blocked (lit, or facing away)
+  direct      a diffuse surface with no light blocked (lit, facing away, or in a scene
+              without light, where the reference shows it black)
   shadow      a diffuse surface where some light is blocked (cast shadow)
   reflection  a mirror sphere
   refraction  a glass sphere
   edges       silhouettes: the id changes within one pixel (kept out of the others)
+
+A mask may have no pixel (no light: no shadow; no light in view: no emitter): the effect
+does not occur in the scene, and evaluate.py leaves it unscored.
 
 The shadow test is the physical one: from the camera hit point towards each light's centre,
 bounded by the light, any other sphere blocks (float64 numpy, independent of both renderers).
