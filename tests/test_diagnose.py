@@ -15,7 +15,7 @@ import pytest
 from helpers import SCENES, render_demo, run
 from student_variants import MORE, VARIANTS, render_variant
 
-from compare.apps.diagnosis import short_reason
+from compare.apps.diagnosis import render_command, short_reason
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose import Diagnosis, diagnose, unmirror
 from compare.judge.images import Image, read_image
@@ -270,6 +270,10 @@ def test_a_hard_coded_scene_constant_is_found(
     assert d.scene_changes == changes and d.mode == "classic" and d.exact, d.sentences
     assert d.causes == [MORE[variant][0]]
     assert short_reason(d, "classic").startswith("looks like " + MORE[variant][0])
+    words = "background 1, 1, 1" if variant == "white_background" else "ior 1.5 for every glass"
+    assert render_command(d, "classic.json").startswith(
+        f"rtdemo render classic.json (a copy with {words}"
+    )
 
 
 @pytest.mark.slow
@@ -300,6 +304,9 @@ def test_a_mirrored_image_is_named_and_diagnosed_unmirrored(
     assert d.result == "classic" and d.steps == [] and d.exact
     assert d.causes == [f"mirrored {words}"] and d.summary.startswith(f"mirrored {words}")
     assert short_reason(d, "classic") == f"looks like image mirrored {words}"
+    assert render_command(d, "classic.json") == (
+        f"rtdemo render classic.json --mode classic, then mirrored {words}"
+    )
 
 
 @pytest.mark.slow

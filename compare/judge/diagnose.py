@@ -1103,6 +1103,11 @@ def _sentence(
     f0, f1 = flips
     if state == "as start":
         return f"{k}: as {begin.name} (FLIP {f1:.3f})"
+    if state == "unexplained" and start_differing <= final.per_effect[k].allowed:
+        return (
+            f"{k}: matches {begin.name}, but {final.sentence(k)}: the changes that explain the "
+            "other effects cost it"
+        )
     if state == "explained":
         return (
             f"{k}: explained by {' and '.join(by)}: {start_differing:,} px differed from "
