@@ -279,6 +279,7 @@ class CheckSettings:
     against: str | None = None
     spp: int = 1
     timeout: float | None = None
+    sandbox: bool = False  # run the renderer in the grading sandbox (docs/sandbox.md)
     cache_dir: Path | None = None  # model renders and effect masks (the shared render cache)
     keep_images: bool = False  # keep failing cases' pictures (for --html)
 
@@ -433,6 +434,7 @@ def _one_case(
                 mode=mode,
                 timeout=settings.timeout,
                 size_from=size_from,
+                sandbox=settings.sandbox,
             )
             test, case.seconds = got.image, got.seconds
     except (foreign.RenderFailed, ToolError, ImageError) as e:

@@ -36,8 +36,14 @@ def run_check(args: argparse.Namespace) -> int:
             raise ValueError("--backends applies to rtdemo only, not to --renderer")
         if args.rtdemo:
             raise ValueError("--rtdemo and --renderer exclude each other")
-    elif args.renderer_name or args.output_format != "exr" or args.timeout:
-        raise ValueError("--renderer-name, --output-format and --timeout need --renderer")
+        if args.sandbox:
+            from compare.sandbox import require_sandbox
+
+            require_sandbox()  # refuses, saying why, where no sandbox can be made
+    elif args.renderer_name or args.output_format != "exr" or args.timeout or args.sandbox:
+        raise ValueError(
+            "--renderer-name, --output-format, --timeout and --sandbox need --renderer"
+        )
     html_page = Path(args.html) / "index.html" if args.html else None
     check_outputs_distinct(
         [("--json", args.json), ("--junit", args.junit), ("--html", html_page)],
@@ -55,6 +61,7 @@ def run_check(args: argparse.Namespace) -> int:
         against=args.against,
         spp=args.spp,
         timeout=args.timeout,
+        sandbox=args.sandbox,
         cache_dir=Path(args.cache) if args.cache else None,
         keep_images=bool(args.html),
     )
@@ -153,6 +160,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "PPM as linear)",
     )
     p.add_argument("--timeout", type=_seconds, metavar="S", help="time limit per scene, in seconds")
+    p.add_argument(
+        "--sandbox",
+        action="store_true",
+        help="run the renderer in the sandbox `rtval grade` runs students' programs in "
+        "(bubblewrap: no network, nothing of yours visible but the files its command names, "
+        "copied; docs/sandbox.md); --timeout is its wall time (default 600 s)",
+    )
     p.add_argument(
         "--against",
         metavar="MODEL",

@@ -13,6 +13,7 @@ import dataclasses
 import os
 import re
 import shlex
+import shutil
 import signal
 import subprocess
 import tempfile
@@ -129,6 +130,7 @@ def render(
     mode: str = "default",
     timeout: float | None = None,
     size_from: str = "--size",
+    sandbox: bool = False,
 ) -> ForeignRender:
     """Runs the renderer on one scene and reads its image. Raises RenderFailed naming the
     command, the exit status or time limit, and the end of its stderr. `size_from`: where the
@@ -151,34 +153,22 @@ def render(
                 scene, camera=dataclasses.replace(scene.camera, width=width, height=height)
             )
             values["scene_xml"] = str(_write_xml(sized, folder, spp))
-        argv = [_FIELD.sub(lambda m: values[m.group(1)], w) for w in cmd.words]
-        shown = shlex.join(argv)
-        start = time.perf_counter()
-        try:
-            proc = subprocess.Popen(
-                argv,
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.PIPE,
-                start_new_session=True,  # its own process group: a timeout kills its children
-            )
-        except OSError as e:
-            raise RenderFailed(f"cannot start {shown}: {e.strerror or e}") from None
-        try:
-            _, err_bytes = proc.communicate(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            _kill_group(proc)
-            raise RenderFailed(f"timed out after {timeout:g} s: {shown}") from None
-        except BaseException:  # interrupted: leave no renderer running
-            _kill_group(proc)
-            raise
-        seconds = time.perf_counter() - start
-        err = err_bytes.decode("utf-8", "replace").strip()[-STDERR_KEPT:]
-        tail = f"\nrenderer stderr:\n{err}" if err else ""
-        if proc.returncode != 0:
-            raise RenderFailed(f"exit status {proc.returncode}: {shown}{tail}")
-        if not out.is_file():
-            raise RenderFailed(f"wrote no image {out.name} (expected at {{out}}): {shown}{tail}")
+        if sandbox:  # compare/render/foreign_sandboxed.py
+            from compare.render.foreign_sandboxed import SandboxedRenderFailed, render_sandboxed
+
+            try:
+                kept, seconds, argv = render_sandboxed(
+                    list(cmd.words), values, out.name, size, timeout
+                )
+            except SandboxedRenderFailed as e:
+                raise RenderFailed(str(e)) from None
+            shutil.move(kept, out)
+            kept.parent.rmdir()
+            shown, tail = shlex.join(argv), ""
+        else:
+            argv = [_FIELD.sub(lambda m: values[m.group(1)], w) for w in cmd.words]
+            shown = shlex.join(argv)
+            seconds, tail = _run_plain(argv, shown, out, timeout)
         try:
             image = read_image(out)
         except ImageError as e:
@@ -191,6 +181,37 @@ def render(
             )
         image.path = f"{cmd.name}:{scene.name}"
         return ForeignRender(image, seconds, argv)
+
+
+def _run_plain(argv: list[str], shown: str, out: Path, timeout: float | None) -> tuple[float, str]:
+    """Runs the renderer in its own process group; (seconds, the end of its stderr)."""
+    start = time.perf_counter()
+    try:
+        proc = subprocess.Popen(
+            argv,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            start_new_session=True,  # its own process group: a timeout kills its children
+        )
+    except OSError as e:
+        raise RenderFailed(f"cannot start {shown}: {e.strerror or e}") from None
+    try:
+        _, err_bytes = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        _kill_group(proc)
+        raise RenderFailed(f"timed out after {timeout:g} s: {shown}") from None
+    except BaseException:  # interrupted: leave no renderer running
+        _kill_group(proc)
+        raise
+    seconds = time.perf_counter() - start
+    err = err_bytes.decode("utf-8", "replace").strip()[-STDERR_KEPT:]
+    tail = f"\nrenderer stderr:\n{err}" if err else ""
+    if proc.returncode != 0:
+        raise RenderFailed(f"exit status {proc.returncode}: {shown}{tail}")
+    if not out.is_file():
+        raise RenderFailed(f"wrote no image {out.name} (expected at {{out}}): {shown}{tail}")
+    return seconds, tail
 
 
 def _size_advice(cmd: RendererCommand, size_from: str, got: str) -> str:

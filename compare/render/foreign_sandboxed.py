@@ -1,0 +1,87 @@
+"""`rtval check --renderer ... --sandbox`: a renderer one does not trust, run in the sandbox
+that grading uses (compare/sandbox.py, docs/sandbox.md).
+
+The renderer sees its inputs read-only at /sandbox/in ({scene}, {scene_xml}), writes {out} in
+/sandbox/out and runs in /sandbox/work, a copy of every file or folder its command names (the
+program, its script). Nothing else of the caller's is visible, and the image is read back
+without following a link and with a bounded size.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from pathlib import Path
+
+from compare.apps.archives import TreeLimits, copy_tree
+from compare.apps.programs import read_output
+from compare.render.runner import ToolError
+from compare.sandbox import IN_DIR, OUT_DIR, WORK_DIR, Limits, Workspace, run_sandboxed
+
+SYSTEM_PREFIXES = ("/usr/", "/bin/", "/lib", "/etc/")  # visible read-only inside anyway
+
+
+class SandboxedRenderFailed(ToolError):
+    """The sandboxed renderer failed; the message gives the reason and the end of its log."""
+
+
+def _copy_named(word: str, ws: Workspace, limits: TreeLimits) -> str:
+    """A word that names a file or folder of the caller's: copied into work/, and the path
+    the sandbox sees. Other words (options, `python3`, system paths) stay as they are."""
+    p = Path(word)
+    if word.startswith(SYSTEM_PREFIXES) or not (p.is_file() or p.is_dir()) or p.is_symlink():
+        return word
+    rel = Path(*[part for part in p.parts if part not in ("/", "..", ".")]) or Path(p.name)
+    dest = ws.work / rel
+    if dest.exists():
+        return f"{WORK_DIR}/{rel}"
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    if p.is_dir():
+        copy_tree(p, dest, limits)
+    else:
+        if p.stat().st_size > limits.max_bytes:
+            raise SandboxedRenderFailed(f"{word}: larger than {limits.max_bytes} bytes")
+        shutil.copy2(p, dest)
+    return f"{WORK_DIR}/{rel}"
+
+
+def render_sandboxed(
+    words: list[str],
+    values: dict[str, str],
+    out_name: str,
+    size: tuple[int, int],
+    timeout: float | None,
+) -> tuple[Path, float, list[str]]:
+    """Runs the command (placeholders in `words`, their values in `values`: `scene`,
+    `scene_xml` are paths to copy in, `out` is replaced) and returns a private copy of the
+    image it wrote, its time and the command as run. Raises SandboxedRenderFailed."""
+    with Workspace() as ws:
+        seen = dict(values)
+        for key in ("scene", "scene_xml"):
+            if values.get(key):
+                shutil.copy2(values[key], ws.inputs / Path(values[key]).name)
+                seen[key] = f"{IN_DIR}/{Path(values[key]).name}"
+        seen["out"] = f"{OUT_DIR}/{out_name}"
+        argv = []
+        for w in words:
+            if "{" in w:
+                argv.append(_substitute(w, seen))
+            else:
+                argv.append(_copy_named(w, ws, TreeLimits()))
+        ws.hand_over()
+        outcome = run_sandboxed(argv, ws, Limits(wall=timeout or 600.0))
+        if not outcome.ok:
+            tail = f"\nrenderer output:\n{outcome.log[-2000:]}" if outcome.log.strip() else ""
+            raise SandboxedRenderFailed(f"{outcome.reason} (sandboxed): {' '.join(argv)}{tail}")
+        problem, data = read_output(ws.out, out_name, *size)
+        if problem:
+            raise SandboxedRenderFailed(f"{problem} (sandboxed): {' '.join(argv)}")
+        kept = Path(tempfile.mkdtemp(prefix="rtval-sandboxed-")) / out_name
+        kept.write_bytes(data)
+        return kept, outcome.seconds, argv
+
+
+def _substitute(word: str, values: dict[str, str]) -> str:
+    from compare.render.foreign import _FIELD
+
+    return _FIELD.sub(lambda m: values[m.group(1)], word)
