@@ -34,7 +34,7 @@ from compare.render.cache import renderer_identity
 from scene_model.scene import load_scene
 
 CACHE = ROOT / "build" / "bench-cache"
-QUIRKS = [f"Q{i}" for i in range(1, 11)]
+QUIRKS = [f"Q{i}" for i in range(1, 14)]
 
 
 def render(cmd: list[str], out: Path) -> Path:
