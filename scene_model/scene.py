@@ -104,12 +104,13 @@ class _Checker:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise self.fail(path, f"expected a number {rule}".rstrip(), v)
         f = float(v)
+        f32 = f
         if math.isfinite(f):
             with np.errstate(over="ignore"):
-                f = float(np.float32(f))  # as the renderers hold it (may round to inf)
-        if not math.isfinite(f) or not ok(f):
+                f32 = float(np.float32(f))  # as the renderers hold it (may round to inf)
+        if not math.isfinite(f32) or not ok(f32):
             raise self.fail(path, f"expected a finite number {rule}".rstrip(), v)
-        return f
+        return f  # the file's own number: exports and pages show 1.2, not 1.2000000476837158
 
     def triple(self, v: Any, path: str, rule: str, ok: Callable[[float], bool]) -> Vec3:
         if not isinstance(v, list) or len(v) != 3:

@@ -239,7 +239,7 @@ def test_compare_tolerances_are_finite_and_in_range(
     [
         (
             "[effects.refraction]\nweight = nan\n",
-            "weight must be a number >= 0 \\(finite\\), got nan",
+            "weight must be a number from 0 to 1000 \\(finite\\), got nan",
         ),
         (
             "[effects.refraction]\nmax_flip = inf\n",

@@ -207,11 +207,13 @@ def test_check_passes_unchanged_renderer_repeatedly_and_writes_junit(tmp_path: P
             baseline, "--junit", str(tmp_path / "j.xml"), "--json", str(tmp_path / "c.json")
         )
         assert code == 0, out
-    assert out.count("(cached render)") == 6  # the same binary: renders from the shared cache
+    # 3 default scenes (paper, lit, classic) x 3 modes, the same binary: from the shared cache
+    assert out.count("(cached render)") == 9
     suite = ET.parse(tmp_path / "j.xml").getroot()
     cases = json.loads((tmp_path / "c.json").read_text())["cases"]
-    # One testcase per case and effect (those with pixels) plus the whole image.
-    assert len(cases) == 6 and all(len(c["effects"]) >= 5 for c in cases)
+    # One testcase per case and effect (those with pixels: the lightless paper scene has no
+    # direct, shadow or emitter pixels) plus the whole image.
+    assert len(cases) == 9 and all(len(c["effects"]) >= 4 for c in cases)
     assert suite.get("tests") == str(sum(len(c["effects"]) + 1 for c in cases))
     assert suite.get("failures") == "0"
     assert json.loads((tmp_path / "c.json").read_text())["status"] == "pass"
