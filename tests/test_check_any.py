@@ -261,17 +261,40 @@ def test_renderer_failures_are_clear_case_failures(
 
 
 def test_timeout_kills_the_renderer_and_its_children(tmp_path: Path) -> None:
-    marker = tmp_path / "child-survived"
-    # The renderer starts a child that would write the marker after 3 s; both must die at 1 s.
-    child = f"import time; time.sleep(3); open({str(marker)!r}, 'w')"
-    parent = f"import subprocess, sys, time; subprocess.Popen([sys.executable, '-c', {child!r}]); time.sleep(60)"
+    marker, pid_file = tmp_path / "child-survived", tmp_path / "child.pid"
+    # The renderer starts a child that says its pid, then would write the marker after 60 s;
+    # both must die at the 1 s timeout.
+    child = (
+        f"import os, time; open({str(pid_file)!r}, 'w').write(str(os.getpid())); "
+        f"time.sleep(60); open({str(marker)!r}, 'w')"
+    )
+    parent = (
+        f"import subprocess, sys, time, os; subprocess.Popen([sys.executable, '-c', {child!r}]); "
+        f"[time.sleep(0.01) for _ in iter(lambda: os.path.exists({str(pid_file)!r}), True)]; "
+        "time.sleep(60)"
+    )
     template = f"{PY} -c {shlex.quote(parent)} {{out}}"
     start = time.perf_counter()
     (r,) = check.run_check(_settings(tmp_path, template, timeout=1.0), progress=lambda _: None)
     assert time.perf_counter() - start < 20
     assert r.status == "fail" and "timed out after 1 s" in r.reasons[0]
-    time.sleep(3.5)
+    assert pid_file.exists()  # the child was running when the timeout struck
+    assert _gone(int(pid_file.read_text())), "the renderer's child outlived the timeout"
     assert not marker.exists()
+
+
+def _gone(pid: int, within: float = 30.0) -> bool:
+    """True once the process has ended (a zombie has ended; only its reaping is pending)."""
+    deadline = time.monotonic() + within
+    while time.monotonic() < deadline:
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except (FileNotFoundError, ProcessLookupError):
+            return True
+        if state in ("Z", "X"):
+            return True
+        time.sleep(0.05)
+    return False
 
 
 def test_mode_placeholder_and_scene_xml(tmp_path: Path) -> None:
