@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import os
 import stat
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -84,29 +84,8 @@ def collect_entries(
 ) -> list[Entry]:
     """One Entry per student id, sorted by id. ``exclude`` (the --out folder) and hidden
     entries are skipped, each with a notice."""
-    st = os.stat(submissions)  # follows a link given on the command line: the user's choice
-    if not stat.S_ISDIR(st.st_mode):
-        raise NotADirectoryError(f"{submissions}: not a folder of submissions")
-    say = notice or (lambda _m: None)
-    excluded = set()
-    for p in exclude or []:
-        try:
-            s = os.stat(p)
-            excluded.add((s.st_dev, s.st_ino))
-        except OSError:
-            pass
     by_id: dict[str, Entry] = {}
-    with os.scandir(submissions) as it:
-        entries = sorted(it, key=lambda e: os.fsencode(e.name))
-    for e in entries:
-        shown, utf8 = displayable_name(e.name)
-        mode = e.stat(follow_symlinks=False).st_mode
-        if stat.S_ISDIR(mode) and _same(e, excluded):
-            say(f"skipping {shown}/: it is the output folder")
-            continue
-        if e.name.startswith("."):
-            say(f"skipping hidden entry {shown} (rename it without the leading dot to grade it)")
-            continue
+    for e, shown, utf8, mode in _listing(submissions, exclude, notice):
         is_file_like = not stat.S_ISDIR(mode)
         student = os.path.splitext(shown)[0] if is_file_like else shown
         entry = by_id.setdefault(student, Entry(student, dict.fromkeys(scenes)))
@@ -138,6 +117,30 @@ def collect_entries(
     return [by_id[k] for k in sorted(by_id)]
 
 
+def _listing(
+    submissions: Path, exclude: list[Path] | None, notice: Callable[[str], None] | None
+) -> Iterator[tuple[os.DirEntry[str], str, bool, int]]:
+    """(entry, displayable name, whether the name is UTF-8, lstat mode) of every entry to
+    grade, in byte order of the names; the --out folder and hidden entries are skipped, each
+    with a notice."""
+    st = os.stat(submissions)  # follows a link given on the command line: the user's choice
+    if not stat.S_ISDIR(st.st_mode):
+        raise NotADirectoryError(f"{submissions}: not a folder of submissions")
+    say = notice or (lambda _m: None)
+    excluded = _identities(exclude)
+    with os.scandir(submissions) as it:
+        entries = sorted(it, key=lambda e: os.fsencode(e.name))
+    for e in entries:
+        shown, utf8 = displayable_name(e.name)
+        mode = e.stat(follow_symlinks=False).st_mode
+        if stat.S_ISDIR(mode) and _same(e, excluded):
+            say(f"skipping {shown}/: it is the output folder")
+        elif e.name.startswith("."):
+            say(f"skipping hidden entry {shown} (rename it without the leading dot to grade it)")
+        else:
+            yield e, shown, utf8, mode
+
+
 def _same(e: os.DirEntry[str], excluded: set[tuple[int, int]]) -> bool:
     try:
         s = e.stat(follow_symlinks=False)
@@ -163,23 +166,8 @@ def collect_programs(
     """One ProgramEntry per student id, sorted by id; skipped entries as in collect_entries."""
     from compare.apps.archives import ARCHIVE_SUFFIXES, archive_suffix
 
-    st = os.stat(submissions)
-    if not stat.S_ISDIR(st.st_mode):
-        raise NotADirectoryError(f"{submissions}: not a folder of submissions")
-    say = notice or (lambda _m: None)
-    excluded = _identities(exclude)
     by_id: dict[str, ProgramEntry] = {}
-    with os.scandir(submissions) as it:
-        entries = sorted(it, key=lambda e: os.fsencode(e.name))
-    for e in entries:
-        shown, utf8 = displayable_name(e.name)
-        mode = e.stat(follow_symlinks=False).st_mode
-        if stat.S_ISDIR(mode) and _same(e, excluded):
-            say(f"skipping {shown}/: it is the output folder")
-            continue
-        if e.name.startswith("."):
-            say(f"skipping hidden entry {shown} (rename it without the leading dot to grade it)")
-            continue
+    for e, shown, utf8, mode in _listing(submissions, exclude, notice):
         suffix = archive_suffix(shown) if not stat.S_ISDIR(mode) else None
         if stat.S_ISDIR(mode):
             student = shown
