@@ -76,14 +76,15 @@ def test_second_run_is_cached_and_the_key_follows_the_content(tmp_path: Path) ->
 
 
 def test_rtdemo_environment_is_part_of_the_key(monkeypatch: pytest.MonkeyPatch) -> None:
-    """rtval check injects faults into one binary through RTDEMO_FAULT: never a cached render."""
+    """RTDEMO_ISA picks another kernel: its renders are kept apart (a kernel bug must not hide
+    behind another kernel's cached render)."""
     args = ["render", "{scene}", "-o", "{out}"]
-    monkeypatch.delenv("RTDEMO_FAULT", raising=False)
+    monkeypatch.delenv("RTDEMO_ISA", raising=False)
     plain = render_key("rtdemo", args, SCENES / "classic.json")
-    monkeypatch.setenv("RTDEMO_FAULT", "no_bias")
-    faulty = render_key("rtdemo", args, SCENES / "classic.json")
-    assert plain != faulty
-    assert render_key("rtdemo", [*args, "-q"], SCENES / "classic.json") != faulty
+    monkeypatch.setenv("RTDEMO_ISA", "scalar")
+    forced = render_key("rtdemo", args, SCENES / "classic.json")
+    assert plain != forced
+    assert render_key("rtdemo", [*args, "-q"], SCENES / "classic.json") != forced
 
 
 def test_the_gl_build_beside_rtdemo_is_part_of_the_key(tmp_path: Path) -> None:

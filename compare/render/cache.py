@@ -109,7 +109,7 @@ def _mitsuba_identity() -> str:
 
 def render_key(tool: str, args: list[str], scene_file: Path, executable: str | None = None) -> str:
     """`args` with the scene and output as the placeholders {scene} and {out}. rtdemo's
-    RTDEMO_* environment variables (fault injection in tests) change what it renders, so
+    RTDEMO_* environment variables (RTDEMO_ISA: another kernel) may change what it renders, so
     they are part of the key too."""
     h = hashlib.sha256()
     h.update(tool.encode() + b"\0")
