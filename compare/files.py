@@ -2,48 +2,17 @@
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import math
 import os
-import tempfile
 import uuid
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from compare.safe_paths import check_output_target
+# The atomic writers live beside the path checks they rely on (mitsuba_ref writes with them too).
+from scene_model.safe_paths import atomic_output, write_atomic
 
-
-@contextlib.contextmanager
-def atomic_output(path: str | Path) -> Iterator[Path]:
-    """Yields a fresh temporary sibling of ``path`` to write; on success renames it over
-    ``path``. Only a regular file (or nothing) is ever replaced, and the temporary file is
-    removed on every error (a full disk included): no partial file ever remains."""
-    p = Path(path)
-    check_output_target(p)
-    fd, name = tempfile.mkstemp(prefix=f".{p.name[:100]}.", suffix=".tmp", dir=p.parent)
-    os.close(fd)
-    tmp = Path(name)
-    try:
-        yield tmp
-        check_output_target(p)  # again: it may have changed while we wrote
-        os.chmod(tmp, 0o644)  # mkstemp makes 0600; outputs are ordinary files
-        tmp.replace(p)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
-
-
-def write_atomic(path: str | Path, data: str | bytes) -> None:
-    """Writes to a temporary sibling, then renames: readers never see half a file. The
-    sibling's name is unique (mkstemp), so two processes writing one path never share it;
-    only a regular file is replaced, and the temporary file goes on every error."""
-    raw = data.encode("utf-8") if isinstance(data, str) else data
-    with atomic_output(path) as tmp, open(tmp, "wb") as f:
-        f.write(raw)
-        f.flush()
-        os.fsync(f.fileno())  # a full disk shows here, before the rename
+__all__ = ["atomic_output", "json_safe", "sha256_file", "unique_sibling", "write_atomic"]
 
 
 def unique_sibling(path: Path) -> Path:

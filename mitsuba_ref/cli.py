@@ -39,10 +39,19 @@ def _export_options_args(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _check_output(out: Path, scene: Path) -> None:
+    """Before any work: the output is a regular file or absent (never a device, a FIFO or a
+    link) and not the scene it is made from."""
+    from scene_model.safe_paths import check_outputs_distinct
+
+    check_outputs_distinct([("-o", str(out))], [("SCENE", str(scene))])
+
+
 def run_export(args: argparse.Namespace) -> int:
     from mitsuba_ref.export import ExportOptions, export_scene
     from scene_model.scene import load_scene
 
+    _check_output(Path(args.output), Path(args.scene))
     scene = load_scene(args.scene)
     exported = export_scene(
         scene,
@@ -117,6 +126,7 @@ def render_to_file(
     from scene_model.scene import load_scene
 
     start = time.perf_counter()
+    _check_output(Path(args.output), Path(args.scene))
     scene = load_scene(args.scene)
     out = Path(args.output)
     if not out.parent.is_dir():

@@ -27,6 +27,7 @@ from mitsuba_ref.conductor_fit import ConductorFit, fit_paper_conductor
 from mitsuba_ref.light_units import light_values
 from mitsuba_ref.plugin_tree import RGB, LookAt, Plugin, Point, to_dict, to_xml
 from mitsuba_ref.ply import write_ply
+from scene_model.safe_paths import write_atomic
 from scene_model.scene import Scene, Sphere
 
 LIGHTS = ("area", "point")
@@ -74,9 +75,7 @@ class ExportedScene:
         for name, mesh in self.meshes.items():
             write_ply(p.parent / name, mesh)
             written.append(p.parent / name)
-        tmp = p.with_name(p.name + ".tmp")
-        tmp.write_text(self.xml(), encoding="utf-8")
-        tmp.replace(p)
+        write_atomic(p, self.xml())  # a unique temporary name, never through a link
         return [p, *written]
 
     def load(self, mi: Any) -> Any:

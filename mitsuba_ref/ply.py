@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from mitsuba_ref.cap_mesh import CapMesh
+from scene_model.safe_paths import write_atomic
 
 
 def write_ply(path: Path, mesh: CapMesh) -> None:
@@ -22,6 +23,4 @@ def write_ply(path: Path, mesh: CapMesh) -> None:
     faces = np.zeros(f, dtype=[("n", "u1"), ("i", "<u4", (3,))])
     faces["n"] = 3
     faces["i"] = mesh.faces
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_bytes(header + verts.tobytes() + faces.tobytes())
-    tmp.replace(path)
+    write_atomic(path, header + verts.tobytes() + faces.tobytes())  # never through a link

@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from scene_model.safe_paths import read_bounded
+
 Vec3 = tuple[float, float, float]
 
 FORMAT = "rtval-scene/1"
@@ -327,8 +329,6 @@ def load_scene(path: str | Path) -> Scene:
     """Reads and validates a scene file: a regular file (never a FIFO, which would block,
     or a device such as a symlink to /dev/zero, which never ends) of at most
     MAX_SCENE_BYTES, UTF-8 with or without a BOM."""
-    from compare.safe_paths import read_bounded
-
     p = Path(path)
     try:
         raw = read_bounded(p, MAX_SCENE_BYTES)

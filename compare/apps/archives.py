@@ -23,9 +23,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
-from compare.safe_paths import describe_mode
 from compare.sandbox import human_size
 from compare.student_ids import displayable_name
+from scene_model.safe_paths import describe_mode
 
 ARCHIVE_SUFFIXES = (".zip", ".tar.gz", ".tgz", ".tar")
 CHUNK = 1 << 20

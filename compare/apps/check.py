@@ -45,7 +45,7 @@ from compare.render.jobs import RenderJob, run_jobs
 from compare.render.models import scene_masks
 from compare.render.progress import Progress
 from compare.render.runner import ToolError
-from compare.safe_paths import read_bounded
+from scene_model.safe_paths import read_bounded
 from scene_model.scene import Scene, load_scene
 
 DEFAULT_SCENES = ("scenes/paper.json", "scenes/lit.json", "scenes/classic.json")

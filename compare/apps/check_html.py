@@ -20,7 +20,7 @@ from compare.apps.page_security import with_csp
 from compare.files import write_atomic
 from compare.judge.images import linear_to_srgb
 from compare.judge.tolerances import diff_image
-from compare.safe_paths import UnsafePathError
+from scene_model.safe_paths import UnsafePathError
 
 PNGS = ("reference", "render", "difference", "flip")
 # A bounded search per failing case (diagnose.MAX_RENDERS is 200): the page is a first look.

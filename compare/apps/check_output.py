@@ -14,7 +14,7 @@ from typing import Any
 from compare.apps.check import WHOLE_IMAGE, CaseResult, exit_code
 from compare.escape import markdown_cell, xml_text
 from compare.files import json_safe, write_atomic
-from compare.safe_paths import check_output_target
+from scene_model.safe_paths import check_output_target
 
 STATUS = ("pass", "warn", "fail")
 

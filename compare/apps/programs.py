@@ -448,7 +448,7 @@ def read_output(root: Path, rel: str, width: int, height: int) -> tuple[str, byt
 
 
 def _read_regular(dir_fd: int, name: str, rel: str, cap: int) -> tuple[str, bytes]:
-    from compare.safe_paths import describe_mode
+    from scene_model.safe_paths import describe_mode
 
     try:
         st = os.stat(name, dir_fd=dir_fd, follow_symlinks=False)

@@ -71,7 +71,7 @@ from compare.render.plan import (
 )
 from compare.render.progress import Progress
 from compare.render.runner import ToolError, rtdemo_path
-from compare.safe_paths import check_output_target
+from scene_model.safe_paths import check_output_target
 from scene_model.scene import load_scene
 
 # Renders compared in full (global + per effect), with maps.
@@ -553,7 +553,7 @@ def build_report(
         "scene_copy": SCENE_COPY,
         "scene_sha256": sha256_file(scene_file),
         "size": [ref_w, ref_h],
-        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "date": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "machine": _machine(),
         "versions": _versions(),
         "command": shlex.join(command_line),

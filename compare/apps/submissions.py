@@ -20,8 +20,8 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from compare.safe_paths import describe_mode
 from compare.student_ids import displayable_name
+from scene_model.safe_paths import describe_mode
 
 IMAGE_SUFFIXES = (".exr", ".png", ".ppm", ".pfm")
 

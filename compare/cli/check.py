@@ -24,7 +24,7 @@ def _seconds(text: str) -> float:
 def run_check(args: argparse.Namespace) -> int:
     from compare.apps import check, check_output
     from compare.render import foreign
-    from compare.safe_paths import check_outputs_distinct
+    from scene_model.safe_paths import check_outputs_distinct
 
     renderer = None
     if args.renderer is not None:

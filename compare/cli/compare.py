@@ -22,7 +22,7 @@ def run_compare(args: argparse.Namespace) -> int:
     from compare.judge.tolerances import EXIT_SIZE, Tolerances
     from compare.render.cache import RenderCache
     from compare.render.progress import Progress
-    from compare.safe_paths import check_outputs_distinct
+    from scene_model.safe_paths import check_outputs_distinct
     from scene_model.scene import load_scene
 
     if args.against:

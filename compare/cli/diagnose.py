@@ -22,7 +22,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from compare.judge.target_model import parse_model
     from compare.render.candidates import CandidateRenderer
     from compare.render.runner import ToolError
-    from compare.safe_paths import check_outputs_distinct
+    from scene_model.safe_paths import check_outputs_distinct
     from scene_model.scene import load_scene
 
     start = None

@@ -17,7 +17,7 @@ def run_ztest(args: argparse.Namespace) -> int:
     from compare.judge.images import ImageError, image_size, read_image, write_exr
     from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_SIZE
     from compare.judge.ztest import z_test
-    from compare.safe_paths import check_outputs_distinct
+    from scene_model.safe_paths import check_outputs_distinct
 
     check_outputs_distinct(
         [("--json", args.json), ("--pvalue-image", args.pvalue_image)],

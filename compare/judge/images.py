@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from compare.files import atomic_output
-from compare.safe_paths import UnsafePathError, check_regular_input
+from scene_model.safe_paths import UnsafePathError, check_regular_input
 
 F32 = NDArray[np.float32]
 

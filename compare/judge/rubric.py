@@ -33,11 +33,10 @@ from __future__ import annotations
 import hashlib
 import math
 import re
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
-
-import tomllib
 
 from compare.judge.effects import EFFECTS
 from compare.judge.scoring import FLIP_AT_ZERO_SCORE, EffectRule
@@ -246,7 +245,7 @@ def _program(table: Any, fail: Any) -> dict[str, Any]:
 def load_rubric(path: str | Path | None) -> Rubric:
     if path is None:
         return parse_rubric(DEFAULT_RUBRIC_TEXT, "default rubric")
-    from compare.safe_paths import read_bounded
+    from scene_model.safe_paths import read_bounded
 
     p = Path(path)
     try:  # a regular file of at most 1 MiB: never a FIFO or a device

@@ -46,7 +46,7 @@ from typing import Any
 
 from compare.files import atomic_output, sha256_file, unique_sibling, write_atomic
 from compare.render.runner import ToolError, rtdemo_path
-from compare.safe_paths import check_output_target, describe_mode, read_bounded
+from scene_model.safe_paths import check_output_target, describe_mode, read_bounded
 
 ENV = "RTVAL_CACHE"
 MAX_SIZE_ENV = "RTVAL_CACHE_MAX_SIZE"

@@ -8,9 +8,11 @@ a device into a file. An output that is also an input, or twice an output, is re
 
 from __future__ import annotations
 
+import contextlib
 import os
 import stat
-from collections.abc import Iterable
+import tempfile
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 
@@ -128,3 +130,34 @@ def check_outputs_distinct(
             )
         seen[ident] = option
         check_output_target(p)
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | Path) -> Iterator[Path]:
+    """Yields a fresh temporary sibling of ``path`` to write; on success renames it over
+    ``path``. Only a regular file (or nothing) is ever replaced, and the temporary file is
+    removed on every error (a full disk included): no partial file ever remains."""
+    p = Path(path)
+    check_output_target(p)
+    fd, name = tempfile.mkstemp(prefix=f".{p.name[:100]}.", suffix=".tmp", dir=p.parent)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        check_output_target(p)  # again: it may have changed while we wrote
+        os.chmod(tmp, 0o644)  # mkstemp makes 0600; outputs are ordinary files
+        tmp.replace(p)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+
+
+def write_atomic(path: str | Path, data: str | bytes) -> None:
+    """Writes to a temporary sibling, then renames: readers never see half a file. The
+    sibling's name is unique (mkstemp), so two processes writing one path never share it;
+    only a regular file is replaced, and the temporary file goes on every error."""
+    raw = data.encode("utf-8") if isinstance(data, str) else data
+    with atomic_output(path) as tmp, open(tmp, "wb") as f:
+        f.write(raw)
+        f.flush()
+        os.fsync(f.fileno())  # a full disk shows here, before the rename
