@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -126,3 +127,20 @@ def test_interrupted_report_leaves_no_complete_looking_files(
     assert not leftovers, leftovers
     half_made = list((render_cache / "tmp").glob("*"))  # renders in progress are removed
     assert not half_made, half_made
+
+
+@pytest.mark.parametrize("size", ["1x1", "3x2", "31x240"])
+def test_report_refuses_a_size_too_small_for_its_metrics(size: str) -> None:
+    """A traceback (SSIM undefined) in the hostile-input pass; now a usage error up front."""
+    proc = run([RTVAL, "report", str(SCENES / "classic.json"), "--size", size, "--no-pdf"])
+    assert proc.returncode == 64 and "each side must be 32-16384" in proc.stderr, proc.stderr
+
+
+def test_report_refuses_a_scene_whose_camera_is_too_small(tmp_path: Path) -> None:
+    scene = json.loads((SCENES / "classic.json").read_text())
+    scene["camera"].update(width=8, height=6)
+    path = tmp_path / "tiny.json"
+    path.write_text(json.dumps(scene))
+    proc = run([RTVAL, "report", str(path), "--reports-dir", str(tmp_path), "--no-pdf"])
+    assert proc.returncode == 64 and "its camera is 8x6" in proc.stderr, proc.stderr
+    assert not (tmp_path / "classic").exists()

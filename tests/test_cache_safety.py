@@ -87,9 +87,11 @@ def test_clear_never_follows_a_planted_link(tmp_path: Path) -> None:
         RenderCache(root).tmp_path("k")
 
 
-def test_an_empty_cache_path_is_refused() -> None:
+def test_an_empty_cache_path_or_a_device_is_refused() -> None:
     proc = run([RTVAL, "cache", "--cache", ""])
     assert proc.returncode == 4 and "empty path names no folder" in proc.stderr
+    proc = run([RTVAL, "cache", "--cache", "/dev/zero"])  # exited 0, "0 renders"
+    assert proc.returncode == 4 and "is a character device, not a folder" in proc.stderr
 
 
 def test_a_cache_others_can_write_is_named(

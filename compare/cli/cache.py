@@ -27,6 +27,7 @@ def run_cache(args: argparse.Namespace) -> int:
     from compare.render.cache import RenderCache
 
     cache = RenderCache(args.cache)
+    cache.check_root()
     if args.clear:
         files, size = cache.clear()
         print(f"{cache.root}: removed {files} files, {_human(size)}")

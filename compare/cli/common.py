@@ -20,17 +20,26 @@ class Parser(argparse.ArgumentParser):
         sys.exit(EXIT_USAGE)
 
 
-def size_type(text: str) -> tuple[int, int]:
-    """WIDTHxHEIGHT, each side 1-16384."""
+def size_type(text: str, smallest: int = 1) -> tuple[int, int]:
+    """WIDTHxHEIGHT, each side `smallest`-16384."""
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected WIDTHxHEIGHT, e.g. 320x240, got {text!r}"
         ) from None
-    if not (1 <= w <= 16384 and 1 <= h <= 16384):
-        raise argparse.ArgumentTypeError(f"each side must be 1-16384, got {text!r}")
+    if not (smallest <= w <= 16384 and smallest <= h <= 16384):
+        raise argparse.ArgumentTypeError(f"each side must be {smallest}-16384, got {text!r}")
     return w, h
+
+
+# A report measures SSIM (an 11 x 11 window, and a 5-pixel border left out) in every effect.
+REPORT_MIN_SIDE = 32
+
+
+def report_size_type(text: str) -> tuple[int, int]:
+    """WIDTHxHEIGHT for a report: each side REPORT_MIN_SIDE-16384."""
+    return size_type(text, REPORT_MIN_SIDE)
 
 
 def _number(

@@ -4,6 +4,7 @@ builds the parser and maps errors to exit codes."""
 
 from __future__ import annotations
 
+import os
 import sys
 
 from compare.cli import cache, check, compare, diagnose, grade, report, stress, ztest
@@ -63,6 +64,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("rtval: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # `rtval ... | head`: the reader has gone; say nothing more
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141  # as a shell reports a command ended by SIGPIPE
 
 
 if __name__ == "__main__":

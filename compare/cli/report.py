@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from compare.cli.common import add_cache_argument, positive_int, size_type
+from compare.cli.common import add_cache_argument, positive_int, report_size_type
 
 
 def run_report(args: argparse.Namespace) -> int:
@@ -18,6 +18,8 @@ def run_report(args: argparse.Namespace) -> int:
         if not args.test_image:
             raise ValueError("--against needs --test-image (the image judged against MODEL)")
         parse_model(args.against)  # a bad model is a usage error before any render
+    if args.size is None:
+        _check_scene_size(args.scene)
 
     index = build_report(
         args.scene,
@@ -34,6 +36,18 @@ def run_report(args: argparse.Namespace) -> int:
     )
     print(index)
     return 0
+
+
+def _check_scene_size(scene_file: str) -> None:
+    from compare.cli.common import REPORT_MIN_SIDE
+    from scene_model.scene import load_scene
+
+    cam = load_scene(scene_file).camera
+    if min(cam.width, cam.height) < REPORT_MIN_SIDE:
+        raise ValueError(
+            f"{scene_file}: its camera is {cam.width}x{cam.height}; a report needs at least "
+            f"{REPORT_MIN_SIDE}x{REPORT_MIN_SIDE} (SSIM's window): pass --size"
+        )
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -59,10 +73,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     p.add_argument(
         "--size",
-        type=size_type,
+        type=report_size_type,
         default=None,
         metavar="WxH",
-        help="override the camera's image size",
+        help="override the camera's image size (each side at least 32: SSIM's window)",
     )
     p.add_argument(
         "--test-image",

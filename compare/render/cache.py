@@ -132,6 +132,12 @@ class RenderCache:
         self.tmp_dir = self.root / "tmp"
         self._warned = False
 
+    def check_root(self) -> None:
+        """The cache folder is a real folder, or not there yet (a device, a file or a link
+        named as the cache is refused)."""
+        if os.path.lexists(self.root):
+            _require_folder(self.root)
+
     def _ready(self) -> None:
         try:
             for d in (self.root, self.renders, self.derived_dir, self.tmp_dir):
@@ -359,9 +365,10 @@ def _require_folder(path: Path) -> None:
     except OSError as e:
         raise CacheError(f"render cache {path}: {e.strerror}") from None
     if not stat.S_ISDIR(mode):
+        link = "; the cache never follows links" if stat.S_ISLNK(mode) else ""
         raise CacheError(
-            f"render cache {path}: is {describe_mode(mode)}, not a folder; "
-            "the cache never follows links (remove it, or use another --cache)"
+            f"render cache {path}: is {describe_mode(mode)}, not a folder{link} "
+            "(remove it, or use another --cache)"
         )
 
 
