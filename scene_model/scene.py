@@ -25,7 +25,7 @@ Vec3 = tuple[float, float, float]
 
 FORMAT = "rtval-scene/1"
 FLOAT32_MAX = 3.4028234663852886e38
-_NAME_RULE = re.compile(r"[a-z0-9_-]+")
+_NAME_RULE = re.compile(r"[a-z0-9_-]{1,64}")  # it becomes part of file names
 MAX_SCENE_BYTES = 16 << 20  # the built-in scenes are ~2 KB; a stress scene ~100 KB
 MAX_NESTING = 64
 _BOM = "\ufeff"
@@ -288,10 +288,10 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
     if root["format"] != FORMAT:
         raise c.fail("format", f'expected exactly "{FORMAT}"', root["format"])
     if "name" not in root:
-        raise c.fail("name", "missing; expected a name matching [a-z0-9_-]+")
+        raise c.fail("name", "missing; expected a name of 1-64 characters [a-z0-9_-]")
     name = c.string(root["name"], "name")
     if not _NAME_RULE.fullmatch(name):
-        raise c.fail("name", "expected a name matching [a-z0-9_-]+", name)
+        raise c.fail("name", "expected a name of 1-64 characters [a-z0-9_-]", name)
     description = c.string(root["description"], "description") if "description" in root else ""
     camera = _parse_camera(root["camera"], c) if "camera" in root else Camera()
     background = (

@@ -222,6 +222,8 @@ EDGE_FILES: dict[str, tuple[bool, str]] = {
     "tab in a name": (False, json.dumps(_scene(spheres=[_sphere(name="a\tb")]))),
     "trailing NUL": (False, json.dumps(_scene()) + "\u0000"),
     "long scene name": (False, json.dumps(_scene(name="a" * 1_000_000 + "!"))),
+    "scene name of 64": (True, json.dumps(_scene(name="a" * 64))),
+    "scene name of 300": (False, json.dumps(_scene(name="a" * 300))),  # ENAMETOOLONG in reports
     "deep brackets": (False, "[" * 1_000_000),
     "deep objects": (False, '{"a":' * 100_000),
 }

@@ -84,10 +84,10 @@ private:
     std::string source_;
 };
 
-// The scene's name becomes part of file names: [a-z0-9_-]+ (a loop: std::regex recurses per
+// The scene's name becomes part of file names: 1-64 of [a-z0-9_-] (a loop: std::regex recurses per
 // character and overflows the stack on a long name).
 bool is_file_name_word(const std::string& name) {
-    if (name.empty()) return false;
+    if (name.empty() || name.size() > 64) return false;  // file names stay short
     for (const char c : name)
         if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-'))
             return false;
@@ -226,10 +226,10 @@ Scene parse_scene(const std::string& text, const std::string& source) {
     if (!root.contains("format")) v.fail("format", "missing; expected \"rtval-scene/1\"");
     if (!root["format"].is_string() || root["format"] != "rtval-scene/1")
         v.fail("format", "expected exactly \"rtval-scene/1\"", &root["format"]);
-    if (!root.contains("name")) v.fail("name", "missing; expected a name matching [a-z0-9_-]+");
+    if (!root.contains("name")) v.fail("name", "missing; expected a name of 1-64 characters [a-z0-9_-]");
     scene.name = v.string(root["name"], "name");
     if (!is_file_name_word(scene.name))
-        v.fail("name", "expected a name matching [a-z0-9_-]+", &root["name"]);
+        v.fail("name", "expected a name of 1-64 characters [a-z0-9_-]", &root["name"]);
     if (root.contains("description"))
         scene.description = v.string(root["description"], "description");
     if (root.contains("camera")) scene.camera = parse_camera(root["camera"], v);
