@@ -226,7 +226,8 @@ Scene parse_scene(const std::string& text, const std::string& source) {
     if (!root.contains("format")) v.fail("format", "missing; expected \"rtval-scene/1\"");
     if (!root["format"].is_string() || root["format"] != "rtval-scene/1")
         v.fail("format", "expected exactly \"rtval-scene/1\"", &root["format"]);
-    if (!root.contains("name")) v.fail("name", "missing; expected a name of 1-64 characters [a-z0-9_-]");
+    if (!root.contains("name"))
+        v.fail("name", "missing; expected a name of 1-64 characters [a-z0-9_-]");
     scene.name = v.string(root["name"], "name");
     if (!is_file_name_word(scene.name))
         v.fail("name", "expected a name of 1-64 characters [a-z0-9_-]", &root["name"]);
