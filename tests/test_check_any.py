@@ -408,8 +408,10 @@ def test_outputs_hold_hostile_text_and_a_failed_diagnosis_is_a_note(tmp_path: Pa
     r.reasons = ["classic: render failed: \x01<script>alert(1)</script>"]
     r.failed_effects = ["render"]
     write_junit([r], tmp_path / "j.xml")
-    (failure,) = _junit_failures(tmp_path / "j.xml").values()  # parses: no control character
-    assert "\x01" not in failure and "<script>" in failure
+    failures = _junit_failures(tmp_path / "j.xml")  # parses: no control character
+    # No image was made: the image testcase fails too (it was marked passed).
+    assert sorted(name for _, name in failures) == ["image", "render"]
+    assert all("\x01" not in f and "<script>" in f for f in failures.values())
     write_json([r], tmp_path / "c.json")
     assert json.loads((tmp_path / "c.json").read_text())["status"] == "fail"
     # A diagnosis that cannot be made (the scene file is gone) leaves a note, not a traceback.

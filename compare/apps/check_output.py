@@ -60,7 +60,11 @@ def _testcases(r: CaseResult) -> list[tuple[str, str, str | None]]:
             message = next((m for m in r.reasons if m.startswith(f"{r.label}: {n} ")), None)
             rows.append((n, "fail", message or "; ".join(r.reasons)))
         elif n == WHOLE_IMAGE:
-            rows.append((n, r.status if r.status != "fail" else "pass", "; ".join(r.reasons)))
+            # No image at all (the render failed) fails the image too; otherwise the failure
+            # is filed under the effects that failed.
+            no_image = r.status == "fail" and "render" in r.failed_effects
+            status = "fail" if no_image else (r.status if r.status != "fail" else "pass")
+            rows.append((n, status, "; ".join(r.reasons)))
         else:
             e = r.effects[n]
             rows.append((n, "warn" if e.status == "warn" else "pass", "; ".join(e.reasons)))
