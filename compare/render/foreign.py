@@ -17,6 +17,7 @@ import shutil
 import signal
 import subprocess
 import tempfile
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,6 +31,7 @@ _FIELD = re.compile(r"\{([^{}]*)\}")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
 _INTERPRETERS = re.compile(r"(python[0-9.]*|pypy[0-9.]*|node|ruby|perl|julia|java|bash|sh|env)")
 STDERR_KEPT = 2000  # characters of the renderer's stderr kept for a failure message
+_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f]")  # all but tab and newline
 
 
 class RenderFailed(RuntimeError):
@@ -196,8 +198,11 @@ def _run_plain(argv: list[str], shown: str, out: Path, timeout: float | None) ->
         )
     except OSError as e:
         raise RenderFailed(f"cannot start {shown}: {e.strerror or e}") from None
+    assert proc.stderr is not None
+    stderr = _Tail(proc.stderr.fileno())
+    proc.stderr.close()  # the reader has its own copy of the pipe
     try:
-        _, err_bytes = proc.communicate(timeout=timeout)
+        proc.wait(timeout=timeout)
     except subprocess.TimeoutExpired:
         _kill_group(proc)
         raise RenderFailed(f"timed out after {timeout:g} s: {shown}") from None
@@ -205,13 +210,38 @@ def _run_plain(argv: list[str], shown: str, out: Path, timeout: float | None) ->
         _kill_group(proc)
         raise
     seconds = time.perf_counter() - start
-    err = err_bytes.decode("utf-8", "replace").strip()[-STDERR_KEPT:]
+    err = stderr.text()
     tail = f"\nrenderer stderr:\n{err}" if err else ""
     if proc.returncode != 0:
         raise RenderFailed(f"exit status {proc.returncode}: {shown}{tail}")
     if not out.is_file():
         raise RenderFailed(f"wrote no image {out.name} (expected at {{out}}): {shown}{tail}")
     return seconds, tail
+
+
+class _Tail:
+    """The last STDERR_KEPT characters of a pipe, read by a thread: a renderer printing
+    300 MB costs no memory, and one whose detached child keeps the pipe open costs no wait."""
+
+    def __init__(self, fd: int) -> None:
+        self.fd, self.kept = os.dup(fd), bytearray()  # its own copy, closed when it ends
+        self.thread = threading.Thread(target=self._read, daemon=True)
+        self.thread.start()
+
+    def _read(self) -> None:
+        try:
+            while chunk := os.read(self.fd, 1 << 16):
+                self.kept += chunk
+                del self.kept[: max(0, len(self.kept) - 4 * STDERR_KEPT)]
+        except OSError:
+            pass
+        finally:
+            os.close(self.fd)
+
+    def text(self) -> str:
+        self.thread.join(timeout=1.0)  # the renderer has exited; its children may not have
+        raw = bytes(self.kept).decode("utf-8", "replace").strip()[-STDERR_KEPT:]
+        return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", raw)  # no terminal escapes
 
 
 def _size_advice(cmd: RendererCommand, size_from: str, got: str) -> str:
@@ -230,4 +260,4 @@ def _size_advice(cmd: RendererCommand, size_from: str, got: str) -> str:
 def _kill_group(proc: subprocess.Popen[bytes]) -> None:
     with contextlib.suppress(ProcessLookupError, PermissionError):
         os.killpg(proc.pid, signal.SIGKILL)
-    proc.communicate()
+    proc.wait()  # not the pipe: a child that left the group (setsid) may hold it open
