@@ -2,9 +2,9 @@
 
 An id is whatever a file name said: any text, any length. On disk (results/<slug>.json,
 students/<slug>/) it becomes a slug: the id itself when it is short, plain lower-case
-ASCII (letters, digits, '_', '-'), otherwise a sanitised prefix plus a hash of the id, so
-that two ids never share a slug (also on case-insensitive file systems) and no slug is a
-path, a hidden name or too long. The real id travels beside the slug in every result.
+ASCII (letters, digits, '_', '-'), otherwise a sanitised prefix, a '.' and a hash of the id,
+so that two ids never share a slug (a plain id has no '.'; case-insensitive file systems
+included) and no slug is a path, a hidden name or too long. The real id travels beside the slug in every result.
 """
 
 from __future__ import annotations
@@ -23,7 +23,9 @@ def student_slug(student: str) -> str:
         return student
     digest = hashlib.sha256(student.encode("utf-8", "surrogatepass")).hexdigest()[:10]
     stem = _UNSAFE.sub("_", student.lower()).strip("_-")[:64]
-    return f"{stem}-{digest}" if stem else f"id-{digest}"
+    # '.' is never in a plain id: a student naming a file after a classmate's slug
+    # ("victim_name.1a2b3c4d5e") gets a slug of their own, not the classmate's.
+    return f"{stem}.{digest}" if stem else f"id.{digest}"
 
 
 def displayable_name(name: str) -> tuple[str, bool]:

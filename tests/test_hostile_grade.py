@@ -125,3 +125,13 @@ def test_fifo_does_not_block_the_listing(tmp_path: Path) -> None:
     os.mkfifo(tmp_path / "f.ppm")
     (rows,) = collect(tmp_path, ["classic"])
     assert rows[0] == "f" and rows[2] is not None and "FIFO" in rows[2]
+
+
+def test_an_id_named_after_a_classmates_slug_gets_its_own() -> None:
+    """The hostile-input pass: 'Victim Name.ppm' and a file named with that name's slug and
+    hash shared one results file, so --explain showed the classmate's PASS."""
+    victim = student_slug("Victim Name")
+    assert student_slug(victim) == victim.replace(".", "_") + "." + student_slug(victim)[-10:]
+    assert student_slug(victim) != victim
+    plain = [student_slug(s) for s in ("victim_name", "victim_name-1a2b3c4d5e")]
+    assert all("." not in s for s in plain) and "." in victim

@@ -105,6 +105,6 @@ def test_csp_allows_exactly_the_pages_own_scripts() -> None:
 def test_slugs_are_safe_and_distinct(a: str, b: str) -> None:
     sa, sb = student_slug(a), student_slug(b)
     for s in (sa, sb):
-        assert re.fullmatch(r"[a-z0-9_][a-z0-9_-]*", s) and len(s) <= 80
+        assert re.fullmatch(r"[a-z0-9_][a-z0-9_-]*(\.[0-9a-f]{10})?", s) and len(s) <= 80
     if a != b:
         assert sa != sb and sa.lower() != sb.lower()

@@ -202,7 +202,7 @@ def grade_one(task: GradeTask) -> dict[str, Any]:
     result_path = out / "results" / f"{slug}.json"
     key = task_key(task)
     old = _load_result(result_path)  # None when missing, truncated or corrupt: regrade
-    if old is not None and old.get("key") == key:
+    if old is not None and old.get("key") == key and old.get("student") == task.student:
         return {**old, "resumed": True}
     rubric = parse_rubric(task.rubric_text, task.rubric_source)
     page_dir = out / "students" / slug
@@ -507,6 +507,8 @@ def explain(out: Path, student: str) -> str:
     if not path.is_file():
         raise OSError(f"{path}: no result for {student!r} (run rtval grade first)")
     r = _load_result(path)
+    if r is not None and r.get("student") != student:  # never a classmate's result
+        raise OSError(f"{path}: holds the result of another id, not {student!r}")
     if r is None or not {"status", "score", "rubric", "scenes"} <= r.keys():
         raise OSError(
             f"{path}: the result for {student!r} is truncated or corrupt; "
