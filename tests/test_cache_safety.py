@@ -143,3 +143,67 @@ def test_size_texts() -> None:
     for bad in ("-1GB", "nan", "1e40", "2 GiB"):
         with pytest.raises(ValueError, match="expected a size"):
             parse_size(bad)
+
+
+def test_planted_scene_copies_are_checked_not_followed(tmp_path: Path) -> None:
+    """The red-team pass: the perturbed renders' scene copies in derived/ replaced by links to
+    a black-background scene made the spread cover the image, and black_background PASSED."""
+    import json
+
+    from compare.judge.target_model import parse_model
+    from compare.render.models import render_offsets
+
+    cache = RenderCache(tmp_path / "c")
+    model, size = parse_model("classic"), (32, 24)
+    first = [read_image(p).rgb for p in render_offsets(model, SCENES / "classic.json", size, cache)]
+    evil = json.loads((SCENES / "classic.json").read_text())
+    evil["background"] = [0, 0, 0]
+    (tmp_path / "evil.json").write_text(json.dumps(evil))
+    copies = sorted(cache.derived_dir.glob("scene-*-perturbed.json"))
+    assert len(copies) == 10
+    for c in copies[:5]:
+        c.unlink()
+        c.symlink_to(tmp_path / "evil.json")
+    for c in copies[5:]:
+        c.write_text(json.dumps(evil))  # a plain file with other bytes
+    for c in cache.renders.glob("*"):
+        c.unlink()  # and nothing cached, so they are rendered from the copies again
+    again = [read_image(p).rgb for p in render_offsets(model, SCENES / "classic.json", size, cache)]
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+    assert not any(c.is_symlink() for c in copies)
+
+
+@pytest.mark.parametrize("plant", ["fifo", "link", "lock-link"])
+def test_the_counts_never_stop_a_verdict(
+    tmp_path: Path, plant: str, capfd: pytest.CaptureFixture[str]
+) -> None:
+    cache = RenderCache(tmp_path / "c")
+    _render(cache, "classic")
+    stats = cache.root / ("stats.json" if plant != "lock-link" else ".stats.lock")
+    stats.unlink(missing_ok=True)
+    if plant == "fifo":
+        os.mkfifo(stats)
+    else:
+        stats.symlink_to(tmp_path / "elsewhere")
+    job = _render(cache, "physical")  # a miss: counted, or not, but rendered
+    assert job.exr(cache).is_file() and not (tmp_path / "elsewhere").exists()
+    assert "counts not kept" in capfd.readouterr().err
+
+
+def test_cache_command_looks_through_no_link_and_checks_its_size_setting(tmp_path: Path) -> None:
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    (outside / "victim.exr").write_bytes(b"x")
+    root = tmp_path / "c"
+    root.mkdir()
+    (root / "renders").symlink_to(outside)
+    proc = run([RTVAL, "cache", "--cache", str(root)])
+    assert proc.returncode == 4 and "not a folder" in proc.stderr, proc.stdout
+    env = {**os.environ, "RTVAL_CACHE_MAX_SIZE": "lots"}
+    image = tmp_path / "black.ppm"
+    image.write_bytes(b"P6\n32 24\n255\n" + bytes(32 * 24 * 3))
+    scene = str(SCENES / "classic.json")
+    cmd = [RTVAL, "compare", str(image), "--against", "classic", "--scene", scene]
+    proc = run([*cmd, "--cache", str(tmp_path / "d")], env=env)
+    assert proc.returncode == 64 and "RTVAL_CACHE_MAX_SIZE" in proc.stderr, proc.stderr
+    assert not (tmp_path / "d" / "renders").exists()  # refused before any render

@@ -39,7 +39,7 @@ def run_cache(args: argparse.Namespace) -> int:
             f"{cache.root}: size cap set to {_human(args.max_size)}; evicted {entries} entries, {_human(freed)}"
         )
     files, size = cache.size()
-    renders = len(list(cache.renders.glob("*.exr"))) if cache.renders.is_dir() else 0
+    renders = sum(p.suffix == ".exr" for p in cache.entry_files())
     s = cache.stats()
     print(
         f"{cache.root}: {renders} renders, {files} files, {_human(size)} "

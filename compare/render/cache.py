@@ -131,12 +131,19 @@ class RenderCache:
         self.derived_dir = self.root / "derived"
         self.tmp_dir = self.root / "tmp"
         self._warned = False
+        if os.environ.get(MAX_SIZE_ENV):
+            self.max_bytes()  # a bad $RTVAL_CACHE_MAX_SIZE is refused before any render
 
     def check_root(self) -> None:
-        """The cache folder is a real folder, or not there yet (a device, a file or a link
-        named as the cache is refused)."""
-        if os.path.lexists(self.root):
-            _require_folder(self.root)
+        """The cache folder and its subfolders are real folders, or not there yet (a device,
+        a file or a link in their place is refused)."""
+        for d in (self.root, self.renders, self.derived_dir, self.tmp_dir):
+            if os.path.lexists(d):
+                _require_folder(d)
+
+    def entry_files(self) -> list[Path]:
+        """The regular files of renders/ (nothing through a link)."""
+        return _plain_files(self.renders)
 
     def _ready(self) -> None:
         try:
@@ -211,11 +218,30 @@ class RenderCache:
         return info
 
     def derived(self, name: str) -> Path:
-        """A file computed from cached inputs; `name` carries the inputs' hashes."""
+        """A file computed from cached inputs; `name` carries the inputs' hashes. Anything but
+        a regular file there (a planted link) is removed first: it is never followed."""
         self._ready()
         path = self.derived_dir / name
         if _is_plain_file(path):
             _touch(path)
+        elif os.path.lexists(path):
+            print(f"rtval: render cache: {path} is not a regular file; removed", file=sys.stderr)
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()
+        return path
+
+    def derived_text(self, name: str, text: str) -> Path:
+        """derived(name) holding exactly `text` (a scene copy a render is made from): what is
+        there is checked, not trusted, and written again when it differs."""
+        path = self.derived(name)
+        try:
+            same = (
+                _is_plain_file(path) and read_bounded(path, len(text.encode()) + 1) == text.encode()
+            )
+        except OSError:
+            same = False
+        if not same:
+            write_atomic(path, text)
         return path
 
     def _entries(self) -> list[_Entry]:
@@ -288,11 +314,16 @@ class RenderCache:
         """Adds to the cache's lifetime counts (hits, misses, evictions, discarded)."""
         if not any(events.values()) or not _is_folder(self.root):
             return
-        with _locked(self.root / ".stats.lock"):
-            stats = self.stats()
-            for k, n in events.items():
-                stats[k] = stats.get(k, 0) + n
-            write_atomic(self.root / "stats.json", json.dumps(stats))
+        try:
+            with _locked(self.root / ".stats.lock"):
+                stats = self.stats()
+                for k, n in events.items():
+                    stats[k] = stats.get(k, 0) + n
+                write_atomic(self.root / "stats.json", json.dumps(stats))
+        except OSError as e:  # the counts are a report: they never stop a verdict
+            print(
+                f"rtval: warning: render cache {self.root}: counts not kept: {e}", file=sys.stderr
+            )
 
     def stats(self) -> dict[str, int]:
         path = self.root / "stats.json"
@@ -300,7 +331,8 @@ class RenderCache:
         if _is_plain_file(path):
             with contextlib.suppress(OSError, ValueError, TypeError, AttributeError):
                 raw = json.loads(read_bounded(path, SIDECAR_MAX_BYTES))
-                out.update({k: int(raw[k]) for k in STATS if isinstance(raw.get(k), int)})
+                good = {k: raw[k] for k in STATS if type(raw.get(k)) is int and raw[k] >= 0}
+                out.update(good)  # a bool, a negative or a float count is not one
         return out
 
     def clear(self) -> tuple[int, int]:

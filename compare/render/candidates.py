@@ -125,8 +125,10 @@ class CandidateRenderer:
         folder = self.cache_dir if self.cache_dir is not None else self._dir
         assert folder is not None
         copy = folder / f"scene-{digest[:24]}.json"
-        if not copy.is_file():
-            folder.mkdir(parents=True, exist_ok=True)
+        folder.mkdir(parents=True, exist_ok=True)
+        if not _holds(copy, text):  # checked, not trusted: a planted file or link is replaced
+            if copy.is_symlink():
+                copy.unlink()
             write_atomic(copy, text)
         return str(copy), digest
 
@@ -198,3 +200,14 @@ class CandidateRenderer:
             return image
         finally:
             out.unlink(missing_ok=True)
+
+
+def _holds(path: Path, text: str) -> bool:
+    """True when path is a regular file (not a link) holding exactly text."""
+    from scene_model.safe_paths import read_bounded
+
+    data = text.encode()
+    try:
+        return not path.is_symlink() and read_bounded(path, len(data) + 1) == data
+    except OSError:
+        return False

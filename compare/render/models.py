@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.files import atomic_output, sha256_file, write_atomic
+from compare.files import atomic_output, sha256_file
 from compare.judge import effects
 from compare.judge.effects import BOOL, EFFECTS, effect_masks
 from compare.judge.images import read_image
@@ -155,9 +155,7 @@ def render_offsets(
     for key, label, text in _perturbed_scenes(scene_file, size):
         digest = hashlib.sha256(text.encode()).hexdigest()[:16]
         # The scene copy is named by its content, so it is derived data like a figure.
-        copy = cache.derived(f"scene-{digest}-perturbed.json")
-        if not copy.is_file():
-            write_atomic(copy, text)
+        copy = cache.derived_text(f"scene-{digest}-perturbed.json", text)
         job = model_job(model, copy, size)
         job.key += key
         job.label += label
