@@ -548,7 +548,7 @@ def explain(out: Path, student: str) -> str:
             lines.append(
                 "    score = 100 x the share of the effect's pixels that match the model within "
                 f"{v['exact']['rule']}, weighted by pixels x weight; an effect passes with at "
-                f"most {100 * v['exact']['max_differing_share']:g} % of its pixels differing; "
+                f"most {v['exact']['stray_rule']} of its pixels differing; "
                 f"pass needs every effect to pass and score >= {v['pass_score']}"
             )
         else:
