@@ -36,6 +36,7 @@ class Candidate:
     background: RGB | None = None  # None: the scene's
     ior: float | None = None  # every glass sphere's; None: the scene's
     turn: tuple[float, float] | None = None  # camera turned by (dx, dy) pixels
+    grow: int | None = None  # every sphere grown by this many float32 ulps (models.grown_scene)
 
     @staticmethod
     def of_mode(mode: str) -> Candidate:
@@ -66,6 +67,8 @@ class Candidate:
             parts.append(f"[ior {self.ior:g}]")
         if self.turn is not None:
             parts.append(f"[camera turned {self.turn[0]:+g}, {self.turn[1]:+g} px]")
+        if self.grow is not None:
+            parts.append(f"[spheres {self.grow:+d} ulps]")
         return " ".join(parts)
 
     def ordered_mistakes(self) -> list[str]:
@@ -114,3 +117,6 @@ class Candidate:
 
     def turned(self, turn: tuple[float, float] | None) -> Candidate:
         return dataclasses.replace(self, turn=turn)
+
+    def grown(self, ulps: int | None) -> Candidate:
+        return dataclasses.replace(self, grow=ulps)

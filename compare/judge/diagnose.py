@@ -407,9 +407,10 @@ class _Search:
         render: Renderer,
         parallel: int,
         turns: Sequence[tuple[float, float]],
+        grows: Sequence[int] = (),
     ) -> None:
         self.image, self.scene, self.render, self.parallel = image, scene, render, parallel
-        self.turns = list(turns)
+        self.turns, self.grows = list(turns), list(grows)
         self.exact_memo: dict[Candidate, ExactMatch] = {}
         self.codes = "linear" if image.encoding == "linear" else "srgb"
         self.test = image.rgb
@@ -488,10 +489,12 @@ class _Search:
 
     def exact_of(self, c: Candidate) -> ExactMatch:
         """The verdict's own judging (exact_match.py) of the image against the candidate,
-        rendered at pixel centres and with the camera turned by each of `turns`."""
+        rendered at pixel centres, with the camera turned by each of `turns` and its spheres
+        grown by each of `grows`: the perturbed renders the verdict judges with."""
         if c not in self.exact_memo:
             centre = self.kept[c] if c in self.kept else self.render(c)
-            turned = self.render_all([c.turned(t) for t in self.turns])
+            perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
+            turned = self.render_all(perturbed)
             self.exact_memo[c] = exact_match(
                 [centre.rgb] + [im.rgb for im in turned],
                 self.test,
@@ -659,7 +662,7 @@ def diagnose(
         if search_quirks is not None
         else getattr(render, "search_quirks", SEARCH_QUIRKS)
     )
-    s = _Search(image, scene, render, parallel, turns)
+    s = _Search(image, scene, render, parallel, turns, list(getattr(render, "grows", ())))
     starts = (
         [start if isinstance(start, Candidate) else Candidate.from_model(start)]
         if start is not None

@@ -33,7 +33,7 @@ from compare.judge.diagnose import BASE_QUIRKS, LATER_QUIRKS
 from compare.judge.images import Image, ImageError, read_image
 from compare.judge.target_model import TargetModel
 from compare.render.cache import renderer_identity
-from compare.render.models import OFFSET_PIXELS, OFFSETS, offset_scene
+from compare.render.models import OFFSET_PIXELS, OFFSETS, SPHERE_ULPS, grown_scene, offset_scene
 from compare.render.runner import ToolError, rtdemo_path
 
 
@@ -79,6 +79,7 @@ class CandidateRenderer:
         self.rendered = 0
         self.cache_hits = 0
         self.turns = exact_turns()  # read by diagnose: how exact matching renders a model
+        self.grows = list(SPHERE_ULPS)  # and its spheres grown and shrunk
         later = ",".join(f"Q{q}" for q in LATER_QUIRKS)
         known = _renders_quirks(
             self.executable, renderer_identity("rtdemo", self.executable), self.scene_file, later
@@ -101,10 +102,12 @@ class CandidateRenderer:
 
     def scene_text(self, c: Candidate) -> str | None:
         """The JSON of the scene copy `c` is rendered from; None: the scene file itself."""
-        if c.turn is None and not c.scene_changes():
+        if c.turn is None and c.grow is None and not c.scene_changes():
             return None
         if c.turn is not None:
             text = offset_scene(Path(self.scene_file), (self.width, self.height), *c.turn)
+        elif c.grow is not None:
+            text = grown_scene(Path(self.scene_file), c.grow)
         else:
             text = Path(self.scene_file).read_text(encoding="utf-8-sig")
         raw = json.loads(text)
