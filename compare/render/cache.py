@@ -130,6 +130,7 @@ class RenderCache:
         self.renders = self.root / "renders"
         self.derived_dir = self.root / "derived"
         self.tmp_dir = self.root / "tmp"
+        self.locks_dir = self.root / "locks"  # 256 lock files, never evicted or cleared
         self._warned = False
         if os.environ.get(MAX_SIZE_ENV):
             self.max_bytes()  # a bad $RTVAL_CACHE_MAX_SIZE is refused before any render
@@ -137,7 +138,7 @@ class RenderCache:
     def check_root(self) -> None:
         """The cache folder and its subfolders are real folders, or not there yet (a device,
         a file or a link in their place is refused)."""
-        for d in (self.root, self.renders, self.derived_dir, self.tmp_dir):
+        for d in (self.root, self.renders, self.derived_dir, self.tmp_dir, self.locks_dir):
             if os.path.lexists(d):
                 _require_folder(d)
 
@@ -147,11 +148,11 @@ class RenderCache:
 
     def _ready(self) -> None:
         try:
-            for d in (self.root, self.renders, self.derived_dir, self.tmp_dir):
+            for d in (self.root, self.renders, self.derived_dir, self.tmp_dir, self.locks_dir):
                 d.mkdir(parents=True, exist_ok=True)
         except OSError as e:
             raise CacheError(f"render cache {self.root}: cannot create it: {e.strerror}") from None
-        for d in (self.renders, self.derived_dir, self.tmp_dir):
+        for d in (self.renders, self.derived_dir, self.tmp_dir, self.locks_dir):
             _require_folder(d)
         self._warn_if_shared()
 
@@ -176,7 +177,15 @@ class RenderCache:
         A damaged or replaced entry is removed, so that it is rendered again."""
         if not self.renders.is_dir():
             return None
-        _require_folder(self.renders)
+        self._ready()
+        with _locked(self._key_lock(key), shared=True):  # never halfway through a store
+            return self._verified(key)
+
+    def _key_lock(self, key: str) -> Path:
+        """One of 256 lock files: an entry's EXR and sidecar change together under it."""
+        return self.locks_dir / f"{key[:2]}.lock"
+
+    def _verified(self, key: str) -> dict[str, Any] | None:
         exr, side = self.exr(key), self._sidecar(key)
         if not (_is_plain_file(exr) and _is_plain_file(side)):
             if os.path.lexists(exr) or os.path.lexists(side):
@@ -213,8 +222,9 @@ class RenderCache:
         self._ready()
         info = {**facts, "sha256": sha256_file(produced), "stored": time.time()}
         check_output_target(self.exr(key))  # only ever replace a regular file
-        produced.replace(self.exr(key))
-        write_atomic(self._sidecar(key), json.dumps(info, indent=1))
+        with _locked(self._key_lock(key)):  # two writers of one key: one whole entry
+            produced.replace(self.exr(key))
+            write_atomic(self._sidecar(key), json.dumps(info, indent=1))
         return info
 
     def derived(self, name: str) -> Path:
@@ -417,10 +427,10 @@ def _touch(path: Path) -> None:
 
 
 @contextlib.contextmanager
-def _locked(path: Path) -> Iterator[None]:
+def _locked(path: Path, *, shared: bool = False) -> Iterator[None]:
     fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+        fcntl.flock(fd, fcntl.LOCK_SH if shared else fcntl.LOCK_EX)
         yield
     finally:
         os.close(fd)
