@@ -152,6 +152,20 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
             tmp.unlink()
 
 
+def write_text_checked(path: Path, text: str) -> None:
+    """Leaves `path` holding exactly `text`: what is there is read (never through a link) and
+    written again when it differs, a planted link removed first (files a render is made from)."""
+    data = text.encode("utf-8")
+    try:
+        if not path.is_symlink() and read_bounded(path, len(data) + 1) == data:
+            return
+    except OSError:
+        pass
+    if path.is_symlink():
+        path.unlink()
+    write_atomic(path, data)
+
+
 def write_atomic(path: str | Path, data: str | bytes) -> None:
     """Writes to a temporary sibling, then renames: readers never see half a file. The
     sibling's name is unique (mkstemp), so two processes writing one path never share it;

@@ -46,7 +46,12 @@ from typing import Any
 
 from compare.files import atomic_output, sha256_file, unique_sibling, write_atomic
 from compare.render.runner import ToolError, rtdemo_path
-from scene_model.safe_paths import check_output_target, describe_mode, read_bounded
+from scene_model.safe_paths import (
+    check_output_target,
+    describe_mode,
+    read_bounded,
+    write_text_checked,
+)
 
 ENV = "RTVAL_CACHE"
 MAX_SIZE_ENV = "RTVAL_CACHE_MAX_SIZE"
@@ -244,14 +249,7 @@ class RenderCache:
         """derived(name) holding exactly `text` (a scene copy a render is made from): what is
         there is checked, not trusted, and written again when it differs."""
         path = self.derived(name)
-        try:
-            same = (
-                _is_plain_file(path) and read_bounded(path, len(text.encode()) + 1) == text.encode()
-            )
-        except OSError:
-            same = False
-        if not same:
-            write_atomic(path, text)
+        write_text_checked(path, text)
         return path
 
     def _entries(self) -> list[_Entry]:

@@ -27,7 +27,7 @@ from functools import cache
 from pathlib import Path
 from types import TracebackType
 
-from compare.files import sha256_file, write_atomic
+from compare.files import sha256_file
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose import BASE_QUIRKS, LATER_QUIRKS
 from compare.judge.images import Image, ImageError, read_image
@@ -35,13 +35,13 @@ from compare.judge.target_model import TargetModel
 from compare.render.cache import renderer_identity
 from compare.render.models import OFFSET_PIXELS, OFFSETS, SPHERE_ULPS, grown_scene, offset_scene
 from compare.render.runner import ToolError, rtdemo_path
+from scene_model.safe_paths import write_text_checked
 
 
 def exact_turns() -> list[tuple[float, float]]:
     """The camera turns (in pixels) exact matching renders a model with, in the order of
     compare/render/models.py's render_offsets: the diagnosis judges its candidates so."""
-    sizes = OFFSET_PIXELS if isinstance(OFFSET_PIXELS, tuple) else (OFFSET_PIXELS,)
-    return [(dx * m, dy * m) for m in sizes for dx, dy in OFFSETS]
+    return [(dx * m, dy * m) for m in OFFSET_PIXELS for dx, dy in OFFSETS]
 
 
 @cache
@@ -129,10 +129,7 @@ class CandidateRenderer:
         assert folder is not None
         copy = folder / f"scene-{digest[:24]}.json"
         folder.mkdir(parents=True, exist_ok=True)
-        if not _holds(copy, text):  # checked, not trusted: a planted file or link is replaced
-            if copy.is_symlink():
-                copy.unlink()
-            write_atomic(copy, text)
+        write_text_checked(copy, text)  # checked, not trusted: a planted file or link is replaced
         return str(copy), digest
 
     def command(
@@ -203,14 +200,3 @@ class CandidateRenderer:
             return image
         finally:
             out.unlink(missing_ok=True)
-
-
-def _holds(path: Path, text: str) -> bool:
-    """True when path is a regular file (not a link) holding exactly text."""
-    from scene_model.safe_paths import read_bounded
-
-    data = text.encode()
-    try:
-        return not path.is_symlink() and read_bounded(path, len(data) + 1) == data
-    except OSError:
-        return False
