@@ -201,7 +201,7 @@ def judge_case(
     keep: bool,
 ) -> None:
     """Fills the case's verdict and per-effect outcomes against a baseline. The verdict is the
-    whole image's (as check has always judged); a failing case is evaluated again with the
+    whole image's (what a baseline pins); a failing case is evaluated again with the
     effect masks and FLIP to say which effects fail. A passing one costs no FLIP (unless a
     tolerance asks for it) and no per-effect metrics: its effects get pixel counts only."""
     ev = evaluate_pair(ref, test, tolerances=tol, flip=tol.max_flip is not None)
