@@ -21,7 +21,13 @@ ALLOWED = {
     "compare.judge": {"scene_model"},
     "compare.render": {"compare.judge", "scene_model", "mitsuba_ref"},
     "compare.apps": {"compare.render", "compare.judge", "scene_model", "mitsuba_ref"},
-    "compare.cli": {"compare.apps", "compare.render", "compare.judge", "scene_model", "mitsuba_ref"},
+    "compare.cli": {
+        "compare.apps",
+        "compare.render",
+        "compare.judge",
+        "scene_model",
+        "mitsuba_ref",
+    },
 }
 LAYERS = ("cli", "apps", "render", "judge")
 MAX_FUNCTION_LINES = 80
