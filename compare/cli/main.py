@@ -1,18 +1,27 @@
 """`rtval`: the validation suite's command line. Each command lives in its own module
-(compare/cli/<command>.py; mitsuba_ref's export and reference in mitsuba_ref/cli.py); this one
-builds the parser and maps errors to exit codes."""
+(compare/cli/<command>.py); this one builds the parser and maps errors to exit codes."""
 
 from __future__ import annotations
 
 import os
 import sys
 
-from compare.cli import cache, check, compare, diagnose, grade, report, stress, ztest
+from compare.cli import (
+    cache,
+    check,
+    compare,
+    diagnose,
+    export,
+    grade,
+    reference,
+    report,
+    stress,
+    ztest,
+)
 from compare.cli.common import EXIT_USAGE, Parser
 from compare.judge.images import ImageError
 from compare.judge.rubric import RubricError
 from compare.render.runner import ToolError
-from mitsuba_ref import cli as mitsuba_cli
 from mitsuba_ref.drjit_env import MitsubaUnavailable
 from scene_model.scene import SceneError
 
@@ -33,7 +42,8 @@ def build_parser() -> Parser:
         dest="command", required=True, metavar="COMMAND", parser_class=Parser
     )
     report.register(sub)
-    mitsuba_cli.register(sub)
+    export.register(sub)
+    reference.register(sub)
     compare.register(sub)
     ztest.register(sub)
     check.register(sub)
