@@ -12,10 +12,13 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from compare.judge.mistakes import catalogue
 from compare.judge.target_model import MODE_QUIRKS, TargetModel
+
+if TYPE_CHECKING:
+    from scene_model.scene import Scene
 
 SWITCHABLE_EFFECTS = ("shadows", "reflection", "refraction")  # rtdemo's --no-<effect>
 RGB = tuple[float, float, float]
@@ -104,6 +107,15 @@ class Candidate:
 
     def with_depth(self, depth: int | None) -> Candidate:
         return dataclasses.replace(self, max_depth=depth)
+
+    def depth(self, scene: Scene) -> int:
+        """The recursion limit it renders `scene` with: its own, else the scene's."""
+        return scene.max_depth if self.max_depth is None else self.max_depth
+
+    def at_depth(self, depth: int, scene: Scene) -> Candidate:
+        """With this recursion limit; the scene's own is left unset, so that one image has
+        one name."""
+        return self.with_depth(None if depth == scene.max_depth else depth)
 
     def with_mistake(self, name: str, present: bool) -> Candidate:
         m = self.mistakes | {name} if present else self.mistakes - {name}

@@ -1,0 +1,366 @@
+"""How near a candidate's render comes to the image the diagnosis explains (diagnose.py), per
+effect region: the share of the region's pixels that are not what the candidate computes
+(exact_match.py's rule, counted quickly: a code that neither a truncating nor a rounding writer
+of the candidate's value stores), plus a smooth term for how far they are off (the mean number
+of 8-bit levels beyond one, and the region's mean colour), so that a change that moves pixels
+towards the image counts before they match. `Trials` keeps every candidate's score and judges
+the ones a claim is made of exactly, as the verdict does.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from compare.judge.candidate import Candidate
+from compare.judge.effects import BOOL, effect_masks
+from compare.judge.exact_match import ExactMatch, exact_match
+from compare.judge.images import F32, Image, linear_to_srgb
+from compare.judge.target_model import TargetModel
+from scene_model.scene import Scene
+
+Renderer = Callable[[TargetModel | Candidate], Image]
+I16 = NDArray[np.int16]
+
+# One unit of distance per effect is the whole region differing; LEVELS_PER_UNIT levels of
+# mean excess weigh as much (so a change that halves how far pixels are off counts before
+# they match).
+LEVELS_PER_UNIT = 4.0
+# A change is kept when it lowers some effect's distance by EXPLAINS (and 10 %): small drops
+# spread over every effect are noise fitting.
+EXPLAINS = 2e-3
+HALF_FLOAT, HALF_FLOAT_FLOOR = 2.0**-11, 2.0**-14  # the search's float tolerance
+MIRRORS = {"lr": "left-right", "ud": "upside down", "lrud": "left-right and upside down"}
+
+
+class DiagnoseError(ValueError):
+    """The image cannot be diagnosed against this scene (e.g. a renderer without AOVs)."""
+
+
+def unmirror(rgb: F32, mirrored: str) -> F32:
+    """The image as the program computed it, before it was drawn mirrored ("" : as is)."""
+    key = next((k for k, v in MIRRORS.items() if v == mirrored), mirrored)
+    out = rgb[:, ::-1] if "lr" in key else rgb
+    out = out[::-1] if "ud" in key else out
+    return np.ascontiguousarray(out)
+
+
+def _levels(rgb: F32, codes: str) -> F32:
+    """255 x the value an 8-bit writer stores, in the image's own encoding: linear for a PPM
+    read as linear, display (sRGB) otherwise. NaN counts as 0, as the paper's PPM writer
+    stores it."""
+    if codes == "linear":
+        c = np.clip(np.nan_to_num(rgb, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+    else:
+        c = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
+    out: F32 = (c * np.float32(255.0)).astype(np.float32)
+    return out
+
+
+def encoded(rgb: F32, codes: str) -> I16:
+    """Whole 8-bit levels (rounded). Rounding a candidate moves it by at most half a level,
+    which the one level that `excess` forgives covers (a truncating writer is at most one
+    level below)."""
+    out: I16 = np.rint(_levels(rgb, codes)).astype(np.int16)
+    return out
+
+
+def _quick_differing(levels: F32, target: I16, rgb: F32, test: F32, encoding: str) -> BOOL:
+    """H x W: pixels the search counts as not matching the candidate: an 8-bit code that
+    neither a truncating nor a rounding writer of the candidate's value stores (a float image:
+    off by more than half-float precision). exact_match's rule without its slack of 2^-16 in
+    the value; the search's count only, every claim is exact_match's."""
+    if encoding == "float":
+        with np.errstate(invalid="ignore"):
+            ok = np.abs(test - rgb) <= HALF_FLOAT * np.maximum(np.abs(rgb), HALF_FLOAT_FLOOR)
+        ok |= np.isnan(test) & np.isnan(rgb)
+    else:
+        ok = (target >= np.floor(levels)) & (target <= np.floor(levels + np.float32(0.5)))
+    out: BOOL = ~(ok[..., 0] & ok[..., 1] & ok[..., 2])
+    return out
+
+
+def _excess(enc: I16, target: I16) -> I16:
+    """Per pixel, the levels by which its worst channel differs beyond one (a reduction over
+    the last axis of 3 is slower in numpy than two elementwise maxima)."""
+    d = np.abs(enc - target)
+    out: I16 = np.maximum(np.maximum(np.maximum(d[..., 0], d[..., 1]), d[..., 2]), 1) - 1
+    return out
+
+
+def _flip_codes(target: I16, key: str) -> I16:
+    out = target[:, ::-1] if "lr" in key else target
+    return out[::-1] if "ud" in key else out
+
+
+def _mirror_distance(enc: I16, target: I16) -> float:
+    """Share of all pixels off by more than one level, plus their mean excess / LEVELS_PER_UNIT."""
+    excess = _excess(enc, target)
+    return float((excess > 0).mean() + excess.mean() / LEVELS_PER_UNIT)
+
+
+class Regions:
+    """The effect masks as one label per pixel, so that per-region means are one bincount."""
+
+    def __init__(self, masks: dict[str, BOOL]) -> None:
+        self.names = list(masks)
+        n = len(self.names)
+        labels = np.full(next(iter(masks.values())).size, n, np.intp)  # n: in no region
+        for i, m in enumerate(masks.values()):
+            labels[m.ravel()] = i
+        self.labels = labels
+        self.counts = np.bincount(labels, minlength=n + 1)[:n].astype(np.float64)
+
+    def mean(self, values: NDArray[Any]) -> NDArray[np.float64]:
+        n = len(self.names)
+        sums = np.bincount(self.labels, weights=values.ravel(), minlength=n + 1)[:n]
+        out: NDArray[np.float64] = sums / self.counts
+        return out
+
+    def colour(self, enc: I16) -> NDArray[np.float64]:
+        """Mean colour per region, regions x 3, in levels."""
+        return np.stack([self.mean(enc[..., ch]) for ch in range(3)], axis=1)
+
+
+@dataclass(frozen=True)
+class Score:
+    """A candidate against the image, per effect region."""
+
+    differing: dict[str, int]  # pixels that are not an exact match of the candidate's render
+    share: dict[str, float]  # ... as a share of the region
+    pixels: dict[str, float]  # mean levels beyond one
+    tone: dict[str, float]  # how far the mean colour is off, levels beyond one
+    digest: bytes  # of the encoded candidate: equal digests, equal images
+
+    def per_effect(self) -> dict[str, float]:
+        # The tone term: where float rounding decides each pixel (acne), two programs with the
+        # same mistake differ pixel by pixel but agree on average.
+        return {
+            k: self.share[k] + (self.pixels[k] + self.tone[k]) / LEVELS_PER_UNIT
+            for k in self.pixels
+        }
+
+
+def objective(per: dict[str, float]) -> float:
+    return float(sum(per.values()))  # every effect counts alike, whatever its size
+
+
+def explained(
+    before: dict[str, float], after: dict[str, float], open_effects: set[str]
+) -> tuple[str, ...]:
+    """The effects still to explain whose distance a change lowers clearly (by EXPLAINS and
+    10 %). An effect already within the exact-match allowance has nothing left to explain:
+    moving its last stray pixels is float noise (a float64 program's rounding)."""
+    return tuple(
+        k
+        for k in before
+        if k in open_effects and before[k] - after[k] > max(EXPLAINS, 0.1 * before[k])
+    )
+
+
+class Target:
+    """The image as the search judges it: its 8-bit codes (un-mirrored once that is decided)
+    and, from the first render's AOVs, the effect regions and the exact-match allowance."""
+
+    def __init__(self, image: Image, scene: Scene) -> None:
+        self.image, self.scene = image, scene
+        self.codes = "linear" if image.encoding == "linear" else "srgb"
+        self.test = image.rgb
+        self.target = encoded(image.rgb, self.codes)
+        self.masks: dict[str, BOOL] = {}
+        self.regions: Regions | None = None
+        self.target_colour: NDArray[np.float64] | None = None
+        self.allowance: dict[str, int] = {}  # differing pixels an exact match allows
+
+    def set_test(self, rgb: F32) -> None:
+        """Judge against `rgb` from now on (the un-mirrored image)."""
+        self.test = rgb
+        self.target = encoded(rgb, self.codes)
+        assert self.regions is not None
+        self.target_colour = self.regions.colour(self.target)
+
+    def check(self, c: Candidate, im: Image) -> None:
+        """A render of the image's size; the first one's AOVs give the effect regions."""
+        if im.rgb.shape != self.image.rgb.shape:
+            h, w = self.image.shape
+            raise DiagnoseError(
+                f"the renderer made {im.shape[1]}x{im.shape[0]} for {w}x{h} ({c.name})"
+            )
+        if self.regions is not None:
+            return
+        if "id" not in im.aovs or "depth" not in im.aovs:
+            raise DiagnoseError(f"render of {c.name} has no id/depth AOVs")
+        found = effect_masks(self.scene, im.aovs["id"], im.aovs["depth"])
+        self.masks.update({k: v for k, v in found.items() if v.any()})
+        self.regions = Regions(self.masks)
+        self.target_colour = self.regions.colour(self.target)
+        first = exact_match([im.rgb], self.test, self.image.encoding, model="", masks=self.masks)
+        self.allowance = {k: e.allowed for k, e in first.per_effect.items()}
+
+    def score(self, rgb: F32) -> Score:
+        assert self.regions is not None and self.target_colour is not None
+        levels = _levels(rgb, self.codes)
+        enc = np.rint(levels).astype(np.int16)
+        excess = _excess(enc, self.target)
+        tone = np.maximum(
+            np.abs(self.regions.colour(enc) - self.target_colour).max(axis=1) - 1.0, 0.0
+        )
+        off = _quick_differing(levels, self.target, rgb, self.test, self.image.encoding)
+        names = self.regions.names
+        share = self.regions.mean(off)
+        return Score(
+            {
+                k: round(float(v * n))
+                for k, v, n in zip(names, share, self.regions.counts, strict=True)
+            },
+            dict(zip(names, share.tolist(), strict=True)),
+            dict(zip(names, self.regions.mean(excess).tolist(), strict=True)),
+            dict(zip(names, tone.tolist(), strict=True)),
+            hashlib.blake2b(enc.tobytes(), digest_size=16).digest(),
+        )
+
+    def exact(self, c: Candidate, renders: Sequence[Image]) -> ExactMatch:
+        """The verdict's own judging of the image against c's renders (the centre first)."""
+        return exact_match(
+            [im.rgb for im in renders],
+            self.test,
+            self.image.encoding,
+            model=c.name,
+            masks=self.masks,
+        )
+
+    def mirror_distances(self, renders: Sequence[Image]) -> dict[str, float]:
+        """Per orientation ("" as is, and each of MIRRORS), the nearest render's distance."""
+        encs = [encoded(im.rgb, self.codes) for im in renders]
+        return {
+            key: min(_mirror_distance(e, _flip_codes(self.target, key)) for e in encs)
+            for key in ("", *MIRRORS)
+        }
+
+
+class Trials:
+    """Every candidate the search tried, with its score against the target; the renders it
+    keeps (for scoring again and for FLIP) and the exact matches claims are made of."""
+
+    def __init__(
+        self,
+        target: Target,
+        render: Renderer,
+        parallel: int,
+        turns: Sequence[tuple[float, float]],
+        grows: Sequence[int],
+    ) -> None:
+        self.target, self.render, self.parallel = target, render, parallel
+        self.turns, self.grows = list(turns), list(grows)
+        self.scores: dict[Candidate, Score] = {}
+        self.kept: dict[Candidate, Image] = {}
+        self.keep: set[Candidate] = set()
+        self.exact_memo: dict[Candidate, ExactMatch] = {}
+
+    def set_test(self, rgb: F32) -> None:
+        """Judge against `rgb` from now on: every kept render is scored again, every other
+        score is dropped."""
+        self.target.set_test(rgb)
+        self.scores = {c: self.target.score(im.rgb) for c, im in self.kept.items()}
+
+    def keep_only(self, keep: set[Candidate]) -> None:
+        self.kept = {c: im for c, im in self.kept.items() if c in keep}
+        self.keep = set(keep)
+
+    def evaluate(self, cands: Sequence[Candidate]) -> None:
+        todo = [c for c in dict.fromkeys(cands) if c not in self.scores]
+        if not todo:
+            return
+        with ThreadPoolExecutor(max_workers=max(1, self.parallel)) as pool:
+            # Scored as they arrive: a round's renders are never all in memory at once.
+            for c, im in zip(todo, pool.map(self.render, todo), strict=True):
+                self.target.check(c, im)
+                self.scores[c] = self.target.score(im.rgb)
+                if c in self.keep:
+                    self.kept[c] = im
+
+    def render_all(self, cands: Sequence[Candidate]) -> list[Image]:
+        with ThreadPoolExecutor(max_workers=max(1, self.parallel)) as pool:
+            return list(pool.map(self.render, cands))
+
+    def centre(self, c: Candidate) -> Image:
+        """c's render at pixel centres (kept, or rendered again: the cache has it)."""
+        if c not in self.kept:
+            self.kept[c] = self.render(c)
+        return self.kept[c]
+
+    def exact_of(self, c: Candidate) -> ExactMatch:
+        """The verdict's own judging (exact_match.py) of the image against the candidate,
+        rendered at pixel centres, with the camera turned by each turn and its spheres grown
+        by each growth: the perturbed renders the verdict judges with."""
+        if c not in self.exact_memo:
+            centre = self.kept[c] if c in self.kept else self.render(c)
+            perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
+            self.exact_memo[c] = self.target.exact(c, [centre, *self.render_all(perturbed)])
+        return self.exact_memo[c]
+
+    def exact_differing(self, c: Candidate) -> dict[str, int]:
+        return {k: e.differing for k, e in self.exact_of(c).per_effect.items()}
+
+    def per(self, c: Candidate) -> dict[str, float]:
+        return self.scores[c].per_effect()
+
+    def differing(self, c: Candidate) -> dict[str, int]:
+        return self.scores[c].differing
+
+    def whole_differing(self, c: Candidate) -> int:
+        """Pixels of the whole image (every effect) that differ from the candidate."""
+        return sum(self.scores[c].differing.values())
+
+    def whole(self, c: Candidate) -> float:
+        """The distance of the whole image: each effect weighted by its pixels."""
+        regions = self.target.regions
+        assert regions is not None
+        per = self.per(c)
+        return float(sum(per[k] * n for k, n in zip(regions.names, regions.counts, strict=True)))
+
+    def total_pixels(self) -> int:
+        assert self.target.regions is not None
+        return int(self.target.regions.counts.sum())
+
+    def allowed(self, effect: str) -> int:
+        """Differing pixels an exact match allows in this effect (as exact_match says)."""
+        return self.target.allowance[effect]
+
+    def open_effects(self, c: Candidate) -> set[str]:
+        """Effects with more pixels differing from the candidate's centre render than an exact
+        match allows."""
+        return {k for k, n in self.scores[c].differing.items() if n > self.allowed(k)}
+
+    def matched(self, c: Candidate) -> bool:
+        """Every effect within the exact-match allowance of the candidate's centre render."""
+        return not self.open_effects(c)
+
+    def fits_as_well(self, a: Candidate, b: Candidate) -> bool:
+        """a leaves no more pixels of any effect differing than b, up to the exact-match
+        allowance (both scored): the image cannot tell them apart."""
+        da, db = self.differing(a), self.differing(b)
+        return all(da[k] <= db[k] + self.allowed(k) for k in da)
+
+    def best_fixed(self, begin: Candidate, effect: str) -> float:
+        """The largest share of begin's differing pixels in `effect` that a candidate tried
+        makes match (pixel-centre renders) without more pixels of the whole image differing
+        than begin's: how near the search came."""
+        d0 = self.differing(begin)[effect]
+        if not d0:
+            return 1.0
+        limit = self.whole_differing(begin)
+        return max(
+            0.0,
+            *(
+                1 - sc.differing[effect] / d0
+                for sc in self.scores.values()
+                if sum(sc.differing.values()) <= limit
+            ),
+        )
