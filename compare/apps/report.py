@@ -59,38 +59,12 @@ from compare.judge.scoring import ABSENT, score_effects
 from compare.judge.sentences import contribution_sentence, difference_sentences
 from compare.render.cache import RenderCache
 from compare.render.jobs import RenderJob, run_jobs
-from compare.render.plan import (
-    AREA_KEY,
-    DEMO_YARDSTICK_SPP,
-    EFFECT_SWITCHES,
-    REFERENCE_KEY,
-    REFERENCE_SPP,
-    ladder_steps,
-    not_applicable,
-    plan,
-)
+from compare.render.plan import RenderPlan, plan
 from compare.render.progress import Progress
 from compare.render.runner import ToolError, rtdemo_path
 from scene_model.safe_paths import check_output_target
 from scene_model.scene import load_scene
 
-# Renders compared in full (global + per effect), with maps.
-FEATURED = [
-    ("demo-paper-cpu", "demo, paper mode"),
-    ("demo-classic-cpu", "demo, classic mode"),
-    ("demo-physical-cpu-1spp", "demo, physical mode (pixel centres)"),
-    ("demo-physical-cpu-16spp", "demo, physical mode, 16 spp"),
-    ("demo-physical-gl-16spp", "demo, physical mode, GL, 16 spp"),
-    ("mitsuba-path-llvm-64spp", "Mitsuba path tracer, 64 spp"),
-]
-MAPPED = ("demo-paper-cpu", "demo-physical-cpu-16spp", "mitsuba-path-llvm-64spp")
-# Mitsuba renders that estimate the reference's very image (rtval_whitted, point lights,
-# box-filtered independent samples): only their sample count differs.
-SAME_ESTIMATOR_AS_REFERENCE = {
-    REFERENCE_KEY,
-    "mitsuba-whitted-llvm-1spp",
-    "mitsuba-whitted-llvm-4spp",
-}
 SCENE_COPY = "scene.json"  # the scene beside the page; the printed commands read it
 NO_CHANGE = "changes nothing in this scene"  # a ladder step whose render equals the last
 
@@ -210,13 +184,15 @@ def build_report(
         for d in (out, images_dir):
             d.mkdir(parents=True, exist_ok=True)
         copy_file(scene_file, out / SCENE_COPY)
-        render_jobs = plan(str(scene_file), size)
+        rp: RenderPlan = plan(str(scene_file), size)
+        render_jobs = rp.jobs()
     for name, seconds in run_jobs(
         render_jobs, cache, jobs_in_parallel=jobs, progress=progress
     ).items():
         steps.add(name, seconds)
     by_key: dict[str, RenderJob] = {j.key: j for j in render_jobs}
 
+    ref_key = rp.reference.key
     hashes = {k: str(j.info["sha256"]) for k, j in by_key.items()}
     # Renders are read when a result not yet derived needs them: a warm run reads few.
     imgs = LazyImages({k: j.exr(cache) for k, j in by_key.items()}, hashes, cache)
@@ -229,16 +205,17 @@ def build_report(
 
     @functools.cache
     def masks() -> dict[str, np.ndarray]:
-        ref = imgs[REFERENCE_KEY]
+        ref = imgs[ref_key]
         return effect_masks(scene, ref.aovs["id"], ref.aovs["depth"])
 
-    ev = Evaluator(lambda: imgs[REFERENCE_KEY], hashes[REFERENCE_KEY], masks, cache)
-    ref_w, ref_h = imgs.facts(REFERENCE_KEY)["size"]
+    ev = Evaluator(lambda: imgs[ref_key], hashes[ref_key], masks, cache)
+    ref_w, ref_h = imgs.facts(ref_key)["size"]
 
     # The image under test: the demo's paper mode, or a foreign render.
-    test_key = "demo-paper-cpu"
+    test_key = rp.paper.key
     label = test_label or "the demo (paper mode)"
-    featured = list(FEATURED)
+    featured = [(f.job.key, f.title) for f in rp.featured]
+    mapped = [j.key for j in rp.mapped]
     test_copy = ""
     if test_image and foreign is not None:
         if foreign.shape != (ref_h, ref_w):  # the plan's size is the one checked on reading
@@ -256,12 +233,9 @@ def build_report(
     with steps("images (PNG, EXR)"):
         # Every render the page shows, as PNG; the EXRs that matter for re-analysis
         # (reference and image under test), ZIP-compressed; the rest regenerable.
-        for j in render_jobs:
-            if j.family != "ablation":
-                derived_png(cache, hashes[j.key], imgs.loader(j.key), images_dir / f"{j.key}.png")
-        derived_exr(
-            cache, hashes[REFERENCE_KEY], imgs.loader(REFERENCE_KEY), out / shown(REFERENCE_KEY)
-        )
+        for j in rp.shown():
+            derived_png(cache, hashes[j.key], imgs.loader(j.key), images_dir / f"{j.key}.png")
+        derived_exr(cache, hashes[ref_key], imgs.loader(ref_key), out / shown(ref_key))
         if test_image:
             derived_png(
                 cache, hashes[test_key], imgs.loader(test_key), images_dir / "test-image.png"
@@ -272,16 +246,12 @@ def build_report(
                 write_atomic(out / test_copy, foreign_bytes)
         else:
             derived_exr(cache, hashes[test_key], imgs.loader(test_key), out / shown(test_key))
-    kept = {REFERENCE_KEY, test_key}
+    kept = {ref_key, test_key}
 
-    chart_jobs = [
-        j
-        for j in render_jobs
-        if j.family not in ("reference", "ablation", "ladder", "reference area")
-    ]
-    steps_of_ladder = ladder_steps()
+    chart_jobs = rp.charted()
+    steps_of_ladder = [planned.step for planned in rp.ladder]
     ladder_keys = [step.key for step in steps_of_ladder]
-    skipped = not_applicable(scene)  # what the plan left out, and why
+    skipped = rp.not_applicable  # what the plan left out, and why
     with steps("metrics"):
         # A ladder step whose render equals the step before (its quirk has nothing to act on
         # in this scene) has that step's metrics: its FLIP is not computed again.
@@ -290,8 +260,9 @@ def build_report(
             for a, b in itertools.pairwise(steps_of_ladder)
         ]
         same_as: dict[str, str] = {}
-        for i, step in enumerate(steps_of_ladder):
-            if changed[i] == 0 and by_key[step.key].family == "ladder":
+        for i, planned in enumerate(rp.ladder):
+            step = planned.step
+            if changed[i] == 0 and planned.fixes_one_quirk:
                 before = steps_of_ladder[i - 1].key
                 same_as[step.key] = same_as.get(before, before)
         # Per effect (with HDR FLIP) for the featured renders, global for the charts'.
@@ -305,9 +276,7 @@ def build_report(
         found = ev.evaluate_all(
             [(imgs.loader(k), hashes[k], per_effect) for k, per_effect in pairs],
             workers=len(os.sched_getaffinity(0)),  # the cores this process may use
-            keep_maps=frozenset(
-                hashes[k] for k in ([test_key] if test_image else []) + list(MAPPED)
-            ),
+            keep_maps=frozenset(hashes[k] for k in ([test_key] if test_image else []) + mapped),
             done=lambda n: progress.update(
                 "metrics", n, len(pairs), time.perf_counter() - start, unit="pairs"
             ),
@@ -319,7 +288,7 @@ def build_report(
 
     with steps("difference maps"):
         maps_info = []
-        for k in ([test_key] if test_image else []) + list(MAPPED):
+        for k in ([test_key] if test_image else []) + mapped:
             title = dict(featured).get(k, k)
             files = {}
             for kind in ("diff", "flip", "ssim"):
@@ -329,7 +298,7 @@ def build_report(
                     ev,
                     kind,
                     title,
-                    imgs.loader(REFERENCE_KEY),
+                    imgs.loader(ref_key),
                     imgs.loader(k),
                     hashes[k],
                     out / files[kind],
@@ -414,39 +383,32 @@ def build_report(
         # The per-effect metrics leave out masks with no pixel: those effects do not occur.
         absent = tuple(k for k in EFFECTS if k not in test_effects)
         verdict = score_effects(test_effects, absent=absent).as_dict() | {"against": "mitsuba"}
-        mitsuba_jobs = [
-            j for j in render_jobs if j.family.startswith("mitsuba") or j.key == REFERENCE_KEY
-        ]
+        mitsuba_jobs = rp.mitsuba()
 
         def analyse() -> dict[str, Any]:
-            ref = imgs[REFERENCE_KEY]
+            ref = imgs[ref_key]
             # Effect contributions at pixel centres: what shadows / reflection / refraction add.
             contributions = []
-            if not test_image:
-                for effect in [e for e in EFFECT_SWITCHES if e not in skipped]:
-                    for demo_mode in ("paper", "physical"):
-                        base = (
-                            "demo-paper-cpu" if demo_mode == "paper" else "demo-physical-cpu-1spp"
-                        )
+            if not test_image and rp.centre_reference is not None:
+                centre = imgs[rp.centre_reference.key].rgb
+                for ab in rp.ablations:
+                    for demo_mode, without in ab.demo.items():
                         contributions.append(
                             {
                                 "mode": demo_mode,
                                 **contribution_sentence(
-                                    effect,
-                                    imgs[base].rgb,
-                                    imgs[f"demo-{demo_mode}-cpu-no-{effect}"].rgb,
-                                    imgs["ref-centre"].rgb,
-                                    imgs[f"ref-centre-no-{effect}"].rgb,
+                                    ab.effect,
+                                    imgs[ab.base[demo_mode].key].rgb,
+                                    imgs[without.key].rgb,
+                                    centre,
+                                    imgs[ab.reference.key].rgb,
                                     f"the demo ({demo_mode} mode)",
                                 ),
                             }
                         )
             converged = time_to_converged(
                 ref,
-                {
-                    spp: imgs[f"demo-physical-cpu-{spp}spp"]
-                    for spp in (1, 4, 16, DEMO_YARDSTICK_SPP)
-                },
+                {spp: imgs[j.key] for spp, j in rp.demo_convergence.items()},
             )
             converged["mitsuba"] = mitsuba_to_converged(
                 ref,
@@ -454,7 +416,7 @@ def build_report(
                     {"key": j.key, "label": j.label, "spp": j.spp, "image": imgs[j.key]}
                     for j in mitsuba_jobs
                 ],
-                SAME_ESTIMATOR_AS_REFERENCE,
+                {j.key for j in rp.same_estimator_as_reference},
             )
             return {
                 "contributions": contributions,
@@ -462,9 +424,9 @@ def build_report(
                     ref.rgb, imgs[test_key].rgb, masks(), test_effects, label
                 ),
                 "penumbra": None
-                if AREA_KEY not in by_key
+                if rp.area is None
                 else penumbra_numbers(
-                    ref.rgb, imgs[AREA_KEY].rgb, imgs["demo-physical-cpu-16spp"].rgb
+                    ref.rgb, imgs[rp.area.key].rgb, imgs[rp.penumbra_demo.key].rgb
                 ),
                 "converged": converged,
                 "effect_pixels": {k: int(v.sum()) for k, v in masks().items()},
@@ -482,8 +444,8 @@ def build_report(
         converged = analysis["converged"]
         mitsuba = converged["mitsuba"]
         if converged["demo_spp"]:
-            k = f"demo-physical-cpu-{converged['demo_spp']}spp"
-            converged["demo"] = {"key": k, "label": by_key[k].label}
+            demo_job = rp.demo_convergence[converged["demo_spp"]]
+            converged["demo"] = {"key": demo_job.key, "label": demo_job.label}
         fastest = mitsuba["fastest"]
         demo_seconds = converged["demo_seconds"]
         converged["speedup_vs_fastest_mitsuba"] = (
@@ -510,11 +472,12 @@ def build_report(
                 jobs,
             )
 
+    pictured = rp.shown()
     renders = [
         {
             "key": j.key,
             "label": j.label,
-            "png": None if j.family == "ablation" else f"images/{j.key}.png",
+            "png": f"images/{j.key}.png" if j in pictured else None,
             "exr": shown(j.key) if j.key in kept else None,
             "command": command(j.key),
             "family": j.family,
@@ -558,10 +521,10 @@ def build_report(
         "versions": _versions(),
         "command": shlex.join(command_line),
         "reference": {
-            "key": REFERENCE_KEY,
-            "label": by_key[REFERENCE_KEY].label,
-            "spp": REFERENCE_SPP,
-            "command": command(REFERENCE_KEY),
+            "key": ref_key,
+            "label": by_key[ref_key].label,
+            "spp": rp.reference.spp,
+            "command": command(ref_key),
         },
         "test": {"key": test_key, "label": label},
         "verdict": verdict,
