@@ -1,6 +1,7 @@
 """rtdemo against hostile paths: outputs only ever replace regular files (exit 4), an output
 equal to the scene or to another output is refused (exit 2), a full disk leaves no partial
-file (exit 4), a FIFO or /dev/zero as the scene is refused at once (exit 3)."""
+file (exit 4), a FIFO or /dev/zero as the scene is refused at once (exit 3), a frame that does
+not fit in memory is one line and exit 1."""
 
 from __future__ import annotations
 
@@ -96,6 +97,42 @@ def test_full_disk_leaves_no_partial_file(
     )
     assert proc.returncode == 4 and str(out) in proc.stderr, proc.stderr
     assert list(out.parent.iterdir()) == []
+
+
+def _limit_address_space() -> None:
+    resource.setrlimit(resource.RLIMIT_AS, (256 << 20, 256 << 20))
+
+
+@pytest.mark.parametrize(
+    "outputs",
+    [
+        ["-o", "{dir}/x.exr", "--keep-frame"],
+        ["-o", "{dir}/x.exr", "--exr-compression", "zip"],
+        ["--png", "{dir}/x.png"],
+        ["--ppm", "{dir}/x.ppm", "--frames", "2"],
+    ],
+)
+def test_out_of_memory_is_one_line_and_exit_1(
+    rtdemo: str, scene: Path, tmp_path: Path, outputs: list[str]
+) -> None:
+    """A kept 8192x8192 frame needs ~2 GiB; under a 256 MiB address space its allocation
+    fails before any tracing: a message naming the size and the ways out, no output file."""
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    argv = [a.format(dir=out_dir) for a in outputs]
+    size = ["--width", "8192", "--height", "8192", "--threads", "2"]
+    proc = run(
+        [rtdemo, "render", str(scene), *argv, *size],
+        preexec_fn=_limit_address_space,
+        timeout=120,
+    )
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stderr.startswith(
+        "rtdemo: error: out of memory for an image of 8192x8192 pixels: "
+    ), proc.stderr
+    assert "smaller --width/--height or one streamed output" in proc.stderr
+    assert proc.stderr.count("\n") == 1
+    assert list(out_dir.iterdir()) == []
 
 
 @pytest.mark.parametrize("kind", ["fifo", "dev_zero"])

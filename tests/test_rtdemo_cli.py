@@ -37,6 +37,14 @@ def test_help_lists_modes_and_says_physical_has_point_lights(rtdemo: str) -> Non
     assert run([rtdemo, "--help"]).returncode == 0
 
 
+def test_help_states_the_size_limit_and_the_out_of_memory_exit(rtdemo: str) -> None:
+    top = run([rtdemo, "--help"]).stdout
+    assert "1 out of memory" in top and "16384 a side or 64 Mpixels" in top
+    render = " ".join(run([rtdemo, "render", "--help"]).stdout.split())
+    assert "1-16384 each (at most 64 Mpixels, e.g. 8192x8192: exit 2 past that)" in render
+    assert "out of memory is exit 1" in render
+
+
 def test_exr_has_colour_aovs_and_header(rtdemo: str, tmp_path: Path) -> None:
     img = render_demo(
         rtdemo, CLASSIC, tmp_path / "c.exr", "--mode", "classic", "--threads", "2", size=(64, 48)

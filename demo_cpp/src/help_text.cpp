@@ -16,8 +16,10 @@ usage:
   rtdemo view SCENE.json [options]                ray-trace it live in a window (rtdemo view --help)
   rtdemo --help | --version
 
-Exit codes: 0 ok, 2 bad arguments, 3 invalid scene file, 4 output not writable,
-5 no OpenGL context, shader failure, or rtdemo-gl (the GL build beside rtdemo) missing.
+Exit codes: 0 ok, 1 out of memory ("rtdemo: error: out of memory ...") or another failure
+the message names, 2 bad arguments (an image over 16384 a side or 64 Mpixels among them),
+3 invalid scene file, 4 output not writable, 5 no OpenGL context, shader failure, or
+rtdemo-gl (the GL build beside rtdemo) missing.
 )";
 
 const char* kViewHelp = R"(usage: rtdemo view SCENE.json [options]
@@ -95,7 +97,11 @@ quirks (all present in paper mode; docs/paper-model.md):
   Q13  the hit sphere's own emission is not added (a light is shaded like a surface)
 
 image:
-  --width W, --height H  override the camera's size, 1-16384 each (at most 64 Mpixels)
+  --width W, --height H  override the camera's size, 1-16384 each (at most 64 Mpixels, e.g.
+                         8192x8192: exit 2 past that). A frame kept in memory takes about 32
+                         bytes a pixel (2 GiB at 64 Mpixels; 16 without the EXR's AOVs), a
+                         streamed output almost none; out of memory is exit 1 with "rtdemo:
+                         error: out of memory for an image of WxH pixels ..."
   --threads N            CPU worker threads, tracing and compressing the EXR (default: all
                          cores)
   --engine packet|scalar cpu: rays in SIMD lanes (default; AVX-512, AVX2 or one lane, as the
