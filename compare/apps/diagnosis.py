@@ -3,8 +3,8 @@ image implements, a short reason for a gradebook cell, and evidence pictures per
 change (the image beside the candidate it was explained by, and their difference before and
 after the change).
 
-Candidates render through CandidateRenderer's content-hash cache, so a class's diagnoses
-share their renders. Inputs are paths and plain values, so it runs in grade's worker
+Candidates render through the render cache (CandidateRenderer), so a class's diagnoses share
+their renders. Inputs are paths and plain values, so it runs in grade's worker
 processes and on Dask workers alike.
 """
 
@@ -23,6 +23,7 @@ from compare.judge.diagnose import Diagnosis, Step, diagnose, unmirror
 from compare.judge.images import Image, linear_to_srgb
 from compare.judge.mistakes import catalogue
 from compare.judge.quirks import QUIRKS
+from compare.render.cache import RenderCache
 from compare.render.candidates import CandidateRenderer
 from scene_model.scene import load_scene
 
@@ -189,7 +190,7 @@ def _write_evidence(
 def diagnose_image(
     image: Image,
     scene_file: str | Path,
-    cache_dir: str | Path,
+    cache: RenderCache | str | Path,
     evidence_dir: str | Path,
     *,
     prefix: str = "diagnosis",
@@ -201,13 +202,14 @@ def diagnose_image(
     """The diagnosis of `image` (a render of `scene_file`) as a JSON-ready dict: Diagnosis
     .as_dict() plus `short` (the gradebook cell), `evidence` (pictures per explaining change,
     written to evidence_dir as PREFIX-*.png, named href + file in the dict) and the cache's
-    renders and hits. Raises DiagnoseError or ToolError when the image cannot be diagnosed."""
+    renders and hits. `cache`: the render cache the candidates are rendered through (or its
+    folder). Raises DiagnoseError or ToolError when the image cannot be diagnosed."""
     scene = load_scene(scene_file)
     h, w = image.shape
     folder = Path(evidence_dir)
     folder.mkdir(parents=True, exist_ok=True)
     with CandidateRenderer(
-        scene_file, w, h, threads=1 if parallel > 1 else 0, cache_dir=cache_dir
+        scene_file, w, h, threads=1 if parallel > 1 else 0, cache=cache
     ) as render:
         d = diagnose(image, scene, render, progress=progress, parallel=parallel)
         evidence = _write_evidence(image, d, render, folder, prefix, href)

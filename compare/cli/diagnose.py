@@ -47,7 +47,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
     progress = (lambda _m: None) if args.quiet else stderr_progress
     h, w = image.shape
     try:
-        with CandidateRenderer(scene_file, w, h, threads=1 if args.parallel > 1 else 0) as r:
+        threads = 1 if args.parallel > 1 else 0
+        with CandidateRenderer(scene_file, w, h, threads=threads, cache=args.cache) as r:
             result = diagnose(
                 image, scene, r, start=start, progress=progress, parallel=args.parallel
             )
@@ -65,7 +66,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    from compare.cli.common import positive_int
+    from compare.cli.common import add_cache_argument, positive_int
 
     p = sub.add_parser(
         "diagnose",
@@ -102,4 +103,5 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="renders at once, one thread each (default 2)",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
+    add_cache_argument(p)
     p.set_defaults(func=run_diagnose)

@@ -1,41 +1,32 @@
 """Renders diagnose candidates (and demo target models) with rtdemo at a given size, for
-compare.judge.diagnose's injected `render`. Each render goes to a private temporary folder
-that is removed when the renderer closes, errors included.
+compare.judge.diagnose's injected `render`, through the render cache every command shares
+(cache.py, jobs.py): a candidate is a RenderJob, the command a person could type, keyed by
+render_key and stored by the cache's atomic insert, so the candidates a search tries for one
+student are read, not rendered, for the next (a class's diagnoses share most of their renders),
+and a plain demo model's render is the one `grade` and `report` use.
 
 A candidate that changes a scene constant (the background, the glass spheres' ior) or turns
 the camera (the sub-pixel renders exact matching needs, compare/render/models.py) is rendered
-from a copy of the scene with that change, written beside the render and keyed by its bytes.
-
-With `cache_dir`, renders are kept there under a content hash of the command (output path left
-out), the (copied) scene file's bytes and the rtdemo binary's bytes (render/cache.py's key), so
-the candidates a search tries for one student are read, not rendered, for the next: a class's
-diagnoses share most of their renders. Cache files appear by atomic rename, so processes
-sharing the folder (grade's process pool, Dask workers on one disk) never read a partial one."""
+from a copy of the scene with that change, kept in the cache's derived/ and named by its bytes.
+"""
 
 from __future__ import annotations
 
 import hashlib
-import itertools
 import json
-import os
-import shlex
-import shutil
-import subprocess
-import tempfile
 import threading
 from functools import cache
 from pathlib import Path
 from types import TracebackType
 
-from compare.files import sha256_file
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose import BASE_QUIRKS, LATER_QUIRKS
 from compare.judge.images import Image, ImageError, read_image
 from compare.judge.target_model import TargetModel
-from compare.render.cache import renderer_identity
+from compare.render.cache import RenderCache, renderer_identity
+from compare.render.jobs import RenderJob, render_one
 from compare.render.models import OFFSET_PIXELS, OFFSETS, SPHERE_ULPS, grown_scene, offset_scene
 from compare.render.runner import ToolError, rtdemo_path
-from scene_model.safe_paths import write_text_checked
 
 
 def exact_turns() -> list[tuple[float, float]]:
@@ -44,18 +35,44 @@ def exact_turns() -> list[tuple[float, float]]:
     return [(dx * m, dy * m) for m in OFFSET_PIXELS for dx, dy in OFFSETS]
 
 
+def candidate_job(c: Candidate, scene_file: str | Path, width: int, height: int) -> RenderJob:
+    """The render command of `c` on `scene_file` (the scene, or its copy with c's changes);
+    for a plain demo model it is models.model_job's command, so both share one cache entry."""
+    size = ["--width", str(width), "--height", str(height)]
+    return RenderJob(
+        "candidate",
+        c.name,
+        "rtdemo",
+        ["render", "{scene}", "-o", "{out}", "-q", *c.rtdemo_args(), *size],
+        "diagnose candidate",
+        scene=str(scene_file),
+    )
+
+
 @cache
-def _renders_quirks(executable: str, identity: str, scene_file: str, quirks: str) -> bool:
+def _renders_quirks(root: str, identity: str, scene_file: str, quirks: str) -> bool:
     """Whether this rtdemo build accepts `--quirk QUIRKS` (identity: the binary's hash, so a
-    rebuilt rtdemo is asked again). A 1x1 render costs milliseconds."""
-    with tempfile.TemporaryDirectory(prefix="rtval-probe-") as tmp:
-        cmd = [executable, "render", scene_file, "-o", str(Path(tmp) / "p.exr"), "-q"]
-        cmd += ["--width", "1", "--height", "1", "--mode", "physical", "--quirk", quirks]
-        return subprocess.run(cmd, capture_output=True, check=False).returncode == 0
+    rebuilt rtdemo is asked again): a 1x1 render, cached like any other."""
+    probe = ["--mode", "physical", "--quirk", quirks]
+    job = RenderJob(
+        "probe",
+        f"--quirk {quirks} probe",
+        "rtdemo",
+        ["render", "{scene}", "-o", "{out}", "-q", "--width", "1", "--height", "1", *probe],
+        "probe",
+        scene=scene_file,
+    )
+    try:
+        render_one(job, RenderCache(root))
+    except ToolError:
+        return False
+    return True
 
 
 class CandidateRenderer:
-    """`with CandidateRenderer(scene_file, w, h) as render: render(candidate) -> Image`."""
+    """`with CandidateRenderer(scene_file, w, h) as render: render(candidate) -> Image`.
+    `cache`: the render cache (a folder, or by default the one every command shares); on
+    leaving, its counts are added and it is evicted to its cap once."""
 
     def __init__(
         self,
@@ -64,16 +81,13 @@ class CandidateRenderer:
         height: int,
         *,
         threads: int = 0,
-        cache_dir: str | Path | None = None,
+        cache: RenderCache | str | Path | None = None,
     ):
         self.scene_file = str(scene_file)
         self.width, self.height, self.threads = width, height, threads
-        self.executable = rtdemo_path()
-        self.cache_dir = Path(cache_dir) if cache_dir is not None else None
-        self._dir: Path | None = None
-        self._count = itertools.count()
+        self.cache = cache if isinstance(cache, RenderCache) else RenderCache(cache)
+        self._open = False
         self._lock = threading.Lock()
-        self._scene_hash = sha256_file(self.scene_file)
         # Every candidate asked for, by name (diagnose's steps name theirs), and cache use.
         self.seen: dict[str, Candidate] = {}
         self.rendered = 0
@@ -81,13 +95,12 @@ class CandidateRenderer:
         self.turns = exact_turns()  # read by diagnose: how exact matching renders a model
         self.grows = list(SPHERE_ULPS)  # and its spheres grown and shrunk
         later = ",".join(f"Q{q}" for q in LATER_QUIRKS)
-        known = _renders_quirks(
-            self.executable, renderer_identity("rtdemo", self.executable), self.scene_file, later
-        )
+        identity = renderer_identity("rtdemo", rtdemo_path())
+        known = _renders_quirks(str(self.cache.root), identity, self.scene_file, later)
         self.search_quirks = BASE_QUIRKS + (LATER_QUIRKS if known else ())
 
     def __enter__(self) -> CandidateRenderer:
-        self._dir = Path(tempfile.mkdtemp(prefix="rtval-diagnose-"))
+        self._open = True
         return self
 
     def __exit__(
@@ -96,9 +109,10 @@ class CandidateRenderer:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        if self._dir is not None:
-            shutil.rmtree(self._dir, ignore_errors=True)
-            self._dir = None
+        self._open = False
+        self.cache.count(hits=self.cache_hits, misses=self.rendered)
+        if self.rendered:
+            self.cache.evict()  # what this search just used is within the grace period
 
     def scene_text(self, c: Candidate) -> str | None:
         """The JSON of the scene copy `c` is rendered from; None: the scene file itself."""
@@ -119,84 +133,34 @@ class CandidateRenderer:
                     sphere["ior"] = c.ior
         return json.dumps(raw, indent=1)
 
-    def _scene_for(self, c: Candidate) -> tuple[str, str]:
-        """(scene file to render, its content hash): the scene, or a copy written once."""
+    def _scene_for(self, c: Candidate) -> str:
+        """The scene file to render c from: the scene, or a copy in the cache's derived/
+        (checked, not trusted: a planted file or link there is replaced)."""
         text = self.scene_text(c)
         if text is None:
-            return self.scene_file, self._scene_hash
-        digest = hashlib.sha256(text.encode()).hexdigest()
-        folder = self.cache_dir if self.cache_dir is not None else self._dir
-        assert folder is not None
-        copy = folder / f"scene-{digest[:24]}.json"
-        folder.mkdir(parents=True, exist_ok=True)
-        write_text_checked(copy, text)  # checked, not trusted: a planted file or link is replaced
-        return str(copy), digest
+            return self.scene_file
+        digest = hashlib.sha256(text.encode()).hexdigest()[:24]
+        return str(self.cache.derived_text(f"scene-{digest}-candidate.json", text))
 
-    def command(
-        self, what: TargetModel | Candidate, out: str, scene: str | None = None
-    ) -> list[str]:
+    def job(self, what: TargetModel | Candidate) -> RenderJob:
         c = what if isinstance(what, Candidate) else Candidate.from_model(what)
-        cmd = [self.executable, "render", scene or self.scene_file, "-o", out, "-q"]
-        cmd += ["--width", str(self.width), "--height", str(self.height)]
-        if self.threads:
-            cmd += ["--threads", str(self.threads)]
-        return cmd + c.rtdemo_args()
-
-    def cache_file(
-        self, what: TargetModel | Candidate, scene_hash: str | None = None
-    ) -> Path | None:
-        """Where the cache keeps this candidate's render (None without a cache)."""
-        if self.cache_dir is None:
-            return None
-        c = what if isinstance(what, Candidate) else Candidate.from_model(what)
-        if scene_hash is None:
-            scene_hash = self._scene_for(c)[1]
-        # --threads changes no pixel, so it is not part of the key.
-        args = [f"{self.width}x{self.height}", *c.rtdemo_args()]
-        h = hashlib.sha256(shlex.join(args).encode())
-        h.update(scene_hash.encode())
-        h.update(renderer_identity("rtdemo").encode())
-        return self.cache_dir / f"candidate-{h.hexdigest()[:24]}.exr"
+        return candidate_job(c, self._scene_for(c), self.width, self.height)
 
     def __call__(self, what: TargetModel | Candidate) -> Image:
-        if self._dir is None:
+        if not self._open:
             raise RuntimeError("CandidateRenderer used outside its `with` block")
         c = what if isinstance(what, Candidate) else Candidate.from_model(what)
-        scene, scene_hash = self._scene_for(c)
-        cached = self.cache_file(c, scene_hash)
         with self._lock:
             self.seen[c.name] = c
-            n = next(self._count)
-        if cached is not None and cached.is_file():
-            try:
-                image = read_image(cached)
-                with self._lock:
-                    self.cache_hits += 1
-                return image
-            except ImageError:  # damaged by hand or a full disk: render it again
-                pass
-        if cached is not None:
-            cached.parent.mkdir(parents=True, exist_ok=True)
-            # Beside its final name (one file system, so the rename is atomic), unique per
-            # process and render.
-            out = cached.with_name(
-                f".{cached.stem}.{os.getpid()}.{threading.get_ident()}.{n}.partial.exr"
-            )
-        else:
-            out = self._dir / f"c{n}.exr"
-        cmd = self.command(c, str(out), scene)
+        job = self.job(c)
+        extra = ["--threads", str(self.threads)] if self.threads else []
+        hit = render_one(job, self.cache, extra_args=extra)
         try:
-            proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-            if proc.returncode != 0:
-                raise ToolError(
-                    f"rtdemo failed (exit {proc.returncode}) for {' '.join(cmd[1:])}: "
-                    f"{proc.stderr.strip()[-1000:]}"
-                )
-            image = read_image(out)
-            if cached is not None:
-                out.replace(cached)
-            with self._lock:
-                self.rendered += 1
-            return image
-        finally:
-            out.unlink(missing_ok=True)
+            image = read_image(job.exr(self.cache))
+        except ImageError:  # whole by its sha256 but unreadable: render it again
+            hit = render_one(job, self.cache, extra_args=extra, again=True)
+            image = read_image(job.exr(self.cache))
+        with self._lock:
+            self.cache_hits += hit
+            self.rendered += not hit
+        return image

@@ -17,7 +17,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -88,9 +88,7 @@ def run_jobs(
     """Makes every job's render in the cache (job.exr(cache)); returns seconds per phase."""
     progress = progress or Progress()
     for job in jobs:
-        if not job.scene:
-            raise ValueError(f"render job {job.key} has no scene")
-        job.cache_key = render_key(job.tool, job.args, Path(job.scene), job.executable)
+        set_key(job)
     counter = _Counter(len(jobs), progress)
     todo: list[RenderJob] = []
     seen: set[str] = set()
@@ -130,6 +128,34 @@ def run_jobs(
     return timings
 
 
+def set_key(job: RenderJob) -> str:
+    """The job's cache key (render_key of its command, scene and renderer), kept on it."""
+    if not job.scene:
+        raise ValueError(f"render job {job.key} has no scene")
+    job.cache_key = render_key(job.tool, job.args, Path(job.scene), job.executable)
+    return job.cache_key
+
+
+def render_one(
+    job: RenderJob, cache: RenderCache, *, extra_args: Sequence[str] = (), again: bool = False
+) -> bool:
+    """Makes one rtdemo job's render in the cache (job.exr(cache)) without progress lines,
+    for the many small renders of a search; returns whether it was cached. `extra_args`
+    change no pixel (--threads) and stay out of the key; `again`: render even when cached
+    (the entry could not be read). Counting and eviction are the caller's, once for all
+    (RenderCache.count, RenderCache.evict)."""
+    if job.tool != "rtdemo":
+        raise ValueError(f"render job {job.key}: render_one runs rtdemo jobs only")
+    key = set_key(job)
+    info = None if again else cache.info(key)
+    if info is not None:
+        job.cached, job.info = True, info
+        job.seconds = float(info.get("seconds", 0.0))
+        return True
+    _make_demo(job, cache, extra_args)
+    return False
+
+
 def _unique(jobs: Iterable[RenderJob]) -> list[RenderJob]:
     out, seen = [], set()
     for j in jobs:
@@ -140,8 +166,14 @@ def _unique(jobs: Iterable[RenderJob]) -> list[RenderJob]:
 
 
 def _run_demo(job: RenderJob, cache: RenderCache, counter: _Counter) -> None:
+    _make_demo(job, cache)
+    counter.finished(job)
+
+
+def _make_demo(job: RenderJob, cache: RenderCache, extra_args: Sequence[str] = ()) -> None:
+    """Runs an rtdemo job into a temporary file of the cache and stores it under its key."""
     tmp = cache.tmp_path(job.cache_key)
-    cmd = job.command(tmp)
+    cmd = [*job.command(tmp), *extra_args]
     cmd[0] = _executable(job)
     start = time.perf_counter()
     try:
@@ -155,7 +187,6 @@ def _run_demo(job: RenderJob, cache: RenderCache, counter: _Counter) -> None:
         job.info = cache.store(job.cache_key, tmp, _facts(job))
     finally:  # interrupted or failed: leave nothing that looks like a result
         tmp.unlink(missing_ok=True)
-    counter.finished(job)
 
 
 def _facts(job: RenderJob) -> dict[str, Any]:

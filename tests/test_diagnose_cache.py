@@ -1,0 +1,54 @@
+"""Diagnose's candidates are render-cache entries like every other render: a plain model's
+candidate is the entry `grade` and `report` use, a second search reads what the first made,
+and nothing is left outside the cache (no private temporary folder)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from helpers import SCENES, render_demo, run
+
+from compare.judge.candidate import Candidate
+from compare.judge.target_model import parse_model
+from compare.render.cache import RenderCache
+from compare.render.candidates import CandidateRenderer
+from compare.render.jobs import set_key
+from compare.render.models import model_job
+
+RTVAL = str(Path(sys.executable).with_name("rtval"))
+CLASSIC = SCENES / "classic.json"
+W, H = 16, 12
+
+
+def test_candidates_are_entries_of_the_render_cache(tmp_path: Path) -> None:
+    cache = RenderCache(tmp_path / "c")
+    classic = Candidate.of_mode("classic")
+    asked = [classic, classic.turned((1e-4, 0.0)), classic.with_mistake("no_offset", True)]
+    with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
+        first = [render(c).rgb for c in asked]
+    assert (render.rendered, render.cache_hits) == (3, 0)
+    # The plain model's candidate is the model's own render: one entry for both.
+    key = set_key(model_job(parse_model("classic"), CLASSIC, (W, H)))
+    assert cache.info(key) is not None
+    with CandidateRenderer(CLASSIC, W, H, cache=cache) as again:
+        second = [again(c).rgb for c in asked]
+    assert (again.rendered, again.cache_hits) == (0, 3)
+    assert all((a == b).all() for a, b in zip(first, second, strict=True))
+    assert not list(cache.tmp_dir.iterdir())  # nothing half-made left behind
+    stats = cache.stats()
+    assert stats["misses"] >= 3 and stats["hits"] >= 3
+
+
+def test_rtval_diagnose_renders_nothing_the_cache_has(tmp_path: Path, rtdemo: str) -> None:
+    image = tmp_path / "q2.exr"
+    render_demo(rtdemo, CLASSIC, image, "-q", "--mode", "classic", "--quirk", "Q2", size=(W, H))
+    cache = tmp_path / "c"
+    cmd = [RTVAL, "diagnose", str(image), "--scene", str(CLASSIC), "--cache", str(cache), "-q"]
+    first = run(cmd)
+    assert first.returncode == 0, first.stderr
+    misses = RenderCache(cache).stats()["misses"]
+    assert misses > 0
+    second = run(cmd)
+    assert second.returncode == 0 and second.stdout == first.stdout
+    assert RenderCache(cache).stats()["misses"] == misses  # every candidate read, none made
