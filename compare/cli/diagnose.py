@@ -17,8 +17,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from compare.cli.common import stderr_progress
     from compare.files import write_atomic
     from compare.judge.candidate import Candidate
-    from compare.judge.diagnose import DiagnoseError, diagnose
-    from compare.judge.images import read_image
+    from compare.judge.diagnose import DiagnoseError, NoFinitePixels, diagnose
+    from compare.judge.images import ImageError, read_image
     from compare.judge.target_model import parse_model
     from compare.render.candidates import CandidateRenderer
     from compare.render.runner import ToolError
@@ -52,6 +52,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
             result = diagnose(
                 image, scene, r, start=start, progress=progress, parallel=args.parallel
             )
+    except NoFinitePixels as e:  # an input with nothing to judge: as an unusable image
+        raise ImageError(str(e)) from None
     except DiagnoseError as e:
         raise ToolError(str(e)) from None
     if args.json:
@@ -78,7 +80,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "before and after for the eye). An effect is explained when the result makes at least "
         "half of its differing pixels match; a region nothing explains is named with its "
         "remaining error: a new bug, not a quirk. Exit 0 diagnosed, "
-        "1 renderer failure, 3 invalid scene, 4 unreadable image or unwritable --json, "
+        "1 renderer failure, 3 invalid scene, 4 unreadable image, an image without one finite "
+        "pixel (all NaN or infinite) or unwritable --json, "
         "64 bad arguments (also --json naming IMAGE or the scene).",
     )
     p.add_argument("image", help="the image to explain (EXR, PNG, PPM, PFM)")

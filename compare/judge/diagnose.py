@@ -41,9 +41,11 @@ from compare.judge.diagnose_report import (
 from compare.judge.diagnose_score import (
     MIRRORS,
     DiagnoseError,
+    NoFinitePixels,
     Renderer,
     Target,
     Trials,
+    check_finite,
     explained,
     objective,
     unmirror,
@@ -72,6 +74,7 @@ __all__ = [
     "DiagnoseError",
     "Diagnosis",
     "EffectFinding",
+    "NoFinitePixels",
     "Renderer",
     "Step",
     "diagnose",
@@ -421,7 +424,10 @@ def diagnose(
     to the renderer's attributes of those names (CandidateRenderer has them), else to none and
     SEARCH_QUIRKS. When the switches that helped stop helping and some effect is still not
     reproduced, every switch is tried once more (while fewer than `max_renders` renders were
-    made). Nothing depends on time, so a loaded machine gives the same diagnosis, later."""
+    made). Nothing depends on time, so a loaded machine gives the same diagnosis, later.
+    An image without one finite pixel raises NoFinitePixels before any candidate is
+    rendered."""
+    check_finite(image)
     turns = list(turns if turns is not None else getattr(render, "turns", ()))
     quirks = tuple(
         search_quirks

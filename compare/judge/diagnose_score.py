@@ -43,6 +43,21 @@ class DiagnoseError(ValueError):
     """The image cannot be diagnosed against this scene (e.g. a renderer without AOVs)."""
 
 
+class NoFinitePixels(DiagnoseError):
+    """Every pixel of the image is NaN or infinite: no candidate can come nearer than
+    another, so there is nothing to explain (`rtval diagnose` exits 4, as for an unusable
+    input)."""
+
+
+def check_finite(image: Image) -> None:
+    """Raises NoFinitePixels for an image without one finite pixel value."""
+    if image.rgb.size and not np.isfinite(image.rgb).any():
+        name = image.path or "the image"
+        raise NoFinitePixels(
+            f"{name}: no finite pixel (every value is NaN or infinite): nothing to diagnose"
+        )
+
+
 def unmirror(rgb: F32, mirrored: str) -> F32:
     """The image as the program computed it, before it was drawn mirrored ("" : as is)."""
     key = next((k for k, v in MIRRORS.items() if v == mirrored), mirrored)
