@@ -84,6 +84,23 @@ def build_cap(
     if azimuth is None:
         azimuth = _azimuth_segments(radius, height, ring_list, min_sagitta, rel_sagitta)
 
+    positions, normals = _vertices(c, radius, axis, thetas[1:], azimuth)
+    return CapMesh(
+        positions=positions.astype(np.float32),
+        normals=normals.astype(np.float32),
+        faces=_faces(len(thetas) - 1, azimuth),
+        theta_max=theta_max,
+    )
+
+
+def _vertices(
+    c: NDArray[np.float64],
+    radius: float,
+    axis: NDArray[np.float64],
+    ring_thetas: NDArray[np.float64],
+    azimuth: int,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Positions and unit normals: the pole on `axis`, then each ring's `azimuth` vertices."""
     # Orthonormal frame around the axis.
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(axis, helper)
@@ -91,16 +108,17 @@ def build_cap(
     v = np.cross(axis, u)
 
     phis = np.linspace(0.0, 2.0 * math.pi, azimuth, endpoint=False)
-    ring_thetas = thetas[1:]
     st, ct = np.sin(ring_thetas)[:, None], np.cos(ring_thetas)[:, None]
     dirs = ct[..., None] * axis + st[..., None] * (
         np.cos(phis)[None, :, None] * u + np.sin(phis)[None, :, None] * v
     )
     normals = np.concatenate([axis[None, :], dirs.reshape(-1, 3)])
-    positions = c + radius * normals
+    return c + radius * normals, normals
 
+
+def _faces(n_rings: int, azimuth: int) -> NDArray[np.uint32]:
+    """A fan around the pole, then two triangles per quad between successive rings."""
     faces = []
-    n_rings = len(ring_thetas)
     ring0 = 1 + np.arange(azimuth)
     nxt = np.roll(np.arange(azimuth), -1)
     faces.append(np.stack([np.zeros(azimuth, dtype=np.int64), ring0, 1 + nxt], axis=1))
@@ -111,10 +129,4 @@ def build_cap(
         b2 = b + azimuth
         faces.append(np.stack([a, a2, b2], axis=1))
         faces.append(np.stack([a, b2, b], axis=1))
-    face_array = np.concatenate(faces).astype(np.uint32)
-    return CapMesh(
-        positions=positions.astype(np.float32),
-        normals=normals.astype(np.float32),
-        faces=face_array,
-        theta_max=theta_max,
-    )
+    return np.concatenate(faces).astype(np.uint32)

@@ -140,7 +140,6 @@ def _bsdf(s: Sphere, options: ExportOptions, exported: ExportedScene) -> Plugin:
 
 
 def export_scene(scene: Scene, options: ExportOptions = ExportOptions()) -> ExportedScene:
-    cam = scene.camera
     root = Plugin(
         "scene",
         "scene",
@@ -154,59 +153,11 @@ def export_scene(scene: Scene, options: ExportOptions = ExportOptions()) -> Expo
         ),
     )
     exported = ExportedScene(tree=root, meshes={})
-
+    cam = scene.camera
     far = max([math.dist(s.center, cam.position) + s.radius for s in scene.spheres] or [1.0])
     exported.notes.append(f"far_clip {far * 1.5 + 10:.6g} (beyond every sphere)")
-    max_depth = (
-        scene.max_depth + 2
-    )  # camera vertex + specular chain + the light (Mitsuba counts vertices)
-    if options.integrator == "path":
-        root.props["integrator"] = Plugin(
-            "integrator",
-            "path",
-            {"max_depth": max_depth, "rr_depth": max_depth, "hide_emitters": False},
-            comment="Mitsuba's path tracer: the full light transport; Russian roulette off within max_depth",
-        )
-    else:
-        root.props["integrator"] = Plugin(
-            "integrator",
-            options.integrator,
-            {"max_depth": scene.max_depth, "bias": scene.bias},
-            comment="rtval's Whitted integrator (register it with mitsuba_ref.whitted.register())",
-        )
-    if options.centre_rays:
-        sampler = Plugin(
-            "sampler",
-            "stratified",
-            {"sample_count": 1, "jitter": False},
-            comment="one ray through each pixel centre, as the demo shoots",
-        )
-    else:
-        sampler = Plugin("sampler", "independent", {"sample_count": options.spp})
-    root.props["sensor"] = Plugin(
-        "sensor",
-        "perspective",
-        {
-            "fov_axis": "y",
-            "fov": float(cam.fov_y),
-            "to_world": LookAt(cam.position, cam.look_at, cam.up),
-            "near_clip": 1e-4,
-            "far_clip": far * 1.5 + 10.0,
-            "film": Plugin(
-                "film",
-                "hdrfilm",
-                {
-                    "width": cam.width,
-                    "height": cam.height,
-                    "pixel_format": "rgb",
-                    "component_format": "float32",
-                    "rfilter": Plugin("rfilter", "box"),
-                },
-            ),
-            "sampler": sampler,
-        },
-        comment="vertical fov (fov_axis y), float32 RGB film, box filter, far clip beyond the scene",
-    )
+    root.props["integrator"] = _integrator(scene, options)
+    root.props["sensor"] = _sensor(scene, options, far * 1.5 + 10.0)
     root.props["background"] = Plugin(
         "emitter",
         "constant",
@@ -220,62 +171,141 @@ def export_scene(scene: Scene, options: ExportOptions = ExportOptions()) -> Expo
             "no light: the background (constant emitter) is the only emitter; in rtval_whitted "
             "diffuse surfaces stay black, the path tracer lights them from the sky"
         )
-
     for i, s in enumerate(scene.spheres):
-        sid = shape_id(i)
-        props: dict[str, Any] = {}
-        if s.kind == "light":
-            lv = light_values(scene, s, options.light_units)
-            exported.light_factors[s.name] = lv.factor
-            if options.light == "point":
-                root.props[light_id(i)] = Plugin(
-                    "emitter",
-                    "point",
-                    {"position": Point(s.center), "intensity": RGB(lv.intensity)},
-                    id=light_id(i),
-                    comment=f"light '{s.name}': point intensity = emission x {lv.factor:.6g} "
-                    f"({options.light_units} units)",
-                )
-                if options.for_path:
-                    exported.notes.append(
-                        f"light '{s.name}': sphere dropped (it would occlude its point light)"
-                    )
-                    continue
-            props["emitter"] = Plugin(
-                "emitter",
-                "area",
-                {"radiance": RGB(lv.radiance)},
-                comment=f"radiance = point intensity / (pi R^2), factor {lv.factor:.6g}",
-            )
-        props["bsdf"] = _bsdf(s, options, exported)
-        huge = s.radius >= HUGE_RADIUS and not options.keep_huge_spheres
-        if huge:
-            try:
-                mesh = build_cap(s.center, s.radius, cam.position)
-            except ValueError as e:
-                exported.notes.append(f"sphere '{s.name}' kept as a sphere: {e}")
-                huge = False
-        if huge:
-            ply = f"{scene.name}_{sid}_cap.ply"
-            exported.meshes[ply] = mesh
-            props = {"filename": ply, **props}
-            exported.notes.append(
-                f"sphere '{s.name}' (radius {s.radius:g}) exported as a spherical cap of "
-                f"{len(mesh.faces)} triangles, {math.degrees(mesh.theta_max):.2f} degrees"
-            )
-            root.props[sid] = Plugin(
-                "shape",
-                "ply",
-                props,
-                id=sid,
-                comment=(
-                    f"'{s.name}': huge sphere as a graded spherical-cap mesh (float32-safe, horizon kept)"
-                ),
-            )
-        else:
-            props = {"center": Point(s.center), "radius": float(s.radius), **props}
-            root.props[sid] = Plugin(
-                "shape", "sphere", props, id=sid, comment=f"'{s.name}': {s.kind}"
-            )
-        exported.shape_index[sid] = i
+        _add_sphere(exported, scene, i, s, options)
     return exported
+
+
+def _integrator(scene: Scene, options: ExportOptions) -> Plugin:
+    if options.integrator == "path":
+        # camera vertex + specular chain + the light (Mitsuba counts vertices)
+        max_depth = scene.max_depth + 2
+        return Plugin(
+            "integrator",
+            "path",
+            {"max_depth": max_depth, "rr_depth": max_depth, "hide_emitters": False},
+            comment="Mitsuba's path tracer: the full light transport; Russian roulette off within max_depth",
+        )
+    return Plugin(
+        "integrator",
+        options.integrator,
+        {"max_depth": scene.max_depth, "bias": scene.bias},
+        comment="rtval's Whitted integrator (register it with mitsuba_ref.whitted.register())",
+    )
+
+
+def _sensor(scene: Scene, options: ExportOptions, far_clip: float) -> Plugin:
+    cam = scene.camera
+    if options.centre_rays:
+        sampler = Plugin(
+            "sampler",
+            "stratified",
+            {"sample_count": 1, "jitter": False},
+            comment="one ray through each pixel centre, as the demo shoots",
+        )
+    else:
+        sampler = Plugin("sampler", "independent", {"sample_count": options.spp})
+    film = Plugin(
+        "film",
+        "hdrfilm",
+        {
+            "width": cam.width,
+            "height": cam.height,
+            "pixel_format": "rgb",
+            "component_format": "float32",
+            "rfilter": Plugin("rfilter", "box"),
+        },
+    )
+    return Plugin(
+        "sensor",
+        "perspective",
+        {
+            "fov_axis": "y",
+            "fov": float(cam.fov_y),
+            "to_world": LookAt(cam.position, cam.look_at, cam.up),
+            "near_clip": 1e-4,
+            "far_clip": far_clip,
+            "film": film,
+            "sampler": sampler,
+        },
+        comment="vertical fov (fov_axis y), float32 RGB film, box filter, far clip beyond the scene",
+    )
+
+
+def _add_sphere(
+    exported: ExportedScene, scene: Scene, i: int, s: Sphere, options: ExportOptions
+) -> None:
+    """Sphere i as a shape (or, for a huge one, a cap mesh), with its light's emitters."""
+    sid = shape_id(i)
+    props: dict[str, Any] = {}
+    if s.kind == "light":
+        emitter = _light(exported, scene, i, s, options)
+        if emitter is None:
+            return
+        props["emitter"] = emitter
+    props["bsdf"] = _bsdf(s, options, exported)
+    mesh = _cap(exported, scene, s, options)
+    if mesh is not None:
+        ply = f"{scene.name}_{sid}_cap.ply"
+        exported.meshes[ply] = mesh
+        exported.notes.append(
+            f"sphere '{s.name}' (radius {s.radius:g}) exported as a spherical cap of "
+            f"{len(mesh.faces)} triangles, {math.degrees(mesh.theta_max):.2f} degrees"
+        )
+        exported.tree.props[sid] = Plugin(
+            "shape",
+            "ply",
+            {"filename": ply, **props},
+            id=sid,
+            comment=(
+                f"'{s.name}': huge sphere as a graded spherical-cap mesh (float32-safe, horizon kept)"
+            ),
+        )
+    else:
+        props = {"center": Point(s.center), "radius": float(s.radius), **props}
+        exported.tree.props[sid] = Plugin(
+            "shape", "sphere", props, id=sid, comment=f"'{s.name}': {s.kind}"
+        )
+    exported.shape_index[sid] = i
+
+
+def _light(
+    exported: ExportedScene, scene: Scene, i: int, s: Sphere, options: ExportOptions
+) -> Plugin | None:
+    """The light sphere's area emitter, after its point emitter with light="point"; None when
+    the sphere itself is dropped (point lights in a path render)."""
+    lv = light_values(scene, s, options.light_units)
+    exported.light_factors[s.name] = lv.factor
+    if options.light == "point":
+        exported.tree.props[light_id(i)] = Plugin(
+            "emitter",
+            "point",
+            {"position": Point(s.center), "intensity": RGB(lv.intensity)},
+            id=light_id(i),
+            comment=f"light '{s.name}': point intensity = emission x {lv.factor:.6g} "
+            f"({options.light_units} units)",
+        )
+        if options.for_path:
+            exported.notes.append(
+                f"light '{s.name}': sphere dropped (it would occlude its point light)"
+            )
+            return None
+    return Plugin(
+        "emitter",
+        "area",
+        {"radiance": RGB(lv.radiance)},
+        comment=f"radiance = point intensity / (pi R^2), factor {lv.factor:.6g}",
+    )
+
+
+def _cap(
+    exported: ExportedScene, scene: Scene, s: Sphere, options: ExportOptions
+) -> CapMesh | None:
+    """The cap mesh standing in for a huge sphere; None to keep it a sphere."""
+    if s.radius < HUGE_RADIUS or options.keep_huge_spheres:
+        return None
+    try:
+        return build_cap(s.center, s.radius, scene.camera.position)
+    except ValueError as e:
+        exported.notes.append(f"sphere '{s.name}' kept as a sphere: {e}")
+        return None

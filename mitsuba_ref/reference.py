@@ -89,20 +89,57 @@ def render_reference(
     from mitsuba_ref import whitted
 
     whitted.register()
-    exported, mscene = _loaded_scene(
-        mi,
-        settings.variant,
-        scene,
-        ExportOptions(
-            light=settings.light,
-            light_units=settings.light_units,
-            mapping=settings.mapping,
-            keep_huge_spheres=settings.keep_huge_spheres,
-            for_path=settings.integrator == "path",
-        ),
+    exported, mscene = _loaded_scene(mi, settings.variant, scene, _export_options(settings))
+    integrator = _integrator(mi, scene, settings)
+    width, height = settings.size or (scene.camera.width, scene.camera.height)
+    sensor = _sensor(mi, scene, exported, width, height)
+    jit = bool(dr.is_jit_v(mi.Float))
+
+    def render_pass(seed: int, batch: int) -> NDArray[np.float64]:
+        if jit:
+            return _jit_batch(
+                mi, dr, mscene, sensor, integrator, width, height, seed, batch, settings.centre_rays
+            )
+        if settings.integrator == "path" and not settings.centre_rays:
+            # Mitsuba's own render loop (C++ threads over image blocks, box filter, positions
+            # uniform in the pixel): the same estimator as the loop below, at the scalar
+            # variant's own speed (paper 640x480, 1 spp: 0.15 s against 1.4 s in Python).
+            image = mi.render(mscene, sensor=sensor, integrator=integrator, spp=1, seed=seed)
+            return np.asarray(image, np.float64)[None, :, :, :3]
+        return _scalar_pass(
+            mi, dr, mscene, sensor, integrator, width, height, seed, settings.centre_rays
+        )[None]
+
+    # JIT variants trace several samples per pixel in one wavefront (recording the
+    # recursion once per batch); scalar variants go one sample at a time.
+    batch_max = max(1, MAX_WAVEFRONT // (width * height)) if jit else 1
+    sums = _Sums.zeros(height, width)
+    stopped_by, seconds = _run_passes(render_pass, sums, batch_max, settings, progress)
+    aovs_key = (id(mscene), width, height)
+    if aovs_key not in _AOVS:  # the camera rays' hits: the same for every render of this scene
+        _AOVS[aovs_key] = _primary_aovs(mi, dr, mscene, sensor, exported.shape_index, width, height)
+    aovs = {k: v.copy() for k, v in _AOVS[aovs_key].items()}
+    variance = sums.variance().astype(np.float32) if sums.done >= 2 else None
+    header = _header(mi, scene, settings, sums, stopped_by, seconds)
+    mean = (sums.total / sums.done).astype(np.float32)
+    return ReferenceImage(mean, variance, aovs, header, sums.done, seconds, list(exported.notes))
+
+
+def _export_options(settings: ReferenceSettings) -> ExportOptions:
+    return ExportOptions(
+        light=settings.light,
+        light_units=settings.light_units,
+        mapping=settings.mapping,
+        keep_huge_spheres=settings.keep_huge_spheres,
+        for_path=settings.integrator == "path",
     )
+
+
+def _integrator(mi: Any, scene: Scene, settings: ReferenceSettings) -> Any:
+    from mitsuba_ref import whitted
+
     if settings.integrator == "whitted":
-        integrator = mi.load_dict(
+        return mi.load_dict(
             {
                 "type": whitted.NAME,
                 "max_depth": scene.max_depth,
@@ -112,68 +149,73 @@ def render_reference(
                 "refraction": settings.refraction,
             }
         )
-    else:
-        if not (settings.shadows and settings.reflection and settings.refraction):
-            raise ValueError("effect switches apply to the whitted integrator only")
-        depth = scene.max_depth + 2
-        integrator = mi.load_dict({"type": "path", "max_depth": depth, "rr_depth": depth})
-    width, height = settings.size or (scene.camera.width, scene.camera.height)
-    sensor = _sensor(mi, scene, exported, width, height)
+    if not (settings.shadows and settings.reflection and settings.refraction):
+        raise ValueError("effect switches apply to the whitted integrator only")
+    depth = scene.max_depth + 2
+    return mi.load_dict({"type": "path", "max_depth": depth, "rr_depth": depth})
 
-    jit = bool(dr.is_jit_v(mi.Float))
-    total = np.zeros((height, width, 3), np.float64)
-    total_sq = np.zeros((height, width, 3), np.float64)
+
+@dataclass
+class _Sums:
+    """Per pixel, the sum of the samples and of their squares, over `done` samples."""
+
+    total: NDArray[np.float64]
+    total_sq: NDArray[np.float64]
+    done: int = 0
+    stderr: float = float("nan")  # the mean standard error of the pixel means, from 2 samples
+
+    @staticmethod
+    def zeros(height: int, width: int) -> _Sums:
+        shape = (height, width, 3)
+        return _Sums(np.zeros(shape, np.float64), np.zeros(shape, np.float64))
+
+    def add(self, samples: NDArray[np.float64], count: int) -> None:
+        self.total += samples.sum(axis=0)
+        self.total_sq += (samples * samples).sum(axis=0)
+        self.done += count
+
+    def variance(self) -> NDArray[np.float64]:
+        """The per-sample variance (unbiased); needs done >= 2."""
+        done = self.done
+        var: NDArray[np.float64] = (
+            np.maximum(self.total_sq / done - (self.total / done) ** 2, 0) * done / (done - 1)
+        )
+        return var
+
+
+def _run_passes(
+    render_pass: Callable[[int, int], NDArray[np.float64]],
+    sums: _Sums,
+    batch_max: int,
+    settings: ReferenceSettings,
+    progress: Callable[[int, int, float], None] | None,
+) -> tuple[str, float]:
+    """Renders passes into `sums` until spp, the time budget or the target standard error;
+    returns why it stopped and the seconds spent."""
     passes = 1 if _deterministic(settings) else settings.spp
-    # JIT variants trace several samples per pixel in one wavefront (recording the
-    # recursion once per batch); scalar variants go one sample at a time.
-    batch_max = max(1, MAX_WAVEFRONT // (width * height)) if jit else 1
     start = time.perf_counter()
-    done = 0
-    stopped_by = "spp"
-    stderr = float("nan")
-    while done < passes:
-        batch = min(batch_max, passes - done)
-        seed = (settings.seed * 1_000_003 + done) % 2**32  # samplers take 32 bits
-        if jit:
-            samples = _jit_batch(
-                mi, dr, mscene, sensor, integrator, width, height, seed, batch, settings.centre_rays
-            )
-        elif settings.integrator == "path" and not settings.centre_rays:
-            # Mitsuba's own render loop (C++ threads over image blocks, box filter, positions
-            # uniform in the pixel): the same estimator as the loop below, at the scalar
-            # variant's own speed (paper 640x480, 1 spp: 0.15 s against 1.4 s in Python).
-            image = mi.render(mscene, sensor=sensor, integrator=integrator, spp=1, seed=seed)
-            samples = np.asarray(image, np.float64)[None, :, :, :3]
-        else:
-            samples = _scalar_pass(
-                mi, dr, mscene, sensor, integrator, width, height, seed, settings.centre_rays
-            )[None]
-        total += samples.sum(axis=0)
-        total_sq += (samples * samples).sum(axis=0)
-        done += batch
+    while sums.done < passes:
+        batch = min(batch_max, passes - sums.done)
+        seed = (settings.seed * 1_000_003 + sums.done) % 2**32  # samplers take 32 bits
+        sums.add(render_pass(seed, batch), batch)
         elapsed = time.perf_counter() - start
-        if done >= 2:
-            var = np.maximum(total_sq / done - (total / done) ** 2, 0) * done / (done - 1)
-            stderr = float(np.mean(np.sqrt(var / done)))
+        if sums.done >= 2:
+            sums.stderr = float(np.mean(np.sqrt(sums.variance() / sums.done)))
         if progress:
-            progress(done, passes, elapsed)
-        if settings.time_budget is not None and elapsed >= settings.time_budget and done < passes:
-            stopped_by = "time budget"
-            break
-        if settings.target_stderr is not None and done >= 2 and stderr <= settings.target_stderr:
-            stopped_by = "target std err"
-            break
-    seconds = time.perf_counter() - start
-    mean = (total / done).astype(np.float32)
-    variance = None
-    if done >= 2:
-        variance = (
-            np.maximum(total_sq / done - (total / done) ** 2, 0) * done / (done - 1)
-        ).astype(np.float32)
-    aovs_key = (id(mscene), width, height)
-    if aovs_key not in _AOVS:  # the camera rays' hits: the same for every render of this scene
-        _AOVS[aovs_key] = _primary_aovs(mi, dr, mscene, sensor, exported.shape_index, width, height)
-    aovs = {k: v.copy() for k, v in _AOVS[aovs_key].items()}
+            progress(sums.done, passes, elapsed)
+        over_budget = settings.time_budget is not None and elapsed >= settings.time_budget
+        if over_budget and sums.done < passes:
+            return "time budget", time.perf_counter() - start
+        target = settings.target_stderr
+        if target is not None and sums.done >= 2 and sums.stderr <= target:
+            return "target std err", time.perf_counter() - start
+    return "spp", time.perf_counter() - start
+
+
+def _header(
+    mi: Any, scene: Scene, settings: ReferenceSettings, sums: _Sums, stopped_by: str, seconds: float
+) -> dict[str, str]:
+    """The EXR's rtval.* attributes: how the image was made."""
     effects = [
         n
         for n, on in (
@@ -183,16 +225,15 @@ def render_reference(
         )
         if not on
     ]
-    header = {
+    deterministic = _deterministic(settings)
+    return {
         "rtval.renderer": "mitsuba",
         "rtval.scene": scene.name,
         "rtval.integrator": settings.integrator,
         "rtval.variant": settings.variant,
-        "rtval.spp": str(settings.spp if _deterministic(settings) else done),
+        "rtval.spp": str(settings.spp if deterministic else sums.done),
         "rtval.spp_requested": str(settings.spp),
-        "rtval.stopped_by": "deterministic (1 pass = any spp)"
-        if _deterministic(settings)
-        else stopped_by,
+        "rtval.stopped_by": "deterministic (1 pass = any spp)" if deterministic else stopped_by,
         "rtval.seed": str(settings.seed),
         "rtval.centre_rays": str(settings.centre_rays).lower(),
         "rtval.light": settings.light,
@@ -200,11 +241,10 @@ def render_reference(
         "rtval.mapping": settings.mapping,
         "rtval.keep_huge_spheres": str(settings.keep_huge_spheres).lower(),
         "rtval.effects_off": " ".join(effects) or "none",
-        "rtval.mean_stderr": f"{stderr:.6g}",
+        "rtval.mean_stderr": f"{sums.stderr:.6g}",
         "rtval.render_seconds": f"{seconds:.4g}",
         "rtval.mitsuba_version": str(getattr(mi, "__version__", "?")),
     }
-    return ReferenceImage(mean, variance, aovs, header, done, seconds, list(exported.notes))
 
 
 # A batch renders one scene several times: Mitsuba builds the paper scene in ~0.4 s, so the
@@ -307,48 +347,8 @@ def _primary_aovs(
     ids = np.full((height, width), -1.0, np.float32)
     depth = np.zeros((height, width), np.float32)
     normal = np.zeros((height, width, 3), np.float32)
-    if dr.is_jit_v(mi.Float):
-        pos = _film_positions(dr, mi, None, width, height, True)
-        ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
-        si = mscene.ray_intersect(ray)
-        hit_shape = dr.reinterpret_array(mi.UInt32, si.shape)
-        # One kernel for every field read below; each lazy read would trace the rays again.
-        dr.eval(si.is_valid(), hit_shape, si.t, si.sh_frame.n, ray.d)
-        valid = np.asarray(si.is_valid()).reshape(height, width)
-        registry = np.asarray(hit_shape).reshape(height, width)
-        lookup = {}
-        for shape in mscene.shapes():
-            rid = int(np.asarray(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape)))[0])
-            lookup[rid] = shape_index.get(shape.id(), -1)
-        for rid, index in lookup.items():
-            ids[(registry == rid) & valid] = index
-        t = np.asarray(si.t).reshape(height, width)
-        n = np.stack(
-            [np.asarray(c) for c in (si.sh_frame.n.x, si.sh_frame.n.y, si.sh_frame.n.z)], -1
-        )
-        d = np.stack([np.asarray(c) for c in (ray.d.x, ray.d.y, ray.d.z)], -1)
-        n = n.reshape(height, width, 3)
-        d = d.reshape(height, width, 3)
-        flip = np.where((n * d).sum(-1, keepdims=True) > 0, -1.0, 1.0)
-        depth[valid] = t[valid]
-        normal[valid] = (n * flip)[valid]
-    else:
-        for y in range(height):
-            for x in range(width):
-                ray, _ = sensor.sample_ray(
-                    0.0,
-                    0.5,
-                    mi.Point2f((x + 0.5) / width, (y + 0.5) / height),
-                    mi.Point2f(0.5, 0.5),
-                )
-                si = mscene.ray_intersect(ray)
-                if not si.is_valid():
-                    continue
-                ids[y, x] = shape_index.get(si.shape.id(), -1)
-                depth[y, x] = si.t
-                n = np.array([si.sh_frame.n[0], si.sh_frame.n[1], si.sh_frame.n[2]])
-                dd = np.array([ray.d[0], ray.d[1], ray.d[2]])
-                normal[y, x] = -n if n @ dd > 0 else n
+    fill = _primary_hits_jit if dr.is_jit_v(mi.Float) else _primary_hits_scalar
+    fill(mi, dr, mscene, sensor, shape_index, ids, depth, normal)
     return {
         "id": ids,
         "depth": depth,
@@ -356,3 +356,65 @@ def _primary_aovs(
         "N.Y": normal[..., 1],
         "N.Z": normal[..., 2],
     }
+
+
+def _primary_hits_jit(
+    mi: Any,
+    dr: Any,
+    mscene: Any,
+    sensor: Any,
+    shape_index: dict[str, int],
+    ids: F32,
+    depth: F32,
+    normal: F32,
+) -> None:
+    """Fills ids, depth and normal (H x W arrays) from one wavefront of centre rays."""
+    height, width = ids.shape
+    pos = _film_positions(dr, mi, None, width, height, True)
+    ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
+    si = mscene.ray_intersect(ray)
+    hit_shape = dr.reinterpret_array(mi.UInt32, si.shape)
+    # One kernel for every field read below; each lazy read would trace the rays again.
+    dr.eval(si.is_valid(), hit_shape, si.t, si.sh_frame.n, ray.d)
+    valid = np.asarray(si.is_valid()).reshape(height, width)
+    registry = np.asarray(hit_shape).reshape(height, width)
+    lookup = {}
+    for shape in mscene.shapes():
+        rid = int(np.asarray(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape)))[0])
+        lookup[rid] = shape_index.get(shape.id(), -1)
+    for rid, index in lookup.items():
+        ids[(registry == rid) & valid] = index
+    t = np.asarray(si.t).reshape(height, width)
+    n = np.stack([np.asarray(c) for c in (si.sh_frame.n.x, si.sh_frame.n.y, si.sh_frame.n.z)], -1)
+    d = np.stack([np.asarray(c) for c in (ray.d.x, ray.d.y, ray.d.z)], -1)
+    n = n.reshape(height, width, 3)
+    d = d.reshape(height, width, 3)
+    flip = np.where((n * d).sum(-1, keepdims=True) > 0, -1.0, 1.0)
+    depth[valid] = t[valid]
+    normal[valid] = (n * flip)[valid]
+
+
+def _primary_hits_scalar(
+    mi: Any,
+    dr: Any,
+    mscene: Any,
+    sensor: Any,
+    shape_index: dict[str, int],
+    ids: F32,
+    depth: F32,
+    normal: F32,
+) -> None:
+    """Fills ids, depth and normal (H x W arrays) one centre ray at a time."""
+    height, width = ids.shape
+    for y in range(height):
+        for x in range(width):
+            centre = mi.Point2f((x + 0.5) / width, (y + 0.5) / height)
+            ray, _ = sensor.sample_ray(0.0, 0.5, centre, mi.Point2f(0.5, 0.5))
+            si = mscene.ray_intersect(ray)
+            if not si.is_valid():
+                continue
+            ids[y, x] = shape_index.get(si.shape.id(), -1)
+            depth[y, x] = si.t
+            n = np.array([si.sh_frame.n[0], si.sh_frame.n[1], si.sh_frame.n[2]])
+            dd = np.array([ray.d[0], ray.d[1], ray.d[2]])
+            normal[y, x] = -n if n @ dd > 0 else n

@@ -25,6 +25,8 @@ from typing import Any
 import drjit as dr
 import mitsuba as mi
 
+from mitsuba_ref.whitted_wavefront import trace_wavefront
+
 NAME = "rtval_whitted"
 DEFAULT_BIAS = 1e-4  # the scene format's default
 
@@ -38,21 +40,6 @@ def _not(mask: Any) -> Any:
     return ~mask if _jit() else not mask
 
 
-def _concat(parts: list[Any]) -> Any:
-    """Arrays of one drjit type laid end to end. The offsets are opaque so that the scatter
-    kernels do not bake them in as literals (a new kernel to compile for every width)."""
-    if len(parts) == 1:
-        return parts[0]
-    total = sum(dr.width(p) for p in parts)
-    out = dr.zeros(type(parts[0]), total)
-    offset = 0
-    for p in parts:
-        w = dr.width(p)
-        dr.scatter(out, p, dr.arange(mi.UInt32, w) + dr.opaque(mi.UInt32, offset))
-        offset += w
-    return out
-
-
 def _offset_origin(p: Any, n: Any, d: Any, bias: float) -> Any:
     """p moved off the surface by bias (1 + max|p_i|), to the side `d` leaves on."""
     scale = bias * (1.0 + dr.max(dr.abs(p)))
@@ -60,13 +47,160 @@ def _offset_origin(p: Any, n: Any, d: Any, bias: float) -> Any:
     return p + n * (scale * side)
 
 
-def _draw_for_front(sampler: Any, idx: Any) -> Any:
-    """The sampler's next 2D sample of each front ray's camera ray. The sampler draws for the
-    whole wavefront (the same stream whatever the front), evaluated in one kernel before the
-    gather (which would otherwise evaluate x and y in a kernel each)."""
-    sample = sampler.next_2d()
-    dr.eval(sample)
-    return dr.gather(mi.Point2f, sample, idx)
+class WhittedTransport:
+    """The transport of rtval_whitted, for any variant: integrator_class makes it a
+    subclass of the variant's own SamplingIntegrator."""
+
+    def configure(self, props: Any) -> None:
+        """The properties of the integrator plugin (its XML or dict)."""
+        self.max_depth = int(props.get("max_depth", 5))
+        self.bias = float(props.get("bias", DEFAULT_BIAS))
+        self.shadows = bool(props.get("shadows", True))
+        self.reflection = bool(props.get("reflection", True))
+        self.refraction = bool(props.get("refraction", True))
+        self.light_samples = int(props.get("light_samples", 1))
+        self._prepared_for: Any = None
+
+    # -- scene analysis -------------------------------------------------------------
+    def _prepare(self, scene: Any) -> None:
+        if self._prepared_for is scene:
+            return
+        radii: dict[str, float] = {}
+        for shape in scene.shapes():
+            box = shape.bbox()
+            radii[shape.id()] = float(box.extents()[0]) / 2.0
+        self.point_lights: list[tuple[Any, float]] = []
+        self.area_lights: list[Any] = []
+        for e in scene.emitters():
+            eid = e.id()
+            if eid.startswith("light_"):
+                self.point_lights.append((e, radii.get("sphere_" + eid[len("light_") :], 0.0)))
+        if not self.point_lights:
+            self.area_lights = [e for e in scene.emitters() if e.get_shape() is not None]
+        self.environment = scene.environment()
+        self._prepared_for = scene
+
+    # -- helpers that hide scalar vs JIT ----------------------------------------------
+    def _emission(self, scene: Any, si: Any, active: Any) -> Any:
+        emitter = si.emitter(scene, active)
+        if _jit():
+            return emitter.eval(si, active)
+        return emitter.eval(si) if (active and emitter is not None) else mi.Color3f(0.0)
+
+    def _is_light(self, scene: Any, si: Any, active: Any) -> Any:
+        emitter = si.emitter(scene, active)
+        if _jit():
+            return active & (dr.reinterpret_array(mi.UInt32, emitter) != 0)
+        return bool(active) and emitter is not None
+
+    def _background(self, ray: Any, active: Any) -> Any:
+        if self.environment is None:
+            return mi.Color3f(0.0)
+        si = dr.zeros(mi.SurfaceInteraction3f)
+        si.wi = -ray.d
+        return self.environment.eval(si, active)
+
+    # -- transport ------------------------------------------------------------------
+    def _blocked(
+        self, scene: Any, si: Any, ds: Any, shorten: float, rel_eps: float, active: Any
+    ) -> Any:
+        """Is the segment from the offset hit point to ds.p blocked? It ends `shorten`
+        before ds.p (the light's radius for a point at a sphere's centre), minus rel_eps."""
+        o = _offset_origin(si.p, si.n, ds.d, self.bias)
+        to_light = ds.p - o
+        dist = dr.norm(to_light)
+        shadow = mi.Ray3f(o, to_light / dist)
+        shadow.maxt = (dist - shorten) * (1.0 - rel_eps)
+        return scene.ray_test(shadow, active)
+
+    def _direct(self, scene: Any, draw2d: Any, si: Any, bsdf: Any, active: Any) -> Any:
+        ctx = mi.BSDFContext()
+        result = mi.Color3f(0.0)
+        for emitter, radius in self.point_lights:
+            ds, spec = emitter.sample_direction(si, mi.Point2f(0.5, 0.5), active)
+            value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
+            if self.shadows:
+                # End before the light's own sphere (the point sits at its centre).
+                value = dr.select(self._blocked(scene, si, ds, radius, 1e-5, active), 0.0, value)
+            result += dr.select(active, value, 0.0)
+        for emitter in self.area_lights:
+            acc = mi.Color3f(0.0)
+            for _ in range(self.light_samples):
+                ds, spec = emitter.sample_direction(si, draw2d(), active)
+                value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
+                if self.shadows:
+                    value = dr.select(self._blocked(scene, si, ds, 0.0, 1e-4, active), 0.0, value)
+                acc += dr.select(active & (ds.pdf > 0), value, 0.0)
+            result += acc / self.light_samples
+        return result
+
+    def shade(self, scene: Any, draw2d: Any, ray: Any, depth: int, active: Any) -> Any:
+        """One path vertex: the radiance it adds directly (background, emission, direct
+        light) and the specular children [(mask, ray, weight)] it spawns."""
+        si = scene.ray_intersect(ray, active)
+        hit = active & si.is_valid()
+        miss = active & _not(si.is_valid())
+        if not _jit() and not hit:  # scalar: a miss has no BSDF to ask for its flags
+            return self._background(ray, miss) if miss else mi.Color3f(0.0), []
+        light = self._is_light(scene, si, hit)
+        surface = hit & _not(light)
+        bsdf = si.bsdf(ray)
+        flags = bsdf.flags()
+        diffuse = surface & mi.has_flag(flags, mi.BSDFFlags.DiffuseReflection)
+        specular = surface & mi.has_flag(flags, mi.BSDFFlags.Delta)
+        lobes = []
+        if self.reflection:
+            lobes.append((0, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaReflection)))
+        if self.refraction:
+            lobes.append((1, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaTransmission)))
+        if _jit():
+            # Store the intersection and every mask in one kernel. Left lazy, each
+            # dr.any below and each later kernel would trace these rays again.
+            dr.eval(si, bsdf, hit, miss, light, diffuse, specular, [m for _, m in lobes])
+        result = dr.select(miss, self._background(ray, miss), 0.0)
+        children: list[tuple[Any, Any, Any]] = []
+        if not dr.any(hit):
+            return result, children
+        result += dr.select(light, self._emission(scene, si, light), 0.0)
+        if dr.any(diffuse):
+            result += dr.select(diffuse, self._direct(scene, draw2d, si, bsdf, diffuse), 0.0)
+        if depth >= self.max_depth or not dr.any(specular):
+            return result, children  # a specular chain cut at max_depth carries nothing
+        for component, mask in lobes:
+            if not dr.any(mask):
+                continue
+            ctx = mi.BSDFContext()
+            ctx.component = component
+            bs, w = bsdf.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5), mask)
+            mask = mask & dr.any(w != 0.0)
+            wo = si.to_world(bs.wo)
+            children.append((mask, mi.Ray3f(_offset_origin(si.p, si.n, wo, self.bias), wo), w))
+        return result, children
+
+    def _trace_recursive(self, scene: Any, sampler: Any, ray: Any, depth: int, active: Any) -> Any:
+        """Scalar variants: one ray, depth-first."""
+        result, children = self.shade(scene, sampler.next_2d, ray, depth, active)
+        for mask, child, w in children:
+            if mask:
+                result += w * self._trace_recursive(scene, sampler, child, depth + 1, mask)
+        return result
+
+    def sample(
+        self, scene: Any, sampler: Any, ray: Any, medium: Any = None, active: Any = True
+    ) -> tuple[Any, Any, list[Any]]:
+        self._prepare(scene)
+        ray = mi.Ray3f(ray)
+        if _jit():
+            L = trace_wavefront(self, scene, sampler, ray, active)
+        else:
+            L = self._trace_recursive(scene, sampler, ray, 0, mi.Bool(active))
+        return L, mi.Bool(active), []
+
+    def to_string(self) -> str:
+        return f"WhittedIntegrator[max_depth={self.max_depth}]"
+
+
+_NOT_COPIED = ("__dict__", "__weakref__")
 
 
 @functools.cache
@@ -75,244 +209,13 @@ def integrator_class(variant: str) -> type:
     Precondition: `variant` is the active one (mitsuba_ref.drjit_env.load_mitsuba)."""
     assert mi.variant() == variant, (mi.variant(), variant)
 
-    class WhittedIntegrator(mi.SamplingIntegrator):
-        def __init__(self, props: Any) -> None:
-            super().__init__(props)
-            self.max_depth = int(props.get("max_depth", 5))
-            self.bias = float(props.get("bias", DEFAULT_BIAS))
-            self.shadows = bool(props.get("shadows", True))
-            self.reflection = bool(props.get("reflection", True))
-            self.refraction = bool(props.get("refraction", True))
-            self.light_samples = int(props.get("light_samples", 1))
-            self._prepared_for: Any = None
+    def __init__(self: Any, props: Any) -> None:
+        mi.SamplingIntegrator.__init__(self, props)
+        self.configure(props)
 
-        # -- scene analysis -------------------------------------------------------------
-        def _prepare(self, scene: Any) -> None:
-            if self._prepared_for is scene:
-                return
-            radii: dict[str, float] = {}
-            for shape in scene.shapes():
-                box = shape.bbox()
-                radii[shape.id()] = float(box.extents()[0]) / 2.0
-            self.point_lights: list[tuple[Any, float]] = []
-            self.area_lights: list[Any] = []
-            for e in scene.emitters():
-                eid = e.id()
-                if eid.startswith("light_"):
-                    self.point_lights.append((e, radii.get("sphere_" + eid[len("light_") :], 0.0)))
-            if not self.point_lights:
-                self.area_lights = [e for e in scene.emitters() if e.get_shape() is not None]
-            self.environment = scene.environment()
-            self._prepared_for = scene
-
-        # -- helpers that hide scalar vs JIT ----------------------------------------------
-        def _emission(self, scene: Any, si: Any, active: Any) -> Any:
-            emitter = si.emitter(scene, active)
-            if _jit():
-                return emitter.eval(si, active)
-            return emitter.eval(si) if (active and emitter is not None) else mi.Color3f(0.0)
-
-        def _is_light(self, scene: Any, si: Any, active: Any) -> Any:
-            emitter = si.emitter(scene, active)
-            if _jit():
-                return active & (dr.reinterpret_array(mi.UInt32, emitter) != 0)
-            return bool(active) and emitter is not None
-
-        def _background(self, ray: Any, active: Any) -> Any:
-            if self.environment is None:
-                return mi.Color3f(0.0)
-            si = dr.zeros(mi.SurfaceInteraction3f)
-            si.wi = -ray.d
-            return self.environment.eval(si, active)
-
-        # -- transport ------------------------------------------------------------------
-        def _blocked(
-            self, scene: Any, si: Any, ds: Any, shorten: float, rel_eps: float, active: Any
-        ) -> Any:
-            """Is the segment from the offset hit point to ds.p blocked? It ends `shorten`
-            before ds.p (the light's radius for a point at a sphere's centre), minus rel_eps."""
-            o = _offset_origin(si.p, si.n, ds.d, self.bias)
-            to_light = ds.p - o
-            dist = dr.norm(to_light)
-            shadow = mi.Ray3f(o, to_light / dist)
-            shadow.maxt = (dist - shorten) * (1.0 - rel_eps)
-            return scene.ray_test(shadow, active)
-
-        def _direct(self, scene: Any, draw2d: Any, si: Any, bsdf: Any, active: Any) -> Any:
-            ctx = mi.BSDFContext()
-            result = mi.Color3f(0.0)
-            for emitter, radius in self.point_lights:
-                ds, spec = emitter.sample_direction(si, mi.Point2f(0.5, 0.5), active)
-                value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
-                if self.shadows:
-                    # End before the light's own sphere (the point sits at its centre).
-                    value = dr.select(
-                        self._blocked(scene, si, ds, radius, 1e-5, active), 0.0, value
-                    )
-                result += dr.select(active, value, 0.0)
-            for emitter in self.area_lights:
-                acc = mi.Color3f(0.0)
-                for _ in range(self.light_samples):
-                    ds, spec = emitter.sample_direction(si, draw2d(), active)
-                    value = bsdf.eval(ctx, si, si.to_local(ds.d), active) * spec
-                    if self.shadows:
-                        value = dr.select(
-                            self._blocked(scene, si, ds, 0.0, 1e-4, active), 0.0, value
-                        )
-                    acc += dr.select(active & (ds.pdf > 0), value, 0.0)
-                result += acc / self.light_samples
-            return result
-
-        def shade(self, scene: Any, draw2d: Any, ray: Any, depth: int, active: Any) -> Any:
-            """One path vertex: the radiance it adds directly (background, emission, direct
-            light) and the specular children [(mask, ray, weight)] it spawns."""
-            si = scene.ray_intersect(ray, active)
-            hit = active & si.is_valid()
-            miss = active & _not(si.is_valid())
-            if not _jit() and not hit:  # scalar: a miss has no BSDF to ask for its flags
-                return self._background(ray, miss) if miss else mi.Color3f(0.0), []
-            light = self._is_light(scene, si, hit)
-            surface = hit & _not(light)
-            bsdf = si.bsdf(ray)
-            flags = bsdf.flags()
-            diffuse = surface & mi.has_flag(flags, mi.BSDFFlags.DiffuseReflection)
-            specular = surface & mi.has_flag(flags, mi.BSDFFlags.Delta)
-            lobes = []
-            if self.reflection:
-                lobes.append((0, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaReflection)))
-            if self.refraction:
-                lobes.append((1, specular & mi.has_flag(flags, mi.BSDFFlags.DeltaTransmission)))
-            if _jit():
-                # Store the intersection and every mask in one kernel. Left lazy, each
-                # dr.any below and each later kernel would trace these rays again.
-                dr.eval(si, bsdf, hit, miss, light, diffuse, specular, [m for _, m in lobes])
-            result = dr.select(miss, self._background(ray, miss), 0.0)
-            children: list[tuple[Any, Any, Any]] = []
-            if not dr.any(hit):
-                return result, children
-            result += dr.select(light, self._emission(scene, si, light), 0.0)
-            if dr.any(diffuse):
-                result += dr.select(diffuse, self._direct(scene, draw2d, si, bsdf, diffuse), 0.0)
-            if depth >= self.max_depth or not dr.any(specular):
-                return result, children  # a specular chain cut at max_depth carries nothing
-            for component, mask in lobes:
-                if not dr.any(mask):
-                    continue
-                ctx = mi.BSDFContext()
-                ctx.component = component
-                bs, w = bsdf.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5), mask)
-                mask = mask & dr.any(w != 0.0)
-                wo = si.to_world(bs.wo)
-                children.append((mask, mi.Ray3f(_offset_origin(si.p, si.n, wo, self.bias), wo), w))
-            return result, children
-
-        def _trace_recursive(
-            self, scene: Any, sampler: Any, ray: Any, depth: int, active: Any
-        ) -> Any:
-            """Scalar variants: one ray, depth-first."""
-            result, children = self.shade(scene, sampler.next_2d, ray, depth, active)
-            for mask, child, w in children:
-                if mask:
-                    result += w * self._trace_recursive(scene, sampler, child, depth + 1, mask)
-            return result
-
-        def _trace_wavefront(self, scene: Any, sampler: Any, ray: Any, active: Any) -> Any:
-            """JIT variants: per depth one compacted front holding every live ray of every
-            lobe. Each ray's weighted contribution is kept per front; after the last depth the
-            fronts are summed back up the tree (a ray's own light, then its lobe 0 child's
-            total, then its lobe 1 child's), by gathers in a fixed order: the image is the
-            same from run to run (atomic adds from several threads are not)."""
-            n = dr.width(ray.o)
-            root: Any = dr.compress(mi.Bool(active) | dr.zeros(mi.Bool, n))
-            idx = root
-            origins = dr.gather(mi.Point3f, ray.o, idx)
-            dirs = dr.gather(mi.Vector3f, ray.d, idx)
-            weight = dr.full(mi.Color3f, 1.0, dr.width(idx))
-            # Per depth: the front's own weighted light and, per lobe, (mask, the child's
-            # position in the next front).
-            fronts: list[tuple[Any, list[tuple[Any, Any]]]] = []
-            for depth in range(self.max_depth + 1):
-                width = dr.width(idx)
-                if width == 0:
-                    break
-                draw2d = functools.partial(_draw_for_front, sampler, idx)
-                contrib, children = self.shade(
-                    scene, draw2d, mi.Ray3f(origins, dirs), depth, dr.full(mi.Bool, True, width)
-                )
-                own = weight * contrib
-                if not children:
-                    dr.eval(own)
-                    fronts.append((own, []))
-                    break
-                masks = [mask for mask, _, _ in children]
-                weights = [weight * w for _, _, w in children]
-                # One kernel shades the front (direct light, shadow rays) and stores its
-                # light and every child ray.
-                dr.eval(
-                    own,
-                    masks,
-                    [c.o for _, c, _ in children],
-                    [c.d for _, c, _ in children],
-                    weights,
-                )
-                # Compact all lobes at once: lobe k's rays sit at [k * width, (k+1) * width)
-                # of the concatenated mask, so the order is lobe 0's rays, then lobe 1's.
-                keep: Any = dr.compress(_concat(masks))
-                kept = dr.width(keep)
-                position = dr.zeros(mi.UInt32, len(children) * width)
-                if kept > 0:
-                    dr.scatter(position, dr.arange(mi.UInt32, kept), keep)
-                wide = dr.opaque(mi.UInt32, width)
-                links = [
-                    (mask, dr.gather(mi.UInt32, position, dr.arange(mi.UInt32, width) + wide * k))
-                    for k, mask in enumerate(masks)
-                ]
-                dr.eval(links)
-                fronts.append((own, links))
-                if kept == 0:
-                    break
-                lobe = keep // wide
-                j = keep - lobe * wide
-                o_parts = [dr.gather(mi.Point3f, c.o, j) for _, c, _ in children]
-                d_parts = [dr.gather(mi.Vector3f, c.d, j) for _, c, _ in children]
-                w_parts = [dr.gather(mi.Color3f, w, j) for w in weights]
-                origins, dirs, weight = o_parts[0], d_parts[0], w_parts[0]
-                for k in range(1, len(children)):
-                    at_k = lobe == k
-                    origins = dr.select(at_k, o_parts[k], origins)
-                    dirs = dr.select(at_k, d_parts[k], dirs)
-                    weight = dr.select(at_k, w_parts[k], weight)
-                idx = dr.gather(mi.UInt32, idx, j)
-                dr.eval(origins, dirs, weight, idx)
-            result = dr.zeros(mi.Color3f, n)
-            if not fronts:
-                return result
-            below: Any = None  # totals of the front one depth deeper
-            for own, links in reversed(fronts):
-                total = own
-                if below is not None:
-                    for mask, at in links:
-                        total = total + dr.gather(mi.Color3f, below, at, mask)
-                dr.eval(total)
-                below = total
-            dr.scatter(result, below, root)  # one root per camera ray: no two writes collide
-            return result
-
-        def sample(
-            self, scene: Any, sampler: Any, ray: Any, medium: Any = None, active: Any = True
-        ) -> tuple[Any, Any, list[Any]]:
-            self._prepare(scene)
-            ray = mi.Ray3f(ray)
-            if _jit():
-                L = self._trace_wavefront(scene, sampler, ray, active)
-            else:
-                L = self._trace_recursive(scene, sampler, ray, 0, mi.Bool(active))
-            return L, mi.Bool(active), []
-
-        def to_string(self) -> str:
-            return f"WhittedIntegrator[max_depth={self.max_depth}]"
-
-    return WhittedIntegrator
+    # nanobind classes take one base: the transport's methods are copied into the class.
+    members = {k: v for k, v in vars(WhittedTransport).items() if k not in _NOT_COPIED}
+    return type("WhittedIntegrator", (mi.SamplingIntegrator,), {**members, "__init__": __init__})
 
 
 def register() -> None:

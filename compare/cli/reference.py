@@ -89,6 +89,25 @@ def render_to_file(
     return time.perf_counter() - start, summary
 
 
+def _add_stopping_and_effects(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--time-budget",
+        type=positive_float,
+        default=None,
+        metavar="SECONDS",
+        help="stop after the pass that spends this budget",
+    )
+    p.add_argument(
+        "--target-stderr",
+        type=positive_float,
+        default=None,
+        help="stop once the mean standard error of the pixel means is this low",
+    )
+    p.add_argument("--no-shadows", action="store_true", help="whitted: no shadow rays")
+    p.add_argument("--no-reflection", action="store_true", help="whitted: no reflection lobes")
+    p.add_argument("--no-refraction", action="store_true", help="whitted: no transmission lobes")
+
+
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser(
         "reference",
@@ -128,21 +147,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--size", type=size_type, default=None, metavar="WxH", help="override the image size"
     )
-    p.add_argument(
-        "--time-budget",
-        type=positive_float,
-        default=None,
-        metavar="SECONDS",
-        help="stop after the pass that spends this budget",
-    )
-    p.add_argument(
-        "--target-stderr",
-        type=positive_float,
-        default=None,
-        help="stop once the mean standard error of the pixel means is this low",
-    )
-    p.add_argument("--no-shadows", action="store_true", help="whitted: no shadow rays")
-    p.add_argument("--no-reflection", action="store_true", help="whitted: no reflection lobes")
-    p.add_argument("--no-refraction", action="store_true", help="whitted: no transmission lobes")
+    _add_stopping_and_effects(p)
     add_scene_mapping_args(p)
     p.set_defaults(func=run_reference)
