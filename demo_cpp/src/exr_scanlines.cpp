@@ -260,115 +260,159 @@ char* exr_line_blocks(char* out, int y0, int rows, int w, const BandPixels& pixe
     return out;
 }
 
-void write_exr_scanlines(const std::string& path, const RenderedImage& image,
-                         const std::map<std::string, std::string>& attributes,
-                         ExrCompression compression, int threads) {
-    const int w = image.width, h = image.height;
-    const std::size_t pixels = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+namespace {
+
+void check_has_aovs(const std::string& path, const RenderedImage& image) {
+    const std::size_t pixels =
+        static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height);
     if (image.rgb.size() != 3 * pixels || image.normal.size() != 3 * pixels ||
         image.id.size() != pixels || image.depth.size() != pixels)
         throw std::runtime_error(path +
                                  ": the frame has no AOV planes to write (rendered "
                                  "with RenderSettings::aovs off)");
-    const Channels channels = channels_of(interleaved_pixels(
-        image.rgb.data(), image.id.data(), image.depth.data(), image.normal.data()));
+}
 
-    std::vector<char> head = exr_header(w, h, attributes, compression);
-
+// The line offset table, then one block per line: y, byte count, each channel's row.
+void write_uncompressed(File& file, std::vector<char>& head, const RenderedImage& image) {
+    const int w = image.width, h = image.height;
     const std::size_t row_bytes = static_cast<std::size_t>(w) * 4 * kChannels;
-    File file(path);
-    if (compression == ExrCompression::none) {
-        // The line offset table, then one block per line: y, byte count, each channel's row.
-        const std::uint64_t first = head.size() + static_cast<std::size_t>(h) * 8;
-        for (int y = 0; y < h; ++y) {
-            const std::uint64_t offset = first + static_cast<std::uint64_t>(y) * (8 + row_bytes);
-            put_bytes(head, &offset, 8);
-        }
-        file.write(head.data(), head.size());
+    const std::uint64_t first = head.size() + static_cast<std::size_t>(h) * 8;
+    for (int y = 0; y < h; ++y) {
+        const std::uint64_t offset = first + static_cast<std::uint64_t>(y) * (8 + row_bytes);
+        put_bytes(head, &offset, 8);
+    }
+    file.write(head.data(), head.size());
 
-        // Blocks of lines through one buffer of ~256 KB: a fresh 9.8 MB buffer would cost its
-        // page faults, and the kernel takes large writes as fast as small ones.
-        const int lines =
-            static_cast<int>(std::max<std::size_t>(1, (256u << 10) / (8 + row_bytes)));
-        std::vector<char> buf(static_cast<std::size_t>(lines) * (8 + row_bytes));
-        for (int y0 = 0; y0 < h; y0 += lines) {
-            const std::size_t first = static_cast<std::size_t>(y0) * w;
-            const char* end = exr_line_blocks(
-                buf.data(), y0, std::min(h, y0 + lines) - y0, w,
-                interleaved_pixels(image.rgb.data() + 3 * first, image.id.data() + first,
-                                   image.depth.data() + first, image.normal.data() + 3 * first));
-            file.write(buf.data(), static_cast<std::size_t>(end - buf.data()));
+    // Blocks of lines through one buffer of ~256 KB: a fresh 9.8 MB buffer would cost its
+    // page faults, and the kernel takes large writes as fast as small ones.
+    const int lines = static_cast<int>(std::max<std::size_t>(1, (256u << 10) / (8 + row_bytes)));
+    std::vector<char> buf(static_cast<std::size_t>(lines) * (8 + row_bytes));
+    for (int y0 = 0; y0 < h; y0 += lines) {
+        const std::size_t first = static_cast<std::size_t>(y0) * w;
+        const char* end = exr_line_blocks(
+            buf.data(), y0, std::min(h, y0 + lines) - y0, w,
+            interleaved_pixels(image.rgb.data() + 3 * first, image.id.data() + first,
+                               image.depth.data() + first, image.normal.data() + 3 * first));
+        file.write(buf.data(), static_cast<std::size_t>(end - buf.data()));
+    }
+}
+
+// Every block compressed into its own slot of one buffer (y, byte count, data; a slot holds
+// the raw block, so a block that does not shrink is copied in raw). The buffer is not zeroed:
+// only the pages the compressed blocks use are touched.
+class CompressedBlocks {
+public:
+    CompressedBlocks(const Channels& channels, int w, int h, ExrCompression compression)
+        : channels_(channels),
+          w_(w),
+          h_(h),
+          compression_(compression),
+          row_bytes_(static_cast<std::size_t>(w) * 4 * kChannels),
+          block_lines_(compression == ExrCompression::zip ? 16 : 1),
+          blocks_((h + block_lines_ - 1) / block_lines_),
+          slot_(8 + row_bytes_ * block_lines_),
+          out_(new char[slot_ * static_cast<std::size_t>(blocks_)]),
+          sizes_(static_cast<std::size_t>(blocks_)) {}
+
+    int count() const { return blocks_; }
+    // Compresses the blocks handed out in turn by `next` until none is left; false when zlib
+    // failed (the others then stop too). Each thread gives its own scratch buffers.
+    bool compress(std::atomic<int>& next, std::atomic<bool>& failed) {
+        std::vector<unsigned char> raw(row_bytes_ * block_lines_), filtered(raw.size());
+        for (int b; (b = next.fetch_add(1)) < blocks_ && !failed;)
+            if (!compress_block(b, raw.data(), filtered.data())) return false;
+        return true;
+    }
+    // The line offset table after `head`, then the header, table and blocks in gathered writes.
+    void write(File& file, std::vector<char>& head) const {
+        std::uint64_t offset = head.size() + static_cast<std::size_t>(blocks_) * 8;
+        for (std::size_t size : sizes_) {
+            put_bytes(head, &offset, 8);
+            offset += 8 + size;
         }
-        file.close();
-        return;
+        std::vector<iovec> pieces;
+        pieces.reserve(static_cast<std::size_t>(blocks_) + 1);
+        pieces.push_back({head.data(), head.size()});
+        for (int b = 0; b < blocks_; ++b)
+            pieces.push_back({out_.get() + slot_ * static_cast<std::size_t>(b), 8 + sizes_[b]});
+        file.writev(pieces);
     }
 
-    // Compressed: every block is compressed into its own slot of one buffer (y, byte count,
-    // data; a slot holds the raw block, so a block that does not shrink is copied in raw), on
-    // every core, blocks handed out in turn. The sizes then give the line offset table, and the
-    // header, table and blocks go out in gathered writes. The buffer is not zeroed: only the
-    // pages the compressed blocks use are touched.
-    const int block_lines = compression == ExrCompression::zip ? 16 : 1;
-    const int blocks = (h + block_lines - 1) / block_lines;
-    const std::size_t slot = 8 + row_bytes * block_lines;
-    std::unique_ptr<char[]> out(new char[slot * static_cast<std::size_t>(blocks)]);
-    std::vector<std::size_t> sizes(static_cast<std::size_t>(blocks));  // data bytes per block
+private:
+    bool compress_block(int b, unsigned char* raw, unsigned char* filtered) {
+        const int y0 = b * block_lines_, y1 = std::min(h_, y0 + block_lines_);
+        const std::size_t n = row_bytes_ * static_cast<std::size_t>(y1 - y0);
+        put_lines(reinterpret_cast<char*>(raw), channels_, w_, y0, y1);
+        reorder_and_predict(raw, n, filtered);
+        char* dst = out_.get() + slot_ * static_cast<std::size_t>(b);
+        unsigned char* data = reinterpret_cast<unsigned char*>(dst + 8);
+        std::size_t size = 0;
+        if (compression_ == ExrCompression::rle) {
+            size = rle_encode(filtered, n, data);
+        } else {
+            uLongf len = static_cast<uLongf>(n - 1);  // room for less than the raw block
+            const int rc = compress2(data, &len, filtered, static_cast<uLong>(n), 1);
+            if (rc == Z_OK)
+                size = len;
+            else if (rc != Z_BUF_ERROR)
+                return false;
+        }
+        if (size == 0) {  // not smaller: the raw block, its size telling readers so
+            std::memcpy(data, raw, n);
+            size = n;
+        }
+        const std::int32_t header_words[2] = {y0, static_cast<std::int32_t>(size)};
+        std::memcpy(dst, header_words, 8);
+        sizes_[static_cast<std::size_t>(b)] = size;
+        return true;
+    }
+
+    Channels channels_;
+    int w_, h_;
+    ExrCompression compression_;
+    std::size_t row_bytes_;
+    int block_lines_, blocks_;
+    std::size_t slot_;
+    std::unique_ptr<char[]> out_;
+    std::vector<std::size_t> sizes_;  // data bytes per block
+};
+
+// Compressed on every core, blocks handed out in turn; throws naming the path if zlib failed.
+void compress_on_threads(CompressedBlocks& blocks, int threads, const std::string& path) {
     std::atomic<int> next{0};
     std::atomic<bool> failed{false};
-    auto compress_blocks = [&] {
-        std::vector<unsigned char> raw(row_bytes * block_lines), filtered(raw.size());
-        for (int b; (b = next.fetch_add(1)) < blocks && !failed;) {
-            const int y0 = b * block_lines, y1 = std::min(h, y0 + block_lines);
-            const std::size_t n = row_bytes * static_cast<std::size_t>(y1 - y0);
-            put_lines(reinterpret_cast<char*>(raw.data()), channels, w, y0, y1);
-            reorder_and_predict(raw.data(), n, filtered.data());
-            char* dst = out.get() + slot * static_cast<std::size_t>(b);
-            unsigned char* data = reinterpret_cast<unsigned char*>(dst + 8);
-            std::size_t size = 0;
-            if (compression == ExrCompression::rle) {
-                size = rle_encode(filtered.data(), n, data);
-            } else {
-                uLongf len = static_cast<uLongf>(n - 1);  // room for less than the raw block
-                const int rc = compress2(data, &len, filtered.data(), static_cast<uLong>(n), 1);
-                if (rc == Z_OK) {
-                    size = len;
-                } else if (rc != Z_BUF_ERROR) {
-                    failed = true;
-                    return;
-                }
-            }
-            if (size == 0) {  // not smaller: the raw block, its size telling readers so
-                std::memcpy(data, raw.data(), n);
-                size = n;
-            }
-            const std::int32_t header_words[2] = {y0, static_cast<std::int32_t>(size)};
-            std::memcpy(dst, header_words, 8);
-            sizes[static_cast<std::size_t>(b)] = size;
-        }
-    };
     auto work = [&] {  // nothing may escape a thread: a failure is reported after the join
         try {
-            compress_blocks();
+            if (!blocks.compress(next, failed)) failed = true;
         } catch (...) {
             failed = true;
         }
     };
     if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-    threads = std::min(blocks, threads);
+    threads = std::min(blocks.count(), threads);
     run_workers(threads, [&](int) { work(); });
     if (failed) throw std::runtime_error(path + ": compressing the EXR blocks failed");
+}
 
-    std::uint64_t offset = head.size() + static_cast<std::size_t>(blocks) * 8;
-    for (std::size_t size : sizes) {
-        put_bytes(head, &offset, 8);
-        offset += 8 + size;
+}  // namespace
+
+void write_exr_scanlines(const std::string& path, const RenderedImage& image,
+                         const std::map<std::string, std::string>& attributes,
+                         ExrCompression compression, int threads) {
+    check_has_aovs(path, image);
+    std::vector<char> head = exr_header(image.width, image.height, attributes, compression);
+    File file(path);
+    if (compression == ExrCompression::none) {
+        write_uncompressed(file, head, image);
+    } else {
+        // The sizes of the compressed blocks give the line offset table.
+        CompressedBlocks blocks(
+            channels_of(interleaved_pixels(image.rgb.data(), image.id.data(), image.depth.data(),
+                                           image.normal.data())),
+            image.width, image.height, compression);
+        compress_on_threads(blocks, threads, path);
+        blocks.write(file, head);
     }
-    std::vector<iovec> pieces;
-    pieces.reserve(static_cast<std::size_t>(blocks) + 1);
-    pieces.push_back({head.data(), head.size()});
-    for (int b = 0; b < blocks; ++b)
-        pieces.push_back({out.get() + slot * static_cast<std::size_t>(b), 8 + sizes[b]});
-    file.writev(pieces);
     file.close();
 }
 

@@ -64,22 +64,26 @@ struct GlfwSession {
     ~GlfwSession() { glfwTerminate(); }
 };
 
-}  // namespace
+using Window = std::unique_ptr<GLFWwindow, void (*)(GLFWwindow*)>;
 
-void run_viewer(const Scene& scene, const ViewerOptions& options) {
-    GlfwSession session;
+// A window with a current OpenGL 4.3 core context, not resizable when it renders a fixed
+// number of frames (automation), drawn without waiting for the display's refresh.
+Window open_window(const ViewerOptions& options) {
     glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
     glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
     glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
     glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
     glfwWindowHint(GLFW_RESIZABLE, options.frames > 0 ? GLFW_FALSE : GLFW_TRUE);
-    std::unique_ptr<GLFWwindow, void (*)(GLFWwindow*)> window(
-        glfwCreateWindow(options.width, options.height, "rtdemo view", nullptr, nullptr),
-        glfwDestroyWindow);
+    Window window(glfwCreateWindow(options.width, options.height, "rtdemo view", nullptr, nullptr),
+                  glfwDestroyWindow);
     if (!window) throw GlError("cannot create a window with an OpenGL 4.3 core context");
     glfwMakeContextCurrent(window.get());
     glfwSwapInterval(0);
+    return window;
+}
 
+// The orbit starts at the scene's camera: its distance and angles around the look-at point.
+ViewState initial_state(const Scene& scene, const ViewerOptions& options) {
     ViewState state;
     state.trace = options.trace;
     state.target = scene.camera.look_at;
@@ -87,59 +91,120 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
     state.distance = length(offset);
     state.yaw = std::atan2(offset.x, offset.z);
     state.pitch = std::asin(offset.y / state.distance);
-    glfwSetWindowUserPointer(window.get(), &state);
+    return state;
+}
 
-    glfwSetKeyCallback(window.get(), [](GLFWwindow* w, int key, int, int action, int) {
-        if (action != GLFW_PRESS) return;
-        auto* s = static_cast<ViewState*>(glfwGetWindowUserPointer(w));
-        switch (key) {
-            case GLFW_KEY_ESCAPE:
-            case GLFW_KEY_Q:
-                glfwSetWindowShouldClose(w, GLFW_TRUE);
-                break;
-            case GLFW_KEY_M:
-                s->mode = s->mode == Mode::paper     ? Mode::classic
-                          : s->mode == Mode::classic ? Mode::physical
-                                                     : Mode::paper;
-                s->trace.quirks = quirks_for(s->mode);
-                break;
-            case GLFW_KEY_S:
-                s->trace.shadows = !s->trace.shadows;
-                break;
-            case GLFW_KEY_R:
-                s->trace.reflection = !s->trace.reflection;
-                break;
-            case GLFW_KEY_T:
-                s->trace.refraction = !s->trace.refraction;
-                break;
-            case GLFW_KEY_P:
-                s->want_screenshot = true;
-                break;
-            default:
-                break;
-        }
-    });
-    glfwSetMouseButtonCallback(window.get(), [](GLFWwindow* w, int button, int action, int) {
-        auto* s = static_cast<ViewState*>(glfwGetWindowUserPointer(w));
-        if (button == GLFW_MOUSE_BUTTON_LEFT) {
-            s->dragging = action == GLFW_PRESS;
-            glfwGetCursorPos(w, &s->last_x, &s->last_y);
-        }
-    });
-    glfwSetCursorPosCallback(window.get(), [](GLFWwindow* w, double x, double y) {
-        auto* s = static_cast<ViewState*>(glfwGetWindowUserPointer(w));
-        if (!s->dragging) return;
-        s->yaw -= static_cast<float>(x - s->last_x) * 0.005f;
-        s->pitch = std::fmax(
-            -1.5f, std::fmin(1.5f, s->pitch + static_cast<float>(y - s->last_y) * 0.005f));
-        s->last_x = x;
-        s->last_y = y;
-    });
-    glfwSetScrollCallback(window.get(), [](GLFWwindow* w, double, double dy) {
-        auto* s = static_cast<ViewState*>(glfwGetWindowUserPointer(w));
-        s->distance *= std::pow(0.9f, static_cast<float>(dy));
-    });
+ViewState& state_of(GLFWwindow* w) { return *static_cast<ViewState*>(glfwGetWindowUserPointer(w)); }
 
+Mode next_mode(Mode mode) {
+    return mode == Mode::paper     ? Mode::classic
+           : mode == Mode::classic ? Mode::physical
+                                   : Mode::paper;
+}
+
+void on_key(GLFWwindow* w, int key, int, int action, int) {
+    if (action != GLFW_PRESS) return;
+    ViewState& s = state_of(w);
+    switch (key) {
+        case GLFW_KEY_ESCAPE:
+        case GLFW_KEY_Q:
+            glfwSetWindowShouldClose(w, GLFW_TRUE);
+            break;
+        case GLFW_KEY_M:
+            s.mode = next_mode(s.mode);
+            s.trace.quirks = quirks_for(s.mode);
+            break;
+        case GLFW_KEY_S:
+            s.trace.shadows = !s.trace.shadows;
+            break;
+        case GLFW_KEY_R:
+            s.trace.reflection = !s.trace.reflection;
+            break;
+        case GLFW_KEY_T:
+            s.trace.refraction = !s.trace.refraction;
+            break;
+        case GLFW_KEY_P:
+            s.want_screenshot = true;
+            break;
+        default:
+            break;
+    }
+}
+
+void on_mouse_button(GLFWwindow* w, int button, int action, int) {
+    ViewState& s = state_of(w);
+    if (button == GLFW_MOUSE_BUTTON_LEFT) {
+        s.dragging = action == GLFW_PRESS;
+        glfwGetCursorPos(w, &s.last_x, &s.last_y);
+    }
+}
+
+void on_cursor(GLFWwindow* w, double x, double y) {
+    ViewState& s = state_of(w);
+    if (!s.dragging) return;
+    s.yaw -= static_cast<float>(x - s.last_x) * 0.005f;
+    s.pitch =
+        std::fmax(-1.5f, std::fmin(1.5f, s.pitch + static_cast<float>(y - s.last_y) * 0.005f));
+    s.last_x = x;
+    s.last_y = y;
+}
+
+void on_scroll(GLFWwindow* w, double, double dy) {
+    state_of(w).distance *= std::pow(0.9f, static_cast<float>(dy));
+}
+
+// The input callbacks steer `state`, which must outlive the window.
+void attach(GLFWwindow* window, ViewState& state) {
+    glfwSetWindowUserPointer(window, &state);
+    glfwSetKeyCallback(window, on_key);
+    glfwSetMouseButtonCallback(window, on_mouse_button);
+    glfwSetCursorPosCallback(window, on_cursor);
+    glfwSetScrollCallback(window, on_scroll);
+}
+
+// Ray-traces one frame into the window's back buffer; returns its time in milliseconds.
+double draw_frame(const Scene& scene, const ViewState& state, TraceProgram& program, int fb_w,
+                  int fb_h) {
+    const auto start = std::chrono::steady_clock::now();
+    if (fb_w > 0 && fb_h > 0) {
+        GlView view = view_of(scene.camera);
+        view.position = eye_of(state);
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        program.draw(state.trace, view, fb_w, fb_h, 1, true);
+        glFinish();
+    }
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
+}
+
+// P pressed, or the last of --frames with --screenshot: the back buffer as a PNG.
+void save_if_asked(ViewState& state, const ViewerOptions& options, bool last, int fb_w, int fb_h) {
+    if (!state.want_screenshot && !(last && !options.screenshot.empty())) return;
+    const std::string path =
+        last && !options.screenshot.empty()
+            ? options.screenshot
+            : "rtdemo-screenshot-" + std::to_string(++state.screenshot_count) + ".png";
+    save_screenshot(path, fb_w, fb_h);
+    std::fprintf(stderr, "rtdemo: saved %s\n", path.c_str());
+    state.want_screenshot = false;
+}
+
+void show_title(GLFWwindow* window, const ViewState& state, double smoothed_ms) {
+    char title[160];
+    std::snprintf(title, sizeof title, "rtdemo view - %s - %.1f ms/frame%s%s%s",
+                  mode_name(state.mode), smoothed_ms, state.trace.shadows ? "" : " - no shadows",
+                  state.trace.reflection ? "" : " - no reflection",
+                  state.trace.refraction ? "" : " - no refraction");
+    glfwSetWindowTitle(window, title);
+}
+
+}  // namespace
+
+void run_viewer(const Scene& scene, const ViewerOptions& options) {
+    GlfwSession session;
+    Window window = open_window(options);
+    ViewState state = initial_state(scene, options);
+    attach(window.get(), state);
     TraceProgram program(scene, options.trace);
     if (options.frames == 0) std::fputs(kKeys, stdout);
     int frame = 0;
@@ -147,36 +212,12 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
     while (!glfwWindowShouldClose(window.get())) {
         int fb_w = 0, fb_h = 0;
         glfwGetFramebufferSize(window.get(), &fb_w, &fb_h);
-        const auto start = std::chrono::steady_clock::now();
-        if (fb_w > 0 && fb_h > 0) {
-            GlView view = view_of(scene.camera);
-            view.position = eye_of(state);
-            glBindFramebuffer(GL_FRAMEBUFFER, 0);
-            program.draw(state.trace, view, fb_w, fb_h, 1, true);
-            glFinish();
-        }
-        const double ms =
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                .count();
+        const double ms = draw_frame(scene, state, program, fb_w, fb_h);
         smoothed_ms = frame == 0 ? ms : 0.9 * smoothed_ms + 0.1 * ms;
         ++frame;
         const bool last = options.frames > 0 && frame >= options.frames;
-        if (state.want_screenshot || (last && !options.screenshot.empty())) {
-            const std::string path =
-                last && !options.screenshot.empty()
-                    ? options.screenshot
-                    : "rtdemo-screenshot-" + std::to_string(++state.screenshot_count) + ".png";
-            save_screenshot(path, fb_w, fb_h);
-            std::fprintf(stderr, "rtdemo: saved %s\n", path.c_str());
-            state.want_screenshot = false;
-        }
-        char title[160];
-        std::snprintf(title, sizeof title, "rtdemo view - %s - %.1f ms/frame%s%s%s",
-                      mode_name(state.mode), smoothed_ms,
-                      state.trace.shadows ? "" : " - no shadows",
-                      state.trace.reflection ? "" : " - no reflection",
-                      state.trace.refraction ? "" : " - no refraction");
-        glfwSetWindowTitle(window.get(), title);
+        save_if_asked(state, options, last, fb_w, fb_h);
+        show_title(window.get(), state, smoothed_ms);
         glfwSwapBuffers(window.get());
         glfwPollEvents();
         if (last) break;

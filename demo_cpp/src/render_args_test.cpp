@@ -17,7 +17,7 @@ std::string usage_error(const std::vector<std::string>& args, bool output_requir
     return "(no error)";
 }
 
-TEST(RenderArgs, EachOptionSetsItsField) {
+TEST(RenderArgs, EachOutputAndAlgorithmOptionSetsItsField) {
     const RenderArgs a = parse_render_args({"s.json",
                                             "--output",
                                             "a.exr",
@@ -41,23 +41,9 @@ TEST(RenderArgs, EachOptionSetsItsField) {
                                             "4",
                                             "--max-depth",
                                             "0",
-                                            "--width",
-                                            "16384",
-                                            "--height",
-                                            "1",
-                                            "--threads",
-                                            "3",
-                                            "--backend",
-                                            "gl",
-                                            "--engine",
-                                            "scalar",
-                                            "--frames",
-                                            "7",
                                             "--no-shadows",
                                             "--no-reflection",
-                                            "--no-refraction",
-                                            "--quiet",
-                                            "--keep-frame"});
+                                            "--no-refraction"});
     EXPECT_EQ(a.scene_path, "s.json");
     EXPECT_EQ(a.exr, "a.exr");
     EXPECT_EQ(a.png, "a.png");
@@ -71,13 +57,20 @@ TEST(RenderArgs, EachOptionSetsItsField) {
     EXPECT_EQ(a.mistakes.list(), "no_offset");
     EXPECT_EQ(a.spp, 4);
     EXPECT_EQ(a.max_depth, 0);
+    EXPECT_FALSE(a.shadows || a.reflection || a.refraction);
+}
+
+TEST(RenderArgs, EachImageAndRunOptionSetsItsField) {
+    const RenderArgs a = parse_render_args(
+        {"--width", "16384", "--height", "1", "--threads", "3", "--backend", "gl", "--engine",
+         "scalar", "--frames", "7", "--quiet", "--keep-frame", "-o", "a.exr", "s.json"});
+    EXPECT_EQ(a.scene_path, "s.json");
     EXPECT_EQ(a.width, kMaxSide);
     EXPECT_EQ(a.height, 1);
     EXPECT_EQ(a.threads, 3);
     EXPECT_TRUE(a.gl);
     EXPECT_EQ(a.engine, Engine::scalar);
     EXPECT_EQ(a.frames, 7);
-    EXPECT_FALSE(a.shadows || a.reflection || a.refraction);
     EXPECT_TRUE(a.quiet && a.keep_frame);
 }
 
