@@ -282,6 +282,99 @@ TilePixels at_x(const TilePixels& p, int x) {
     return {p.r + c, p.g + c, p.b + c, p.id + x, p.depth + x, p.nx + c, p.ny + c, p.nz + c, p.step};
 }
 
+packet::Options options_for(const TraceOptions& trace) {
+    packet::Options opt{};
+    static_assert(sizeof(opt.q) == kQuirkCount + 1, "one flag per quirk, indexed from 1");
+    for (int q = 1; q <= kQuirkCount; ++q) opt.q[q] = trace.quirks.has(static_cast<Quirk>(q));
+    opt.max_depth = trace.max_depth;
+    opt.shadows = trace.shadows;
+    opt.reflection = trace.reflection;
+    opt.refraction = trace.refraction;
+    return opt;
+}
+
+// What every tile of one frame shares, read-only while the workers run.
+struct FrameJob {
+    const Kernels& kern;
+    const packet::SceneArrays& s;
+    packet::Options opt;
+    packet::CameraArrays cam;
+    int width, height;
+    int k;  // strata per axis
+    float inv_samples;
+    int tiles_x, tiles;
+    bool aovs;
+};
+
+// The worker's queues and buffers, sized for one tile of the frame.
+void prepare(Worker& wk, const FrameJob& job) {
+    const int tile_cap = kTileW * kTileH + job.kern.lanes;
+    wk.levels.resize(static_cast<std::size_t>(job.opt.max_depth) + 2);
+    wk.levels[0].reserve(tile_cap);
+    for (auto& v : wk.aov) v.assign(static_cast<std::size_t>(tile_cap), 0.0f);
+    for (auto& v : wk.sum) v.assign(static_cast<std::size_t>(tile_cap), 0.0f);
+}
+
+// One sample per pixel of the tile through all bounces; the colours end in level 0.
+void trace_tile(Worker& wk, const FrameJob& job, const packet::Aov* with_aov) {
+    const Kernels& kern = job.kern;
+    const int lanes = kern.lanes;
+    int last = 0;
+    for (int d = 0;; ++d) {
+        LevelStore& next = wk.levels[static_cast<std::size_t>(d) + 1];
+        const int n = wk.levels[d].view.count;
+        wk.diffuse.reserve(n + lanes);
+        wk.specular.reserve(n + lanes);
+        kern.shade(job.s, job.opt, d, wk.levels[d].view, wk.diffuse.view, wk.specular.view,
+                   wk.counts, d == 0 ? with_aov : nullptr);
+        next.reserve(2 * wk.specular.view.count + lanes);
+        kern.spawn(job.s, job.opt, wk.levels[d].view, wk.specular.view, next.view);
+        last = d;
+        if (next.view.count == 0) break;
+    }
+    for (int d = last; d >= 0; --d)
+        kern.resolve(job.s, job.opt, wk.levels[d].view, wk.levels[d + 1].view);
+}
+
+// Tile number `tile` traced and stored into `out`, its band's pixels.
+void render_tile(Worker& wk, const FrameJob& job, int tile, const packet::Aov& aov,
+                 const TilePixels& out) {
+    const Kernels& kern = job.kern;
+    // Pixel centres: a run with --mistake half_pixel_offset renders with the scalar tracer.
+    const float centre = 0.5f;
+    const int k = job.k;
+    const int x0 = (tile % job.tiles_x) * kTileW, y0 = tile / job.tiles_x * kTileH;
+    const int tw = std::min(kTileW, job.width - x0), th = std::min(kTileH, job.height - y0);
+    const int n = tw * th;
+    Level& l0 = wk.levels[0].view;
+    const float* cr = l0.cr;
+    const float* cg = l0.cg;
+    const float* cb = l0.cb;
+    if (k == 1) {
+        kern.camera(job.cam, x0, y0, tw, th, centre, centre, l0);
+        trace_tile(wk, job, job.aovs ? &aov : nullptr);
+    } else {
+        kern.camera(job.cam, x0, y0, tw, th, centre, centre, l0);
+        kern.primary(job.s, job.opt, l0, aov);
+        wk.counts.camera += static_cast<std::uint64_t>(n);
+        for (auto& v : wk.sum) std::fill(v.begin(), v.begin() + n, 0.0f);
+        for (int sy = 0; sy < k; ++sy)
+            for (int sx = 0; sx < k; ++sx) {
+                const float off_x = (sx + centre) / k, off_y = (sy + centre) / k;
+                kern.camera(job.cam, x0, y0, tw, th, off_x, off_y, l0);
+                trace_tile(wk, job, nullptr);
+                for (int i = 0; i < n; ++i) {
+                    wk.sum[0][i] += l0.cr[i];
+                    wk.sum[1][i] += l0.cg[i];
+                    wk.sum[2][i] += l0.cb[i];
+                }
+            }
+        cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
+    }
+    kern.store_tile(cr, cg, cb, job.inv_samples, job.aovs ? &aov : nullptr, tw, th, job.width,
+                    at_x(out, x0));
+}
+
 // The frame's tiles handed out dynamically, band after band (a band: kTileH full rows). Before
 // each tile of band b, `target(b)` says where the band's rows go (TilePixels of its first
 // pixel: the frame's planes at its rows, or a buffer then handed to a BandSink; row stride: the
@@ -290,92 +383,34 @@ TilePixels at_x(const TilePixels& p, int x) {
 template <class Target, class Done>
 void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, RayCounts* rays,
                   Target target, Done band_done) {
-    const Kernels& kern = kernels_for(isa);
-    const int width = settings.width, height = settings.height;
     const SceneStore store(scene);
-    const packet::SceneArrays& s = store.view;
-    packet::Options opt{};
-    static_assert(sizeof(opt.q) == kQuirkCount + 1, "one flag per quirk, indexed from 1");
-    for (int q = 1; q <= kQuirkCount; ++q)
-        opt.q[q] = settings.trace.quirks.has(static_cast<Quirk>(q));
-    opt.max_depth = settings.trace.max_depth;
-    opt.shadows = settings.trace.shadows;
-    opt.reflection = settings.trace.reflection;
-    opt.refraction = settings.trace.refraction;
-    const packet::CameraArrays cam = camera_arrays(scene, width, height);
+    const int width = settings.width, height = settings.height;
     const int k = strata_per_axis(settings.spp);
-    const float inv_samples = 1.0f / static_cast<float>(k * k);
-    // Pixel centres: a run with --mistake half_pixel_offset renders with the scalar tracer.
-    const float centre = 0.5f;
     const int tiles_x = (width + kTileW - 1) / kTileW;
     const int bands = (height + kTileH - 1) / kTileH;
-    const int tiles = tiles_x * bands;
+    const FrameJob job{kernels_for(isa),
+                       store.view,
+                       options_for(settings.trace),
+                       camera_arrays(scene, width, height),
+                       width,
+                       height,
+                       k,
+                       1.0f / static_cast<float>(k * k),
+                       tiles_x,
+                       tiles_x * bands,
+                       settings.aovs};
     std::unique_ptr<std::atomic<int>[]> tiles_left(new std::atomic<int>[bands]);
     for (int b = 0; b < bands; ++b) tiles_left[b] = tiles_x;
-    const int lanes = kern.lanes;
-    const int tile_cap = kTileW * kTileH + lanes;
-    const bool aovs = settings.aovs;
 
     alignas(64) std::atomic<int> next_tile{0};
     std::vector<Worker> workers(static_cast<std::size_t>(settings.threads));
     auto work = [&](Worker& wk) {
-        wk.levels.resize(static_cast<std::size_t>(opt.max_depth) + 2);
-        wk.levels[0].reserve(tile_cap);
-        for (auto& v : wk.aov) v.assign(static_cast<std::size_t>(tile_cap), 0.0f);
-        for (auto& v : wk.sum) v.assign(static_cast<std::size_t>(tile_cap), 0.0f);
+        prepare(wk, job);
         const packet::Aov aov{wk.aov[0].data(), wk.aov[1].data(), wk.aov[2].data(),
                               wk.aov[3].data(), wk.aov[4].data()};
-        // One sample per pixel of the tile through all bounces; the colours end in level 0.
-        auto trace_tile = [&](const packet::Aov* with_aov) {
-            int last = 0;
-            for (int d = 0;; ++d) {
-                LevelStore& next = wk.levels[static_cast<std::size_t>(d) + 1];
-                const int n = wk.levels[d].view.count;
-                wk.diffuse.reserve(n + lanes);
-                wk.specular.reserve(n + lanes);
-                kern.shade(s, opt, d, wk.levels[d].view, wk.diffuse.view, wk.specular.view,
-                           wk.counts, d == 0 ? with_aov : nullptr);
-                next.reserve(2 * wk.specular.view.count + lanes);
-                kern.spawn(s, opt, wk.levels[d].view, wk.specular.view, next.view);
-                last = d;
-                if (next.view.count == 0) break;
-            }
-            for (int d = last; d >= 0; --d)
-                kern.resolve(s, opt, wk.levels[d].view, wk.levels[d + 1].view);
-        };
-        for (int tile = next_tile++; tile < tiles; tile = next_tile++) {
+        for (int tile = next_tile++; tile < job.tiles; tile = next_tile++) {
             const int band = tile / tiles_x;
-            const int x0 = (tile % tiles_x) * kTileW, y0 = band * kTileH;
-            const int tw = std::min(kTileW, width - x0), th = std::min(kTileH, height - y0);
-            const int n = tw * th;
-            const TilePixels out = target(band);
-            Level& l0 = wk.levels[0].view;
-            const float* cr = l0.cr;
-            const float* cg = l0.cg;
-            const float* cb = l0.cb;
-            if (k == 1) {
-                kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
-                trace_tile(aovs ? &aov : nullptr);
-            } else {
-                kern.camera(cam, x0, y0, tw, th, centre, centre, l0);
-                kern.primary(s, opt, l0, aov);
-                wk.counts.camera += static_cast<std::uint64_t>(n);
-                for (auto& v : wk.sum) std::fill(v.begin(), v.begin() + n, 0.0f);
-                for (int sy = 0; sy < k; ++sy)
-                    for (int sx = 0; sx < k; ++sx) {
-                        const float off_x = (sx + centre) / k, off_y = (sy + centre) / k;
-                        kern.camera(cam, x0, y0, tw, th, off_x, off_y, l0);
-                        trace_tile(nullptr);
-                        for (int i = 0; i < n; ++i) {
-                            wk.sum[0][i] += l0.cr[i];
-                            wk.sum[1][i] += l0.cg[i];
-                            wk.sum[2][i] += l0.cb[i];
-                        }
-                    }
-                cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
-            }
-            kern.store_tile(cr, cg, cb, inv_samples, aovs ? &aov : nullptr, tw, th, width,
-                            at_x(out, x0));
+            render_tile(wk, job, tile, aov, target(band));
             if (tiles_left[band].fetch_sub(1) == 1) band_done(band);
         }
     };
