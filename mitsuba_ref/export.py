@@ -18,6 +18,7 @@ from __future__ import annotations
 import functools
 import math
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -25,10 +26,10 @@ from typing import Any
 from mitsuba_ref.cap_mesh import HUGE_RADIUS, CapMesh, build_cap
 from mitsuba_ref.conductor_fit import ConductorFit, fit_paper_conductor
 from mitsuba_ref.light_units import light_values
-from mitsuba_ref.plugin_tree import RGB, LookAt, Plugin, Point, to_dict, to_xml
+from mitsuba_ref.plugin_tree import RGB, Color, LookAt, Plugin, Point, to_dict, to_xml
 from mitsuba_ref.ply import write_ply
 from scene_model.safe_paths import write_atomic
-from scene_model.scene import Scene, Sphere
+from scene_model.scene import Scene, Sphere, Vec3
 
 LIGHTS = ("area", "point")
 MAPPINGS = ("physical", "paper")
@@ -59,6 +60,7 @@ class ExportedScene:
     tree: Plugin
     meshes: dict[str, CapMesh]  # PLY file name -> mesh
     notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)  # what the user should know
     light_factors: dict[str, float] = field(default_factory=dict)
     conductor: ConductorFit | None = None
     # shape id -> index into scene.spheres (for the id AOV)
@@ -73,9 +75,10 @@ class ExportedScene:
         p = Path(path)
         written = []
         for name, mesh in self.meshes.items():
-            write_ply(p.parent / name, mesh)
+            _write(p.parent / name, functools.partial(write_ply, mesh=mesh))
             written.append(p.parent / name)
-        write_atomic(p, self.xml())  # a unique temporary name, never through a link
+        # Last: an XML on disk always has its meshes beside it.
+        _write(p, lambda f: write_atomic(f, self.xml()))
         return [p, *written]
 
     def load(self, mi: Any) -> Any:
@@ -92,6 +95,17 @@ class ExportedScene:
             return mi.load_dict(d)
 
 
+def _write(path: Path, write: Callable[[Path], None]) -> None:
+    """`write(path)` (atomic: a unique temporary name, never through a link, removed on any
+    error); an OSError (a full disk) names the file."""
+    try:
+        write(path)
+    except OSError as e:
+        if not e.strerror:  # already a message of ours (an unsafe target), naming the file
+            raise
+        raise OSError(f"{path}: cannot write: {e.strerror}") from None
+
+
 @functools.lru_cache(maxsize=1)
 def _paper_conductor() -> ConductorFit:
     return fit_paper_conductor()
@@ -105,20 +119,42 @@ def light_id(index: int) -> str:
     return f"light_{index}"
 
 
-def _bsdf(s: Sphere, options: ExportOptions, exported: ExportedScene) -> Plugin:
-    kind = s.kind
-    if kind == "glass":
+def _reflectance(value: Vec3) -> RGB | Plugin:
+    """A reflectance as Mitsuba takes it. Its RGB refuses values above 1, which the scene
+    format allows and the demo renders (the surface gives back more light than it receives):
+    those go in as an unbounded srgb texture, rendered as given."""
+    if max(value) <= 1.0:
+        return RGB(value)
+    return Plugin("texture", "srgb", {"color": Color(value), "unbounded": True})
+
+
+def _bsdf(s: Sphere, where: str, options: ExportOptions, exported: ExportedScene) -> Plugin:
+    """Sphere `s` (at `where` in the scene file)'s material."""
+    if max(s.color) > 1.0:
+        exported.warnings.append(
+            f"{where}.color: sphere '{s.name}' has a colour above 1 "
+            f"({', '.join(f'{c:g}' for c in s.color)}): it reflects more light than it "
+            "receives; Mitsuba renders it as given, as the demo does"
+        )
+    colour = _reflectance(s.color)
+    if s.kind == "glass":
         return Plugin(
             "bsdf",
             "dielectric",
             {
                 "int_ior": float(s.ior),
                 "ext_ior": 1.0,
-                "specular_reflectance": RGB(s.color),
-                "specular_transmittance": RGB(tuple(c * s.transparency for c in s.color)),  # type: ignore[arg-type]
+                "specular_reflectance": colour,
+                "specular_transmittance": _reflectance(
+                    (
+                        s.color[0] * s.transparency,
+                        s.color[1] * s.transparency,
+                        s.color[2] * s.transparency,
+                    )
+                ),
             },
         )
-    if kind == "mirror":
+    if s.kind == "mirror":
         if options.mapping == "paper":
             fit = _paper_conductor()
             exported.conductor = fit
@@ -128,15 +164,13 @@ def _bsdf(s: Sphere, options: ExportOptions, exported: ExportedScene) -> Plugin:
                 {
                     "eta": RGB((fit.eta,) * 3),
                     "k": RGB((fit.k,) * 3),
-                    "specular_reflectance": RGB(s.color),
+                    "specular_reflectance": colour,
                 },
                 comment=f"paper mapping: eta {fit.eta:.4f}, k {fit.k:.4f} fitted to 0.1 + 0.9 (1 - cos)^3, "
                 f"RMS error {fit.rms_error:.4f}, max {fit.max_error:.4f}",
             )
-        return Plugin(
-            "bsdf", "conductor", {"material": "none", "specular_reflectance": RGB(s.color)}
-        )
-    return Plugin("bsdf", "diffuse", {"reflectance": RGB(s.color)})
+        return Plugin("bsdf", "conductor", {"material": "none", "specular_reflectance": colour})
+    return Plugin("bsdf", "diffuse", {"reflectance": colour})
 
 
 def export_scene(scene: Scene, options: ExportOptions = ExportOptions()) -> ExportedScene:
@@ -243,7 +277,7 @@ def _add_sphere(
         if emitter is None:
             return
         props["emitter"] = emitter
-    props["bsdf"] = _bsdf(s, options, exported)
+    props["bsdf"] = _bsdf(s, f"spheres[{i}]", options, exported)
     mesh = _cap(exported, scene, s, options)
     if mesh is not None:
         ply = f"{scene.name}_{sid}_cap.ply"

@@ -16,6 +16,13 @@ class RGB:
 
 
 @dataclass(frozen=True)
+class Color:
+    """A colour property of a texture plugin (RGB is a texture standing for a colour)."""
+
+    value: Vec3
+
+
+@dataclass(frozen=True)
 class Point:
     value: Vec3
 
@@ -27,7 +34,7 @@ class LookAt:
     up: Vec3
 
 
-Value = Union[float, int, bool, str, RGB, Point, LookAt, "Plugin"]
+Value = Union[float, int, bool, str, RGB, Color, Point, LookAt, "Plugin"]
 
 
 @dataclass
@@ -49,7 +56,8 @@ def _vec(v: Vec3) -> str:
     return ", ".join(_fmt(x) for x in v)
 
 
-def to_xml(p: Plugin, indent: int = 0) -> str:
+def to_xml(p: Plugin, indent: int = 0, name: str | None = None) -> str:
+    """The plugin as XML; `name` is the property a nested texture stands for."""
     pad = "    " * indent
     lines: list[str] = []
     if p.comment:
@@ -58,12 +66,14 @@ def to_xml(p: Plugin, indent: int = 0) -> str:
     attrs = f' type="{p.type}"' if p.category != "scene" else ' version="3.0.0"'
     if p.id:
         attrs += f" id={quoteattr(p.id)}"
+    if name:
+        attrs += f" name={quoteattr(name)}"
     lines.append(f"{pad}<{p.category}{attrs}>")
     inner = "    " * (indent + 1)
     for name, v in p.props.items():
         n = quoteattr(name)
         if isinstance(v, Plugin):
-            lines.append(to_xml(v, indent + 1))
+            lines.append(to_xml(v, indent + 1, name if v.category == "texture" else None))
         elif isinstance(v, bool):
             lines.append(f'{inner}<boolean name={n} value="{str(v).lower()}"/>')
         elif isinstance(v, int):
@@ -72,7 +82,7 @@ def to_xml(p: Plugin, indent: int = 0) -> str:
             lines.append(f'{inner}<float name={n} value="{_fmt(v)}"/>')
         elif isinstance(v, str):
             lines.append(f"{inner}<string name={n} value={quoteattr(v)}/>")
-        elif isinstance(v, RGB):
+        elif isinstance(v, (RGB, Color)):
             lines.append(f'{inner}<rgb name={n} value="{_vec(v.value)}"/>')
         elif isinstance(v, Point):
             lines.append(f'{inner}<point name={n} value="{_vec(v.value)}"/>')
@@ -98,6 +108,8 @@ def to_dict(p: Plugin, mi: Any) -> dict[str, Any]:
             d[name] = to_dict(v, mi)
         elif isinstance(v, RGB):
             d[name] = {"type": "rgb", "value": list(v.value)}
+        elif isinstance(v, Color):
+            d[name] = mi.ScalarColor3f(*v.value)
         elif isinstance(v, Point):
             d[name] = mi.ScalarPoint3f(*v.value)
         elif isinstance(v, LookAt):

@@ -70,6 +70,7 @@ class ReferenceImage:
     spp_done: int
     seconds: float
     notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
 
 def _deterministic(s: ReferenceSettings) -> bool:
@@ -122,7 +123,16 @@ def render_reference(
     variance = sums.variance().astype(np.float32) if sums.done >= 2 else None
     header = _header(mi, scene, settings, sums, stopped_by, seconds)
     mean = (sums.total / sums.done).astype(np.float32)
-    return ReferenceImage(mean, variance, aovs, header, sums.done, seconds, list(exported.notes))
+    return ReferenceImage(
+        mean,
+        variance,
+        aovs,
+        header,
+        sums.done,
+        seconds,
+        list(exported.notes),
+        list(exported.warnings),
+    )
 
 
 def _export_options(settings: ReferenceSettings) -> ExportOptions:

@@ -28,6 +28,8 @@ def run_export(args: argparse.Namespace) -> int:
             integrator="path" if args.integrator == "path" else "rtval_whitted",
         ),
     )
+    for warning in exported.warnings:
+        print(f"rtval: warning: {args.scene}: {warning}", file=sys.stderr)
     out = Path(args.output)
     check_output_folder(out)
     for f in exported.write(out):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -81,10 +82,15 @@ def render_to_file(
     scene = load_scene(args.scene)
     check_output_folder(out)
     result = render_reference(scene, _settings(args), progress=progress)
+    for warning in result.warnings:
+        print(f"rtval: warning: {args.scene}: {warning}", file=sys.stderr)
     aovs = dict(result.aovs)
     if result.variance is not None:
         aovs.update({f"var.{c}": result.variance[..., i] for i, c in enumerate("RGB")})
-    write_exr(out, result.rgb, aovs=aovs, header=result.header)
+    try:
+        write_exr(out, result.rgb, aovs=aovs, header=result.header)
+    except RuntimeError as e:  # OpenEXR's write error (a full disk): its text names no path
+        raise OSError(f"{out}: cannot write: {_exr_reason(e)}") from None
     summary = f"{result.header['rtval.spp']} spp (stopped by {result.header['rtval.stopped_by']})"
     return time.perf_counter() - start, summary
 
@@ -106,6 +112,12 @@ def _add_stopping_and_effects(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-shadows", action="store_true", help="whitted: no shadow rays")
     p.add_argument("--no-reflection", action="store_true", help="whitted: no reflection lobes")
     p.add_argument("--no-refraction", action="store_true", help="whitted: no transmission lobes")
+
+
+def _exr_reason(e: RuntimeError) -> str:
+    """OpenEXR's message without the temporary file's name it quotes."""
+    text = str(e)
+    return (text.rsplit('". ', 1)[-1] if '". ' in text else text).rstrip(".")
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
