@@ -146,7 +146,7 @@ def grade_timed(cmd: list[str]) -> tuple[float, float, float, str]:
 
 def pair_costs() -> dict[str, float]:
     """One 640x480 pair in-process: exact match only, and the full metrics on top."""
-    from compare.apps.against import judge, load, prepare
+    from compare.apps.against import judge_against_model as judge, load, prepare
     from compare.judge.images import read_image
     from compare.judge.target_model import parse_model
     from compare.render.cache import RenderCache

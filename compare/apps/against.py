@@ -9,6 +9,7 @@ linear quantisation"); Mitsuba models by the rubric's per-effect FLIP and SSIM r
 from __future__ import annotations
 
 import hashlib
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -79,23 +80,38 @@ def prepare(
     return ModelRenders(model.name, str(scene_file), str(ref), tuple(str(p) for p in offsets))
 
 
-_LOADED: dict[ModelRenders, LoadedModel] = {}
+# A few models at once: `grade --scene classic --scene paper` judges every student against
+# both, and each load computes the model's effect masks.
+_LOADED_MAX = 4
+_LOADED: dict[tuple[ModelRenders, tuple[tuple[int, ...], ...]], LoadedModel] = {}
+
+
+def _files_identity(renders: ModelRenders) -> tuple[tuple[int, ...], ...]:
+    """Which files the paths name now: a render replaced at the same path (atomically: a new
+    inode) is another model, never the cached one."""
+    out = []
+    for p in (renders.scene_file, renders.reference, *renders.offsets):
+        st = os.stat(p)
+        out.append((st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns))
+    return tuple(out)
 
 
 def load(renders: ModelRenders) -> LoadedModel:
     """The model's images and effect masks, read once per process (grade workers reuse them)."""
-    if renders not in _LOADED:
+    key = (renders, _files_identity(renders))
+    if key not in _LOADED:
         ref = read_image(renders.reference)
         if "id" not in ref.aovs or "depth" not in ref.aovs:
             raise ImageError(f"{renders.reference}: the model render has no id/depth AOVs")
         masks = effect_masks(load_scene(renders.scene_file), ref.aovs["id"], ref.aovs["depth"])
         offsets = [read_image(p).rgb for p in renders.offsets]
-        _LOADED.clear()  # one model at a time is what every command needs
-        _LOADED[renders] = LoadedModel(renders, parse_model(renders.model), ref, offsets, masks)
-    return _LOADED[renders]
+        while len(_LOADED) >= _LOADED_MAX:  # the oldest goes
+            del _LOADED[next(iter(_LOADED))]
+        _LOADED[key] = LoadedModel(renders, parse_model(renders.model), ref, offsets, masks)
+    return _LOADED[key]
 
 
-def judge(
+def judge_against_model(
     test: Image,
     model: LoadedModel,
     rubric: Rubric | None = None,
@@ -128,6 +144,9 @@ def judge(
         flip_at_zero=rubric.flip_at_zero if rubric else FLIP_AT_ZERO_SCORE,
         pass_score=pass_score,
     )
+
+
+judge = judge_against_model  # the name report.py still imports; goes when it switches
 
 
 def nan_pixels(img: Image) -> int:

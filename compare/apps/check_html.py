@@ -2,23 +2,21 @@
 reference (baseline or target model) and the render side by side, the difference and the
 FLIP map, its per-effect numbers and a diagnosis (compare.judge.diagnose: the nearest demo
 model, quirks and named mistakes). User text is escaped by Jinja's autoescape, the page
-carries a Content-Security-Policy (page_security), every file is written atomically."""
+carries a Content-Security-Policy (compare/apps/pages.py), every file is written atomically;
+NaN/Inf pixels show in the PNGs' marker colour (compare/judge/png.py)."""
 
 from __future__ import annotations
 
-import io
 import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from jinja2 import Environment, PackageLoader, select_autoescape
 
 from compare.apps.check import CaseResult
-from compare.apps.page_security import with_csp
-from compare.files import write_atomic
-from compare.judge.images import linear_to_srgb
+from compare.apps.pages import write_page
+from compare.judge.png import display_values, write_display_png
 from compare.judge.tolerances import diff_image
 from scene_model.safe_paths import UnsafePathError
 
@@ -27,19 +25,13 @@ PNGS = ("reference", "render", "difference", "flip")
 DIAGNOSE_RENDERS = 60
 
 
-def _save_png(path: Path, display: np.ndarray) -> None:
-    from PIL import Image as PILImage
-
-    data = np.round(np.clip(np.nan_to_num(display), 0.0, 1.0) * 255.0).astype(np.uint8)
-    buf = io.BytesIO()
-    PILImage.fromarray(data, "RGB").save(buf, format="PNG")
-    write_atomic(path, buf.getvalue())
-
-
 def _magma(values: np.ndarray) -> np.ndarray:
+    """The FLIP map in magma; a non-finite value stays NaN (the PNG's marker colour)."""
     import matplotlib
 
-    return np.asarray(matplotlib.colormaps["magma"](np.clip(np.nan_to_num(values), 0, 1)))[..., :3]
+    rgb = np.asarray(matplotlib.colormaps["magma"](np.clip(np.nan_to_num(values), 0, 1)))[..., :3]
+    rgb[~np.isfinite(values)] = np.nan
+    return rgb
 
 
 def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> list[str] | None:
@@ -93,7 +85,7 @@ def write_html(
         }
         pics = r.pictures
         if pics is not None:
-            ref, test = linear_to_srgb(pics.ref), linear_to_srgb(pics.test)
+            ref, test = display_values(pics.ref), display_values(pics.test)
             pictures = {
                 "reference": ref,
                 "render": test,
@@ -102,16 +94,9 @@ def write_html(
             }
             for kind, picture in pictures.items():
                 name = f"case{i:03d}-{kind}.png"  # never a user's text in a file name
-                _save_png(images / name, picture)
+                write_display_png(images / name, picture)
                 entry["images"][kind] = f"images/{name}"
         cases.append(entry)
-    env = Environment(
-        loader=PackageLoader("compare.apps", "templates"),
-        autoescape=select_autoescape(["html", "j2"]),
-    )
-    html = env.get_template("check.html.j2").render(
-        cases=cases, total=len(results), failed=len(failures)
-    )
     page = out_dir / "index.html"
-    write_atomic(page, with_csp(html))
+    write_page(page, "check.html.j2", cases=cases, total=len(results), failed=len(failures))
     return page

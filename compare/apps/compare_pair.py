@@ -135,14 +135,14 @@ def run_against(
     progress: Progress | None = None,
 ) -> Comparison:
     """`test` judged against a target model rendered at the test's size (never resampled)."""
-    from compare.apps.against import judge, load, prepare
+    from compare.apps.against import judge_against_model, load, prepare
     from compare.judge.target_model import parse_model
 
     model = parse_model(model_name)
     h, w = test.shape
     renders = prepare(model, scene_file, (w, h), cache, progress=progress)
     loaded = load(renders)
-    evaluation = judge(test, loaded, region=mask, tolerances=tolerances)
+    evaluation = judge_against_model(test, loaded, region=mask, tolerances=tolerances)
     return Comparison(loaded.reference, test, evaluation, renders.reference, model.name)
 
 

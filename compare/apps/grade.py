@@ -21,24 +21,44 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import io
-import json
+import os
 import shutil
+import stat
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from compare.apps.against import ModelRenders
+from compare.apps.grade_executors import SCHEDULER_TIMEOUT, Executor, run_tasks
+from compare.apps.grade_results import (
+    BadResult,
+    SceneResult,
+    StudentResult,
+    discard_special,
+    read_result,
+)
+from compare.apps.gradebook import write_gradebook
+from compare.apps.output_folders import own_folder
+from compare.apps.pages import write_page
 from compare.apps.programs import ProgramJob, ProgramOptions, ProgramSpec, resolve_spec
 from compare.apps.submissions import IMAGE_SUFFIXES  # noqa: F401  (re-exported)
-from compare.csv_safe import csv_text
 from compare.files import atomic_output, sha256_file, write_atomic
+from compare.judge.scoring import student_passes, student_score
 from compare.student_ids import student_slug
+
+if TYPE_CHECKING:
+    from compare.apps.against import LoadedModel
+    from compare.apps.programs import ProgramResult
+    from compare.judge.evaluate import Evaluation
+    from compare.judge.images import Image
+    from compare.judge.metrics import F32
+    from compare.judge.rubric import Rubric
+    from compare.judge.target_model import TargetModel
+    from compare.render.cache import RenderCache
 
 
 @dataclass(frozen=True)
@@ -73,37 +93,91 @@ def task_key(task: GradeTask) -> str:
 
 
 def _grade_scene(
-    scene_name: str, path: str | None, task: GradeTask, rubric: Any, page_dir: Path
-) -> dict[str, Any]:
-    from compare.apps.against import judge, load, nan_pixels
-    from compare.judge.images import ImageError, ImageSizeError, read_image
-    from compare.judge.sentences import difference_sentences
+    scene_name: str, path: str | None, task: GradeTask, rubric: Rubric, page_dir: Path
+) -> SceneResult:
+    """One scene: not judged (with the reason) when there is no image of the right size to
+    judge, else judged against the model."""
+    from compare.apps.against import load
 
-    renders = task.models[scene_name]
-    base = {"scene": scene_name, "model": renders.model, "diagnosis": ""}
+    model_name = task.models[scene_name].model
     if scene_name in task.scene_problems:  # the program's run gave no image: why
-        return base | {"status": "error", "score": 0.0, "reason": task.scene_problems[scene_name]}
+        return SceneResult(scene_name, model_name, "error", 0.0, task.scene_problems[scene_name])
     if path is None:
-        return base | {
-            "status": "missing",
-            "score": 0.0,
-            "reason": f"no image for scene '{scene_name}'",
-        }
-    model = load(renders)
-    ref = model.reference
-    try:  # the size is checked in the header, before decoding: memory stays bounded
-        img = read_image(path, expected_size=ref.shape)
+        return SceneResult(
+            scene_name, model_name, "missing", 0.0, f"no image for scene '{scene_name}'"
+        )
+    model = load(task.models[scene_name])
+    img = _read_submission(path, model.reference.shape)
+    if isinstance(img, str):
+        return SceneResult(scene_name, model_name, "error", 0.0, img)
+    return _judge_scene(scene_name, img, model, task, rubric, page_dir)
+
+
+def _read_submission(path: str, shape: tuple[int, int]) -> Image | str:
+    """The submitted image, or why it cannot be judged. The size is checked in the header,
+    before decoding: memory stays bounded."""
+    from compare.judge.images import ImageError, ImageSizeError, read_image
+
+    try:
+        return read_image(path, expected_size=shape)
     except ImageSizeError as e:
         (h, w), (eh, ew) = e.size, e.expected
-        return base | {
-            "status": "error",
-            "score": 0.0,
-            "reason": f"wrong size {w}x{h}, expected {ew}x{eh}",
-        }
+        return f"wrong size {w}x{h}, expected {ew}x{eh}"
     except ImageError as e:
-        return base | {"status": "error", "score": 0.0, "reason": f"unreadable: {e}"}
+        return f"unreadable: {e}"
+
+
+def _judge_scene(
+    scene_name: str,
+    img: Image,
+    model: LoadedModel,
+    task: GradeTask,
+    rubric: Rubric,
+    page_dir: Path,
+) -> SceneResult:
+    """The verdict, the reasons and the sentences of a scene's image; a failing image against
+    a demo model is diagnosed. Writes the image and its difference for the page."""
+    from compare.apps.against import judge_against_model, nan_pixels
+    from compare.judge.sentences import difference_sentences
+
     nan = nan_pixels(img)
-    ev = judge(img, model, rubric)
+    ev = judge_against_model(img, model, rubric)
+    verdict, reasons = _verdict(ev, nan)
+    # Against a demo model the reasons say what differs; the sentences' SSIM and full FLIP maps
+    # would double a failing submission's cost (bench/bench_grade.py).
+    sentences = (
+        difference_sentences(
+            model.reference.rgb,
+            img.rgb,
+            model.masks,
+            ev.effect_metrics(),
+            f"{task.student}'s render",
+        )
+        if ev.exact is None
+        else list(reasons)
+    )
+    diagnosis = None
+    if verdict["status"] != "pass" and task.diagnose and model.target.is_demo:
+        diagnosis = _diagnose_scene(img, scene_name, task.models[scene_name], task, page_dir)
+        diagnosis["short"] = _beside_verdict(diagnosis, model.renders.model, verdict)
+        reasons.append(diagnosis["short"])
+    _write_scene_pictures(page_dir, scene_name, model.reference.rgb, img.rgb)
+    return SceneResult(
+        scene_name,
+        model.renders.model,
+        verdict["status"],
+        verdict["score"],
+        "; ".join(reasons),
+        diagnosis=diagnosis["short"] if diagnosis else "",
+        verdict=verdict,
+        sentences=tuple(sentences),
+        nan_pixels=nan,
+        diagnosis_detail=diagnosis,
+    )
+
+
+def _verdict(ev: Evaluation, nan: int) -> tuple[dict[str, Any], list[str]]:
+    """The scene's verdict as stored, and its reasons; NaN/Inf pixels fail it."""
     assert ev.score is not None  # the model's masks were given
     verdict = ev.score.as_dict()
     reasons = ev.score.reasons()
@@ -112,45 +186,18 @@ def _grade_scene(
     if nan and ev.exact is None:  # exact judging already counts NaN pixels as differing
         verdict["status"] = "fail"
         reasons.insert(0, f"{nan} NaN/Inf pixels")
-    # Against a demo model the reasons say what differs; the sentences' SSIM and full FLIP maps
-    # would double a failing submission's cost (bench/bench_grade.py).
-    sentences = (
-        difference_sentences(
-            ref.rgb, img.rgb, model.masks, ev.effect_metrics(), f"{task.student}'s render"
-        )
-        if ev.exact is None
-        else list(reasons)
-    )
-    diagnosis = None
-    if verdict["status"] != "pass" and task.diagnose and model.target.is_demo:
-        diagnosis = _diagnose_scene(img, scene_name, renders, task, page_dir)
-        diagnosis["short"] = _beside_verdict(diagnosis, renders.model, verdict)
-        reasons.append(diagnosis["short"])
-    # Pictures for the student's page: the submission and |difference| x 8 (display).
-    from PIL import Image as PILImage
+    return verdict, reasons
 
-    from compare.judge.images import linear_to_srgb
 
-    a, b = linear_to_srgb(ref.rgb), linear_to_srgb(img.rgb)
-    for name, data in (
-        (f"{scene_name}.png", b),
-        (f"{scene_name}-diff.png", np.clip(np.abs(a - b) * 8, 0, 1)),
-    ):
-        buf = io.BytesIO()
-        PILImage.fromarray(np.round(data * 255).astype(np.uint8)).save(
-            buf, format="PNG", compress_level=1
-        )
-        write_atomic(page_dir / name, buf.getvalue())
-    return base | {
-        "status": verdict["status"],
-        "score": verdict["score"],
-        "reason": "; ".join(reasons),
-        "verdict": verdict,
-        "sentences": sentences,
-        "nan_pixels": nan,
-        "diagnosis": diagnosis["short"] if diagnosis else "",
-        "diagnosis_detail": diagnosis,
-    }
+def _write_scene_pictures(page_dir: Path, scene_name: str, reference: F32, test: F32) -> None:
+    """The submission and |difference| x 8 (display), for the student's page; NaN/Inf pixels
+    in the marker colour (compare/judge/png.py)."""
+    from compare.judge.png import FAST, display_values, write_display_png
+
+    a, b = display_values(reference), display_values(test)
+    write_display_png(page_dir / f"{scene_name}.png", b, compress_level=FAST)
+    diff = np.clip(np.abs(a - b) * 8, 0, 1)
+    write_display_png(page_dir / f"{scene_name}-diff.png", diff, compress_level=FAST)
 
 
 def _beside_verdict(diagnosis: dict[str, Any], model: str, verdict: dict[str, Any]) -> str:
@@ -189,100 +236,95 @@ def _diagnose_scene(
         return {"short": f"no diagnosis: {e}", "sentences": [], "evidence": []}
 
 
-def grade_one(task: GradeTask) -> dict[str, Any]:
+def grade_one(task: GradeTask) -> StudentResult:
     """Grades one student; returns (and stores) the result. Idempotent: a result with the
-    same key on disk is returned as is."""
-    from jinja2 import Environment, PackageLoader, select_autoescape
-
-    from compare.apps.page_security import with_csp
+    same key on disk is returned as is. A stored file that is not a result (truncated, a
+    link, a FIFO) is graded again, with a warning naming it."""
     from compare.judge.rubric import parse_rubric
 
     out = Path(task.out_dir)
     slug = student_slug(task.student)  # the id on disk; the real id stays in the result
-    result_path = out / "results" / f"{slug}.json"
+    result_path = own_folder(out, "results") / f"{slug}.json"
     key = task_key(task)
-    old = _load_result(result_path)  # None when missing, truncated or corrupt: regrade
-    if old is not None and old.get("key") == key and old.get("student") == task.student:
-        return {**old, "resumed": True}
+    old, warnings = _stored_result(result_path, task.student, key)
+    if old is not None:
+        return old.as_resumed()
     rubric = parse_rubric(task.rubric_text, task.rubric_source)
-    page_dir = out / "students" / slug
-    page_dir.mkdir(parents=True, exist_ok=True)
+    page_dir = own_folder(out, "students", slug)
     start = time.perf_counter()
     program = None
     if task.program is not None and not task.problem:  # build and run it, then grade as images
-        from compare.apps.programs import build_and_run
-
-        program = build_and_run(task.program, out / "programs" / slug)
-        task = dataclasses.replace(
-            task,
-            files=program.files,
-            problem=program.problem,
-            scene_problems=program.scene_problems,
-        )
-    scenes: list[dict[str, Any]]
+        task, program = _run_program(task, out, slug)
     if task.problem:
         scenes = [
-            {
-                "scene": s,
-                "model": task.models[s].model,
-                "diagnosis": "",
-                "status": "error",
-                "score": 0.0,
-                "reason": task.problem,
-            }
-            for s in task.files
+            SceneResult(s, task.models[s].model, "error", 0.0, task.problem) for s in task.files
         ]
     else:
         scenes = [_grade_scene(s, p, task, rubric, page_dir) for s, p in sorted(task.files.items())]
-    score = float(np.mean([s["score"] for s in scenes])) if scenes else 0.0
-    status = (
-        "pass"
-        if scenes and all(s["status"] == "pass" for s in scenes) and score >= rubric.pass_score
-        else "fail"
+    result = _student_result(task, key, scenes, rubric, slug)
+    result = dataclasses.replace(
+        result,
+        seconds=time.perf_counter() - start,
+        program=program.info if program is not None else None,
+        warnings=warnings,
     )
-    reasons = "; ".join(f"{s['scene']}: {s['reason']}" for s in scenes if s.get("reason"))
-    if status == "fail" and not reasons:  # every scene passed, the mean is short of pass_score
-        reasons = f"score {score:.1f} < {rubric.pass_score:g}"
-    models = sorted({str(s["model"]) for s in scenes})
-    result = {
-        "student": task.student,
-        "key": key,
-        "status": status,
-        "score": score,
-        "model": ", ".join(models),
-        "reasons": reasons,
-        # Failing scenes against a demo model: what they look like (compare/apps/diagnosis.py).
-        "diagnosis": "; ".join(
-            (f"{s['scene']}: " if len(scenes) > 1 else "") + s["diagnosis"]
-            for s in scenes
-            if s.get("diagnosis")
-        ),
-        "scenes": scenes,
-        "rubric": rubric.source,
-        "seconds": time.perf_counter() - start,
-        "page": f"students/{slug}/index.html",
-    }
-    if program is not None:  # build and run logs, times and peak memory for the page
-        result["program"] = program.info
-    env = Environment(
-        loader=PackageLoader("compare.apps", "templates"),
-        autoescape=select_autoescape(["html", "j2"]),
-    )
-    page = with_csp(env.get_template("student.html.j2").render(r=result))
-    write_atomic(page_dir / "index.html", page)
-    (out / "results").mkdir(exist_ok=True)
-    write_atomic(result_path, json.dumps(result, indent=2, default=float))
+    write_page(page_dir / "index.html", "student.html.j2", r=result.to_json())
+    write_atomic(result_path, result.dumps())
     return result
 
 
-def _load_result(path: Path) -> dict[str, Any] | None:
-    """A stored result, or None when it is missing or unreadable (a run killed mid-write
-    before writes were atomic, a full disk, a hand edit): such a student is graded again."""
+def _stored_result(
+    path: Path, student: str, key: str
+) -> tuple[StudentResult | None, tuple[str, ...]]:
+    """The stored result when it is this student's and made from these inputs; else None,
+    with a warning when the file there is not a result at all."""
     try:
-        old = json.loads(path.read_bytes())
-    except (OSError, ValueError):
-        return None
-    return old if isinstance(old, dict) else None
+        old = read_result(path)
+    except BadResult as e:
+        discard_special(path)  # a planted link or FIFO goes; the new result takes its place
+        return None, (f"{e}: graded again",)
+    if old is not None and old.key == key and old.student == student:
+        return old, ()
+    return None, ()
+
+
+def _run_program(task: GradeTask, out: Path, slug: str) -> tuple[GradeTask, ProgramResult]:
+    """A program submission built and run in the sandbox: the task, now of its images."""
+    from compare.apps.programs import build_and_run
+
+    program = build_and_run(task.program, own_folder(out, "programs", slug))  # type: ignore[arg-type]
+    task = dataclasses.replace(
+        task, files=program.files, problem=program.problem, scene_problems=program.scene_problems
+    )
+    return task, program
+
+
+def _student_result(
+    task: GradeTask, key: str, scenes: list[SceneResult], rubric: Rubric, slug: str
+) -> StudentResult:
+    """The scenes summed up: the score and the verdict (scoring.py's), the reasons of every
+    failing scene and the diagnoses of the failing ones."""
+    score = student_score([s.score for s in scenes])
+    passed = student_passes([s.status for s in scenes], score, rubric.pass_score)
+    reasons = "; ".join(f"{s.scene}: {s.reason}" for s in scenes if s.reason)
+    if not passed and not reasons:  # every scene passed, the mean is short of pass_score
+        reasons = f"score {score:.1f} < {rubric.pass_score:g}"
+    return StudentResult(
+        student=task.student,
+        key=key,
+        status="pass" if passed else "fail",
+        score=score,
+        model=", ".join(sorted({s.model for s in scenes})),
+        reasons=reasons,
+        # Failing scenes against a demo model: what they look like (compare/apps/diagnosis.py).
+        diagnosis="; ".join(
+            (f"{s.scene}: " if len(scenes) > 1 else "") + s.diagnosis for s in scenes if s.diagnosis
+        ),
+        scenes=tuple(scenes),
+        rubric=rubric.source,
+        seconds=0.0,
+        page=f"students/{slug}/index.html",
+    )
 
 
 def collect(
@@ -321,16 +363,16 @@ def _entries(
     return program_entries(submissions, models, spec, size, out, cache_root, progress)
 
 
-def _beside(renders: ModelRenders, scene_name: str, folder: Path) -> ModelRenders:
+def _copy_model_renders_out(renders: ModelRenders, scene_name: str, folder: Path) -> ModelRenders:
     """The model's renders copied out of the shared cache beside the grades, as
     references/SCENE-MODEL.exr (and -offsetN.exr): the tasks (maybe on other machines) read
-    them from there. A copy already there with the same bytes stays."""
-    folder.mkdir(parents=True, exist_ok=True)
+    them from there. A copy already there with the same bytes stays; anything else at that
+    name (a planted link included) is replaced or refused, never followed."""
     stem = student_slug(f"{scene_name}-{renders.model}")  # names from the scene file: made safe
 
     def copy(src: str, suffix: str) -> str:
         target = folder / f"{stem}{suffix}.exr"
-        if not (target.is_file() and sha256_file(target) == sha256_file(src)):
+        if not (_is_regular_file(target) and sha256_file(target) == sha256_file(src)):
             with atomic_output(target) as tmp:
                 shutil.copyfile(src, tmp)
         return str(target)
@@ -342,6 +384,13 @@ def _beside(renders: ModelRenders, scene_name: str, folder: Path) -> ModelRender
     )
 
 
+def _is_regular_file(path: Path) -> bool:
+    try:
+        return stat.S_ISREG(os.lstat(path).st_mode)
+    except OSError:
+        return False
+
+
 def run_grading(
     submissions: Path,
     scene_files: list[Path],
@@ -350,6 +399,7 @@ def run_grading(
     rubric_path: str | None = None,
     executor: str = "local",
     scheduler: str | None = None,
+    scheduler_timeout: float = SCHEDULER_TIMEOUT,
     jobs: int = 2,
     size: tuple[int, int] | None = None,
     against: str | None = None,
@@ -357,23 +407,98 @@ def run_grading(
     cache_dir: Path | str | None = None,
     progress: Callable[[str], None] = print,
     program: ProgramOptions | None = None,
-) -> list[dict[str, Any]]:
-    from compare.apps.against import GRADE_DEFAULT, prepare, resolve_model
-    from compare.judge.rubric import DEFAULT_RUBRIC_TEXT, load_rubric
+) -> list[StudentResult]:
+    """Grades every submission; writes the pages, the results and the gradebook."""
     from compare.render.cache import RenderCache
-    from compare.render.progress import Progress
-    from scene_model.scene import load_scene
 
-    rubric = load_rubric(rubric_path)  # validates before any work
-    rubric_text = Path(rubric_path).read_text() if rubric_path else DEFAULT_RUBRIC_TEXT
+    where = Executor(executor, scheduler, jobs, scheduler_timeout)
+    where.check()
+    rubric_text, rubric, model, spec = _class_setup(rubric_path, against, program)
+    out.mkdir(parents=True, exist_ok=True)
+    cache = RenderCache(cache_dir)
+    models = _model_renders(model, scene_files, size, cache, out, progress)
+    parallel = 0 if not diagnose else 1 if where.side_by_side else 2
+    base = _base_task(models, rubric_text, rubric, out, cache, parallel)
+    tasks = [
+        dataclasses.replace(base, student=student, files=files, problem=problem, program=job)
+        for student, files, problem, job in _entries(
+            submissions, models, spec, size, out, cache.root, progress
+        )
+    ]
+    for t in tasks:  # every folder a task writes, checked here: a planted link stops the run
+        own_folder(out, "students", student_slug(t.student))
+    progress(f"grading {len(tasks)} submissions against {model.name} ({executor} executor)")
+    start = time.perf_counter()
+    results: list[StudentResult] = []
+    arrived = _arrived(results, len(tasks), progress)
+    run_tasks(grade_one, tasks, arrived, where)
+    results.sort(key=lambda r: r.student)
+    elapsed = time.perf_counter() - start
+    write_gradebook(results, out, rubric.source, elapsed)
+    progress(
+        f"graded {len(results)} in {elapsed:.1f} s ({sum(r.resumed for r in results)} resumed)"
+    )
+    return results
+
+
+def _base_task(
+    models: dict[str, ModelRenders],
+    rubric_text: str,
+    rubric: Rubric,
+    out: Path,
+    cache: RenderCache,
+    diagnose: int,
+) -> GradeTask:
+    """What every student's task shares. `diagnose`: renders at once per diagnosis (one per
+    worker when workers run side by side, two for a lone one; 0: no diagnosis)."""
+    return GradeTask(
+        student="",
+        files={},
+        problem=None,
+        models=models,
+        models_key=_models_key(models),
+        rubric_text=rubric_text,
+        rubric_source=rubric.source,
+        out_dir=str(out),
+        diagnose=diagnose,
+        candidates_dir=str(cache.root / "candidates"),
+    )
+
+
+def _class_setup(
+    rubric_path: str | None, against: str | None, program: ProgramOptions | None
+) -> tuple[str, Rubric, TargetModel, ProgramSpec | None]:
+    """The rubric (its text, parsed), the model and the program spec (None: a class of
+    images), each checked before any work: a sandboxed class needs a sandbox."""
+    from compare.apps.against import GRADE_DEFAULT, resolve_model
+    from compare.judge.rubric import parse_rubric, read_rubric
+
+    rubric_text, rubric_source = read_rubric(rubric_path)
+    rubric = parse_rubric(rubric_text, rubric_source)
     model = resolve_model(against, rubric, GRADE_DEFAULT)
-    spec = resolve_spec(program, rubric.program)  # None: a class of images
+    spec = resolve_spec(program, rubric.program)
     if spec is not None and spec.sandboxed:
         from compare.sandbox import require_sandbox
 
-        require_sandbox()  # before any work: refuse rather than run students' code bare
-    out.mkdir(parents=True, exist_ok=True)
-    cache = RenderCache(cache_dir)
+        require_sandbox()  # refuse rather than run students' code bare
+    return rubric_text, rubric, model, spec
+
+
+def _model_renders(
+    model: TargetModel,
+    scene_files: list[Path],
+    size: tuple[int, int] | None,
+    cache: RenderCache,
+    out: Path,
+    progress: Callable[[str], None],
+) -> dict[str, ModelRenders]:
+    """scene name -> the model's renders of it, rendered (or found) in the shared cache and
+    copied to OUT/references."""
+    from compare.apps.against import prepare
+    from compare.render.progress import Progress
+    from scene_model.scene import load_scene
+
+    folder = own_folder(out, "references")
     models: dict[str, ModelRenders] = {}
     for scene_file in scene_files:
         scene = load_scene(scene_file)
@@ -385,175 +510,28 @@ def run_grading(
             cache,
             progress=progress if isinstance(progress, Progress) else None,
         )
-        models[scene.name] = _beside(renders, scene.name, out / "references")
+        models[scene.name] = _copy_model_renders_out(renders, scene.name, folder)
+    return models
+
+
+def _models_key(models: dict[str, ModelRenders]) -> str:
+    """A digest of every model render (computed once, not per student)."""
     h = hashlib.sha256()
     for name in sorted(models):
         h.update(name.encode() + models[name].digest().encode())
-    models_key = h.hexdigest()[:24]
-    # One render at a time per worker when workers run side by side; two for a lone one.
-    diagnose_parallel = 0 if not diagnose else 1 if executor == "dask" or jobs > 1 else 2
-    tasks = [
-        GradeTask(
-            student,
-            files,
-            problem,
-            models,
-            models_key,
-            rubric_text,
-            rubric.source,
-            str(out),
-            diagnose_parallel,
-            str(cache.root / "candidates"),
-            job,
-        )
-        for student, files, problem, job in _entries(
-            submissions, models, spec, size, out, cache.root, progress
-        )
-    ]
-    progress(f"grading {len(tasks)} submissions against {model.name} ({executor} executor)")
-    start = time.perf_counter()
-    results: list[dict[str, Any]] = []
+    return h.hexdigest()[:24]
 
-    def arrived(r: dict[str, Any]) -> None:
+
+def _arrived(
+    results: list[StudentResult], total: int, progress: Callable[[str], None]
+) -> Callable[[StudentResult], None]:
+    """Collects each result as it arrives, with a progress line (and its warnings)."""
+
+    def arrived(r: StudentResult) -> None:
         results.append(r)
-        state = "resumed" if r.get("resumed") else f"{r['seconds']:.2f} s"
-        progress(
-            f"[{len(results)}/{len(tasks)}] {r['student']}: {r['status']} {r['score']:.1f} ({state})"
-        )
+        for warning in r.warnings:
+            progress(f"warning: {warning}")
+        state = "resumed" if r.resumed else f"{r.seconds:.2f} s"
+        progress(f"[{len(results)}/{total}] {r.student}: {r.status} {r.score:.1f} ({state})")
 
-    if executor == "dask":
-        from dask.distributed import Client, as_completed
-
-        if not scheduler:
-            raise ValueError(
-                "--executor dask needs --scheduler ADDRESS (e.g. tcp://127.0.0.1:8786)"
-            )
-        with Client(scheduler, timeout=30) as client:
-            for future in as_completed(client.map(grade_one, tasks, pure=False)):
-                arrived(future.result())
-    elif executor == "local":
-        if jobs <= 1:
-            for t in tasks:
-                arrived(grade_one(t))
-        else:
-            from concurrent.futures import as_completed as done
-
-            with ProcessPoolExecutor(max_workers=jobs) as pool:
-                for f in done([pool.submit(grade_one, t) for t in tasks]):
-                    arrived(f.result())
-    else:
-        raise ValueError(f"unknown executor {executor!r} (expected local or dask)")
-    results.sort(key=lambda r: str(r["student"]))
-    elapsed = time.perf_counter() - start
-    write_gradebook(results, out, rubric.source, elapsed)
-    progress(
-        f"graded {len(results)} in {elapsed:.1f} s ({sum(bool(r.get('resumed')) for r in results)} resumed)"
-    )
-    return results
-
-
-def write_gradebook(results: list[dict[str, Any]], out: Path, rubric: str, seconds: float) -> None:
-    rows: list[list[object]] = []  # written by csv_text, which neutralises formulas
-    scenes = sorted({s["scene"] for r in results for s in r["scenes"]})
-    rows.append(
-        [
-            "student",
-            "status",
-            "score",
-            "model",
-            *[f"{s} score" for s in scenes],
-            *[f"{s} status" for s in scenes],
-            "reasons",
-            "diagnosis",
-            "page",
-        ]
-    )
-    for r in results:
-        by = {s["scene"]: s for s in r["scenes"]}
-        rows.append(
-            [
-                r["student"],
-                r["status"],
-                f"{r['score']:.2f}",
-                r.get("model", ""),
-                *[f"{by[s]['score']:.2f}" if s in by else "" for s in scenes],
-                *[by[s]["status"] if s in by else "" for s in scenes],
-                r["reasons"],
-                r.get("diagnosis", ""),
-                r["page"],
-            ]
-        )
-    write_atomic(out / "gradebook.csv", csv_text(rows))
-    summary = [
-        {
-            k: r.get(k, "")
-            for k in ("student", "status", "score", "model", "reasons", "diagnosis", "page")
-        }
-        | {
-            "scenes": {
-                s["scene"]: {"status": s["status"], "score": s["score"]} for s in r["scenes"]
-            }
-        }
-        for r in results
-    ]
-    write_atomic(
-        out / "gradebook.json",
-        json.dumps({"rubric": rubric, "seconds": seconds, "students": summary}, indent=2),
-    )
-
-
-def explain(out: Path, student: str) -> str:
-    path = out / "results" / f"{student_slug(student)}.json"
-    if not path.is_file():
-        raise OSError(f"{path}: no result for {student!r} (run rtval grade first)")
-    r = _load_result(path)
-    if r is not None and r.get("student") != student:  # never a classmate's result
-        raise OSError(f"{path}: holds the result of another id, not {student!r}")
-    if r is None or not {"status", "score", "rubric", "scenes"} <= r.keys():
-        raise OSError(
-            f"{path}: the result for {student!r} is truncated or corrupt; "
-            "run rtval grade again: it regrades this student"
-        )
-    lines = [
-        f"{student}: {r['status'].upper()}, score {r['score']:.1f} = mean of the scene scores "
-        f"(judged against {r.get('model') or 'mitsuba'}; rubric: {r['rubric']})"
-    ]
-    for s in r["scenes"]:
-        lines.append(
-            f"  scene {s['scene']}: {s['status']}, score {s['score']:.1f}"
-            + (f" — {s['reason']}" if s.get("reason") else "")
-        )
-        v = s.get("verdict")
-        if not v:
-            continue
-        total = sum(e["pixels"] * e["rule"]["weight"] for e in v["effects"].values()) or 1
-        exact = v.get("basis") == "exact"
-        for name, e in v["effects"].items():
-            w = e["pixels"] * e["rule"]["weight"] / total
-            if exact:
-                how = f"{e['differing']} of {e['pixels']} px differ" + (
-                    f", FLIP {e['flip']:.4f}" if e["flip"] is not None else ""
-                )
-            else:
-                ssim = f"{e['ssim']:.4f}" if e["ssim"] is not None else "undefined"
-                how = (
-                    f"SSIM {ssim} (min {e['rule']['min_ssim']}), "
-                    f"FLIP {e['flip']:.4f} (max {e['rule']['max_flip']})"
-                )
-            lines.append(
-                f"    {name:<11} {e['status']:<4} {how}: score {e['score']:.1f} x weight "
-                f"{w:.3f} = {e['score'] * w:.1f}"
-            )
-        if exact:
-            lines.append(
-                "    score = 100 x the share of the effect's pixels that match the model within "
-                f"{v['exact']['rule']}, weighted by pixels x weight; an effect passes with at "
-                f"most {v['exact']['stray_rule']} of its pixels differing; "
-                f"pass needs every effect to pass and score >= {v['pass_score']}"
-            )
-        else:
-            lines.append(
-                f"    score = 100 (1 - FLIP / {v['flip_at_zero_score']}) per effect, weighted by "
-                f"pixels x weight; pass needs every effect to pass and score >= {v['pass_score']}"
-            )
-    return "\n".join(lines)
+    return arrived

@@ -19,12 +19,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from jinja2 import Environment, PackageLoader, select_autoescape
 
+from compare.apps.output_folders import own_folder
+from compare.apps.pages import write_page
 from compare.files import json_safe, write_atomic
 from compare.judge.effects import EFFECTS, effect_masks
 from compare.judge.evaluate import evaluate_pair
-from compare.judge.images import Image, read_image, write_png
+from compare.judge.images import Image, read_image
+from compare.judge.png import write_linear_png
 from compare.judge.scoring import ABSENT
 from compare.render.cache import RenderCache
 from compare.render.jobs import RenderJob, run_jobs
@@ -161,7 +163,7 @@ def run_stress(
     progress: Callable[[str], None] = print,
 ) -> dict[str, Any]:
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "images").mkdir(exist_ok=True)
+    own_folder(out_dir, "images")  # never through a link planted there
     cache = RenderCache(cache_dir)
     results: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="rtval-stress-") as tmp_name:
@@ -196,7 +198,7 @@ def run_stress(
             for method, per in renders.items():
                 base = per["base"]
                 thumb = f"images/{scene.name}-{method.replace(' ', '-')}.png"
-                write_png(out_dir / thumb, base)
+                write_linear_png(out_dir / thumb, base)
                 finite = np.isfinite(base).all()
                 against = (
                     None if method == "mitsuba whitted" else evaluate_pair(reference, base).metrics
@@ -231,12 +233,7 @@ def run_stress(
     data = {"size": list(size), "unstable_flip": UNSTABLE_FLIP, "scenes": results}
     data = dict(json_safe(data))  # an undefined SSIM (images under 11 px) is null, not NaN
     write_atomic(out_dir / "stress.json", json.dumps(data, indent=2, default=float) + "\n")
-    env = Environment(
-        loader=PackageLoader("compare.apps", "templates"),
-        autoescape=select_autoescape(["html", "j2"]),
-    )
-    html = env.get_template("stress.html.j2").render(data=data)
-    write_atomic(out_dir / "index.html", html)
+    write_page(out_dir / "index.html", "stress.html.j2", data=data)
     return data
 
 

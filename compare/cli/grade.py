@@ -15,11 +15,12 @@ if TYPE_CHECKING:
 
 def run_grade(args: argparse.Namespace) -> int:
     from compare.apps import grade
+    from compare.apps.gradebook import explain
     from compare.render.progress import Progress
 
     out = Path(args.out)
     if args.explain:
-        print(grade.explain(out, args.explain))
+        print(explain(out, args.explain))
         return 0
     if not args.submissions or not args.scene:
         raise ValueError("grade needs SUBMISSIONS and at least one --scene (or --explain ID)")
@@ -33,6 +34,7 @@ def run_grade(args: argparse.Namespace) -> int:
         rubric_path=args.rubric,
         executor=args.executor,
         scheduler=args.scheduler,
+        scheduler_timeout=args.scheduler_timeout,
         jobs=args.jobs,
         size=args.size,
         against=args.against,
@@ -41,7 +43,7 @@ def run_grade(args: argparse.Namespace) -> int:
         progress=Progress(sys.stderr),
         program=_program_options(args),
     )
-    passed = sum(r["status"] == "pass" for r in results)
+    passed = sum(r.status == "pass" for r in results)
     print(f"{passed} passed, {len(results) - passed} failed")
     print(out / "gradebook.csv")
     return 0
@@ -110,6 +112,27 @@ def _add_program_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--open-files", type=positive_int, metavar="N", help="per process (default 256)")
 
 
+def _add_executor_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--executor",
+        choices=("local", "dask"),
+        default="local",
+        help="process pool (default) or Dask",
+    )
+    p.add_argument(
+        "--scheduler", default=None, help="Dask scheduler address, e.g. tcp://127.0.0.1:8786"
+    )
+    p.add_argument(
+        "--scheduler-timeout",
+        type=positive_float,
+        default=10.0,
+        metavar="S",
+        help="seconds to reach the Dask scheduler and hear its handshake (default 10); "
+        "a scheduler that refuses, stays silent or is not one exits 4",
+    )
+    p.add_argument("--jobs", type=positive_int, default=2, help="local processes (default 2)")
+
+
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser(
         "grade",
@@ -137,16 +160,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         default=None,
         help="rubric TOML (default: the built-in rubric, see compare/rubric.py)",
     )
-    p.add_argument(
-        "--executor",
-        choices=("local", "dask"),
-        default="local",
-        help="process pool (default) or Dask",
-    )
-    p.add_argument(
-        "--scheduler", default=None, help="Dask scheduler address, e.g. tcp://127.0.0.1:8786"
-    )
-    p.add_argument("--jobs", type=positive_int, default=2, help="local processes (default 2)")
+    _add_executor_arguments(p)
     p.add_argument(
         "--size",
         type=size_type,

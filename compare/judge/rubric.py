@@ -242,16 +242,22 @@ def _program(table: Any, fail: Any) -> dict[str, Any]:
     return {**table, "limits": dict(limits)}
 
 
-def load_rubric(path: str | Path | None) -> Rubric:
+def read_rubric(path: str | Path | None) -> tuple[str, str]:
+    """(text, source) of the rubric at `path` (None: the default rubric). A regular file of
+    at most 1 MiB of UTF-8: never a FIFO or a device, read once."""
     if path is None:
-        return parse_rubric(DEFAULT_RUBRIC_TEXT, "default rubric")
+        return DEFAULT_RUBRIC_TEXT, "default rubric"
     from scene_model.safe_paths import read_bounded
 
     p = Path(path)
-    try:  # a regular file of at most 1 MiB: never a FIFO or a device
+    try:
         text = read_bounded(p, 1 << 20).decode("utf-8")
     except OSError as e:  # the message names the path
         raise RubricError(f"cannot read the rubric: {e}") from None
     except UnicodeDecodeError as e:
         raise RubricError(f"{p}: the rubric is not UTF-8 text: {e}") from None
-    return parse_rubric(text, str(p))
+    return text, str(p)
+
+
+def load_rubric(path: str | Path | None) -> Rubric:
+    return parse_rubric(*read_rubric(path))

@@ -19,9 +19,11 @@ evidence in the reason of a failing effect.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from compare.judge.metrics import Metrics
 
@@ -132,14 +134,44 @@ def score_effect(m: Metrics, rule: EffectRule, flip_at_zero: float) -> EffectSco
     )
 
 
+@dataclass(frozen=True)
+class Term:
+    """One effect's part in the overall score."""
+
+    pixels: int
+    weight: float  # the rubric's
+    score: float
+
+
+def weighted_score(terms: Mapping[str, Term]) -> tuple[float, dict[str, float]]:
+    """The overall score and each effect's share of it (docs/metrics.md, "Grades"): the
+    effect scores weighted by pixels x weight; by pixels alone when no weighted effect
+    occurs in the image (the rubric weights only effects the scene lacks). The verdict and
+    `rtval grade --explain` both take their numbers from here."""
+    total_w = sum(t.pixels * t.weight for t in terms.values())
+    if total_w:
+        overall = sum(t.pixels * t.weight * t.score for t in terms.values()) / total_w
+        return overall, {k: t.pixels * t.weight / total_w for k, t in terms.items()}
+    total_p = sum(t.pixels for t in terms.values())
+    if not total_p:
+        return 0.0, dict.fromkeys(terms, 0.0)
+    overall = sum(t.pixels * t.score for t in terms.values()) / total_p
+    return overall, {k: t.pixels / total_p for k, t in terms.items()}
+
+
 def _overall(effects: dict[str, EffectScore]) -> float:
-    """Effect scores weighted by pixels x weight; by pixels alone when no weighted effect
-    occurs in the image (the rubric weights only effects the scene lacks)."""
-    total_w = sum(e.pixels * e.rule.weight for e in effects.values())
-    if not total_w:
-        total_w = sum(e.pixels for e in effects.values())
-        return sum(e.pixels * e.score for e in effects.values()) / total_w if total_w else 0.0
-    return sum(e.pixels * e.rule.weight * e.score for e in effects.values()) / total_w
+    terms = {k: Term(e.pixels, e.rule.weight, e.score) for k, e in effects.items()}
+    return weighted_score(terms)[0]
+
+
+def student_score(scene_scores: Sequence[float]) -> float:
+    """A student's score: the mean of the scene scores (0 with no scene)."""
+    return float(np.mean(scene_scores)) if scene_scores else 0.0
+
+
+def student_passes(scene_statuses: Sequence[str], score: float, pass_score: float) -> bool:
+    """Every scene passes and the mean reaches the rubric's pass score."""
+    return bool(scene_statuses) and all(s == "pass" for s in scene_statuses) and score >= pass_score
 
 
 def score_exact(

@@ -1,0 +1,35 @@
+"""Writing the HTML pages rtval makes (report, grade's student pages, check --html, stress):
+one Jinja environment over compare/apps/templates with autoescape on (every value a template
+prints is HTML-escaped unless the template says otherwise), the Content-Security-Policy of
+compare/apps/page_security.py placed in every page, and an atomic write that only ever
+replaces a regular file (scene_model/safe_paths.py)."""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+from typing import Any
+
+from jinja2 import Environment, PackageLoader, select_autoescape
+
+from compare.apps.page_security import with_csp
+from scene_model.safe_paths import write_atomic
+
+
+@functools.cache
+def environment() -> Environment:
+    """The templates' environment, made once per process (it caches compiled templates)."""
+    return Environment(
+        loader=PackageLoader("compare.apps", "templates"),
+        autoescape=select_autoescape(["html", "j2"]),
+    )
+
+
+def render_page(template: str, **context: Any) -> str:
+    """The page `template` makes of `context`, with its Content-Security-Policy."""
+    return with_csp(environment().get_template(template).render(**context))
+
+
+def write_page(path: Path, template: str, **context: Any) -> None:
+    """render_page(...) written to `path` atomically."""
+    write_atomic(path, render_page(template, **context))
