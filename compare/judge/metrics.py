@@ -5,7 +5,8 @@ linear:  the raw linear values (HDR); NaN/Inf pixels are counted and left out.
 
 SSIM uses Wang et al. 2004's parameters (Gaussian window sigma 1.5, K1 0.01, K2 0.03,
 population covariance) on display values; its mean leaves out a 5-pixel border, as
-scikit-image does. FLIP is NVIDIA's flip-evaluator at 67 pixels per degree.
+scikit-image does. FLIP is NVIDIA's flip-evaluator at 67 pixels per degree, run over the
+crops around the differences (flip_crops.py).
 """
 
 from __future__ import annotations
@@ -16,13 +17,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from compare.judge.flip_crops import FLIP_PPD, cropped_hdr_flip, cropped_ldr_flip
 from compare.judge.images import linear_to_srgb
 
 F32 = NDArray[np.float32]
 BOOL = NDArray[np.bool_]
 SSIM_WINDOW = 11  # scikit-image's Gaussian window for sigma 1.5
 SSIM_BORDER = 5  # (win - 1) / 2, left out of the mean
-FLIP_PPD = 67.0
 
 
 class SizeMismatch(ValueError):
@@ -109,25 +110,19 @@ def _any_channel(per_channel: BOOL) -> BOOL:
     return np.asarray(per_channel.any(axis=-1), bool)
 
 
-# FLIP's widest filter (feature detection, sigma 0.082 deg) spans ~17 px at 67 ppd: a crop
-# with this margin has the full image's FLIP values everywhere inside it.
+# A crop of both images with this margin around a region has the whole image's FLIP values
+# everywhere inside that region (flip_crops.FLIP_REACH is the filters' exact reach).
 FLIP_MARGIN = 24
 
 
 def flip_ldr_map(ref: F32, test: F32) -> F32:
-    """LDR FLIP of the display values, H x W."""
-    import flip_evaluator
-
-    out = flip_evaluator.evaluate(
-        display(ref), display(test), "LDR", applyMagma=False, parameters={"ppd": FLIP_PPD}
-    )[0][..., 0]
-    return np.asarray(out, np.float32)
+    """LDR FLIP of the display values, H x W (flip_crops: evaluated around the differences)."""
+    return cropped_ldr_flip(display(ref), display(test))
 
 
 def compute_maps(ref: F32, test: F32, *, hdr: bool, flip: bool = True) -> Maps:
     """SSIM and FLIP maps plus the display error map, for the whole image. flip=False leaves
     the FLIP maps NaN (FLIP is most of the cost; a quick first look can skip it)."""
-    import flip_evaluator
     from skimage.metrics import structural_similarity
 
     check_same_size(ref, test)
@@ -147,21 +142,17 @@ def compute_maps(ref: F32, test: F32, *, hdr: bool, flip: bool = True) -> Maps:
         )
         ssim_map = np.asarray(full_map, np.float32).mean(axis=-1)
     flip_hdr = None
-    flip_ldr = flip_ldr_map(ref, test) if flip else np.full(a.shape[:2], np.nan, np.float32)
+    flip_ldr = cropped_ldr_flip(a, b) if flip else np.full(a.shape[:2], np.nan, np.float32)
 
     def clean(x: F32) -> F32:
         return np.maximum(np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
 
-    # HDR FLIP derives its exposures from the reference; on an all-black one flip-evaluator
-    # exits the process, so it is left undefined (None) there.
-    if flip and hdr and float(clean(ref).max()) > 0.0:
-        flip_hdr = flip_evaluator.evaluate(
-            clean(ref).astype(np.float32),
-            clean(test).astype(np.float32),
-            "HDR",
-            applyMagma=False,
-            parameters={"ppd": FLIP_PPD},
-        )[0][..., 0]
+    # HDR FLIP derives its exposures from the reference's luminance: on an all-black one
+    # it is undefined (None), as flip-evaluator (which exits there) leaves it.
+    if flip and hdr:
+        ref_hdr = clean(ref).astype(np.float32)
+        if float(ref_hdr.max()) > 0.0:
+            flip_hdr = cropped_hdr_flip(ref_hdr, clean(test).astype(np.float32))
     diff_display = a - b
     nan_ref, nan_test = _any_channel(np.isnan(ref)), _any_channel(np.isnan(test))
     inf_ref, inf_test = _any_channel(np.isinf(ref)), _any_channel(np.isinf(test))
