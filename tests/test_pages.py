@@ -83,3 +83,19 @@ def test_a_page_never_replaces_a_link(tmp_path: Path) -> None:
     with pytest.raises(OSError, match="symbolic link"):
         write_page(tmp_path / "index.html", "check.html.j2", cases=[], total=0, failed=0)
     assert victim.read_text() == "keep"
+
+
+def test_the_step_summary_shows_user_text_literally() -> None:
+    """A case named after a path with `![x](https://...)` showed a picture in GitHub's step
+    summary; every Markdown metacharacter of user text is escaped."""
+    from compare.apps import check
+    from compare.apps.check_output import markdown_summary
+
+    name = "![x](https://evil.example/p.png)"
+    r = check.CaseResult("classic", name, "default", "fail", renderer="t")
+    r.reasons = [f"classic: render failed: [link](https://e.x) *bold* _it_ `code` ~~s~~ {name}"]
+    r.failed_effects = ["render"]
+    text = markdown_summary([r])
+    assert "![" not in text and "](" not in text and "`code`" not in text
+    assert "\\!\\[x\\]\\(https://evil.example/p.png\\)" in text
+    assert "\\*bold\\* \\_it\\_ \\`code\\` \\~\\~s\\~\\~" in text

@@ -7,6 +7,7 @@ file is written atomically and only ever replaces a regular file (compare.files)
 from __future__ import annotations
 
 import json
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -104,6 +105,18 @@ def write_junit(results: list[CaseResult], path: Path) -> None:
     write_atomic(path, ET.tostring(suite, encoding="utf-8", xml_declaration=True))
 
 
+# Every character Markdown (GitHub's included) gives a meaning to inside a line: a name
+# `![x](https://...)` would show a picture, `[x](...)` a link, `*`/`_`/backticks emphasis or code.
+_MARKDOWN_SPECIAL = re.compile(r"([\\`*_\[\]()!~])")
+
+
+def markdown_text(text: str) -> str:
+    """User text (a path, a case name, a renderer's message) as literal Markdown for one table
+    cell or list item: each metacharacter backslash-escaped, then markdown_cell (no HTML, no
+    pipe, no line break)."""
+    return markdown_cell(_MARKDOWN_SPECIAL.sub(r"\\\1", text))
+
+
 def markdown_summary(results: list[CaseResult]) -> str:
     status = STATUS[exit_code(results)]
     n_fail = sum(r.status == "fail" and not r.updated for r in results)
@@ -119,13 +132,13 @@ def markdown_summary(results: list[CaseResult]) -> str:
         flip = f"{r.flip:.4f}" if r.flip is not None else "-"
         failed = ", ".join(r.failed_effects) if r.status == "fail" else ""
         lines.append(
-            f"| {markdown_cell(r.name)} | {icon[r.status]} {r.status}{' (updated)' if r.updated else ''} "
-            f"| {markdown_cell(failed)} | {ssim} | {flip} | {r.seconds:.2f} |"
+            f"| {markdown_text(r.name)} | {icon[r.status]} {r.status}{' (updated)' if r.updated else ''} "
+            f"| {markdown_text(failed)} | {ssim} | {flip} | {r.seconds:.2f} |"
         )
     failures = [m for r in results if r.status == "fail" and not r.updated for m in r.reasons]
     if failures:
         lines += ["", "**Failures**", ""] + [
-            f"- {markdown_cell(m.splitlines()[0])}" for m in failures
+            f"- {markdown_text(m.splitlines()[0])}" for m in failures
         ]
     return "\n".join(lines) + "\n"
 
