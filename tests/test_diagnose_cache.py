@@ -7,14 +7,18 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import pytest
 from helpers import SCENES, render_demo, run
 
+from compare.judge import diagnose_score
 from compare.judge.candidate import Candidate
+from compare.judge.diagnose import diagnose
 from compare.judge.target_model import parse_model
 from compare.render.cache import RenderCache
 from compare.render.candidates import CandidateRenderer
 from compare.render.jobs import set_key
 from compare.render.models import model_job
+from scene_model.scene import load_scene
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
 CLASSIC = SCENES / "classic.json"
@@ -52,3 +56,26 @@ def test_rtval_diagnose_renders_nothing_the_cache_has(tmp_path: Path, rtdemo: st
     second = run(cmd)
     assert second.returncode == 0 and second.stdout == first.stdout
     assert RenderCache(cache).stats()["misses"] == misses  # every candidate read, none made
+
+
+def test_a_second_diagnosis_of_an_image_reads_its_flip_numbers(
+    tmp_path: Path, rtdemo: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    image = render_demo(rtdemo, CLASSIC, tmp_path / "q2.exr", "-q", "--mode", "classic",
+                        "--quirk", "Q2", size=(W, H))  # fmt: skip
+    cache = RenderCache(tmp_path / "c")
+
+    def once() -> dict[str, object]:
+        with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
+            d = diagnose(image, load_scene(CLASSIC), render).as_dict()
+        d.pop("seconds")
+        return d
+
+    first = once()
+    assert list(cache.derived_dir.glob("diagnose-flip-*.json"))
+
+    def no_flip(*_a: object) -> None:
+        raise AssertionError("FLIP computed again")
+
+    monkeypatch.setattr(diagnose_score, "flip_ldr_map", no_flip)
+    assert once() == first

@@ -60,7 +60,6 @@ from compare.judge.diagnose_switches import (
 )
 from compare.judge.effects import EFFECTS
 from compare.judge.images import Image
-from compare.judge.metrics import flip_ldr_map
 from compare.judge.target_model import QUIRK_COUNT, TargetModel
 from scene_model.scene import Scene
 
@@ -255,6 +254,7 @@ class Search:
         ]
         cands = [sw.apply(current, self.scene) for sw in tried]
         t = self.trials
+        t.near(current)
         t.evaluate(cands)
         base, still = t.per(current), t.open_effects(current)
         # Only a switch that clearly explains some effect counts: small drops spread over
@@ -386,16 +386,15 @@ class Search:
         ims = {c: t.centre(c) for c in both}
         exact = {c: t.exact_of(c) for c in both}
         # FLIP alone (the judge's map, metrics.py), not evaluate_pair's SSIM and other maps.
-        flip = {c: flip_ldr_map(ims[c].rgb, t.target.test) for c in both}
+        flip = {c: t.target.flip_means(ims[c].rgb, t.store) for c in both}
         findings = {}
         for k in EFFECTS:
             if k not in t.target.masks:
                 continue
-            mask = t.target.masks[k]
             ev = Evidence(
                 exact[begin],
                 exact[final],
-                (float(flip[begin][mask].mean()), float(flip[final][mask].mean())),
+                (flip[begin][k], flip[final][k]),
                 (t.scores[begin].pixels[k], t.scores[final].pixels[k]),
                 (len(t.scores), t.best_fixed(begin, k)),
             )
@@ -422,7 +421,8 @@ def diagnose(
     (render must then be thread-safe). `turns` are the camera turns (in pixels) exact matching
     renders a model with, and `search_quirks` the quirks the renderer can toggle: both default
     to the renderer's attributes of those names (CandidateRenderer has them), else to none and
-    SEARCH_QUIRKS. When the switches that helped stop helping and some effect is still not
+    SEARCH_QUIRKS; so do `grows` (the sphere growths exact matching renders) and `store`
+    (where the FLIP numbers of an image and a render are kept, diagnose_score.Store). When the switches that helped stop helping and some effect is still not
     reproduced, every switch is tried once more (while fewer than `max_renders` renders were
     made). Nothing depends on time, so a loaded machine gives the same diagnosis, later.
     An image without one finite pixel raises NoFinitePixels before any candidate is
@@ -434,7 +434,8 @@ def diagnose(
         if search_quirks is not None
         else getattr(render, "search_quirks", SEARCH_QUIRKS)
     )
-    trials = Trials(Target(image, scene), render, parallel, turns, getattr(render, "grows", ()))
+    grows, store = getattr(render, "grows", ()), getattr(render, "store", None)
+    trials = Trials(Target(image, scene), render, parallel, turns, grows, store)
     search = Search(image, scene, trials, quirks, max_renders, progress or (lambda _m: None))
     if start is not None:
         starts = [start if isinstance(start, Candidate) else Candidate.from_model(start)]

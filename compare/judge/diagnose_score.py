@@ -10,18 +10,24 @@ the ones a claim is made of exactly, as the verdict does.
 from __future__ import annotations
 
 import hashlib
+import importlib.metadata
+import json
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any
+from functools import cache
+from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from compare.judge import flip_crops, images, metrics
 from compare.judge.candidate import Candidate
 from compare.judge.effects import BOOL, effect_masks
 from compare.judge.exact_match import ExactMatch, exact_match
 from compare.judge.images import F32, Image, linear_to_srgb
+from compare.judge.metrics import flip_ldr_map
 from compare.judge.target_model import TargetModel
 from scene_model.scene import Scene
 
@@ -35,8 +41,32 @@ LEVELS_PER_UNIT = 4.0
 # A change is kept when it lowers some effect's distance by EXPLAINS (and 10 %): small drops
 # spread over every effect are noise fitting.
 EXPLAINS = 2e-3
+# A render differing from the reference in more than this share of its pixels is judged
+# whole (gathering the pixels would cost more).
+WHOLE_SHARE = 0.25
 HALF_FLOAT, HALF_FLOAT_FLOOR = 2.0**-11, 2.0**-14  # the search's float tolerance
 MIRRORS = {"lr": "left-right", "ud": "upside down", "lrud": "left-right and upside down"}
+
+
+class Store(Protocol):
+    """Small texts kept between runs under names that carry their inputs' hashes (the
+    render cache's derived/, through the renderer's `store`)."""
+
+    def get(self, name: str) -> str | None: ...
+
+    def put(self, name: str, text: str) -> None: ...
+
+
+FLIP_FORMAT = "rtval-diagnose-flip/1"
+
+
+@cache
+def _flip_code() -> bytes:
+    """What the FLIP numbers are computed by: the judge's FLIP code and flip-evaluator."""
+    h = hashlib.sha256(importlib.metadata.version("flip-evaluator").encode())
+    for module in (flip_crops, metrics, images):
+        h.update(Path(module.__file__ or "").read_bytes())
+    return h.digest()
 
 
 class DiagnoseError(ValueError):
@@ -109,6 +139,17 @@ def _excess(enc: I16, target: I16) -> I16:
     return out
 
 
+def _changed(a: F32, b: F32) -> NDArray[np.intp]:
+    """The pixels (rows of N x 3) whose values differ bit for bit (compared as integers of
+    their width where both are one contiguous float type; else as values, where a NaN always
+    differs and -0 equals 0, which every term treats alike)."""
+    same = a.dtype == b.dtype and a.dtype.itemsize in (4, 8)
+    if same and a.flags.c_contiguous and b.flags.c_contiguous:
+        a, b = a.view(f"i{a.dtype.itemsize}"), b.view(f"i{b.dtype.itemsize}")
+    ne = a != b
+    return np.flatnonzero(ne[:, 0] | ne[:, 1] | ne[:, 2])
+
+
 def _flip_codes(target: I16, key: str) -> I16:
     out = target[:, ::-1] if "lr" in key else target
     return out[::-1] if "ud" in key else out
@@ -121,7 +162,7 @@ def _mirror_distance(enc: I16, target: I16) -> float:
 
 
 class Regions:
-    """The effect masks as one label per pixel, so that per-region means are one bincount."""
+    """The effect masks as one label per pixel, so that per-region sums are one bincount."""
 
     def __init__(self, masks: dict[str, BOOL]) -> None:
         self.names = list(masks)
@@ -132,15 +173,29 @@ class Regions:
         self.labels = labels
         self.counts = np.bincount(labels, minlength=n + 1)[:n].astype(np.float64)
 
-    def mean(self, values: NDArray[Any]) -> NDArray[np.float64]:
+    def sums(self, labels: NDArray[np.intp], values: NDArray[Any]) -> NDArray[np.float64]:
+        """Per region, the sum of `values` (one per entry of `labels`). Every value the score
+        sums is a whole number, so sums are exact in any order."""
         n = len(self.names)
-        sums = np.bincount(self.labels, weights=values.ravel(), minlength=n + 1)[:n]
-        out: NDArray[np.float64] = sums / self.counts
-        return out
+        return np.asarray(np.bincount(labels, weights=values, minlength=n + 1)[:n], np.float64)
 
     def colour(self, enc: I16) -> NDArray[np.float64]:
         """Mean colour per region, regions x 3, in levels."""
-        return np.stack([self.mean(enc[..., ch]) for ch in range(3)], axis=1)
+        flat = enc.reshape(-1, 3)
+        sums = [self.sums(self.labels, flat[:, ch]) for ch in range(3)]
+        return np.stack(sums, axis=1) / self.counts[:, None]
+
+
+@dataclass
+class _Terms:
+    """Per-pixel terms of one render against the target (pixels flattened): the encoded
+    render, whether each pixel differs, its excess levels; and their per-region sums."""
+
+    rgb: F32  # N x 3
+    enc: I16  # N x 3
+    off: BOOL  # N
+    excess: I16  # N
+    sums: NDArray[np.float64]  # regions x 5: off, excess, then colour (r, g, b)
 
 
 @dataclass(frozen=True)
@@ -181,24 +236,35 @@ def explained(
 
 class Target:
     """The image as the search judges it: its 8-bit codes (un-mirrored once that is decided)
-    and, from the first render's AOVs, the effect regions and the exact-match allowance."""
+    and, from the first render's AOVs, the effect regions and the exact-match allowance.
+
+    Scores are counted against a reference render: a candidate differs from its neighbour
+    in the search in a few regions only, so only the pixels whose values differ from the
+    reference's are judged again, and the region sums are the reference's plus the change
+    (whole numbers: the same sums as judging every pixel)."""
 
     def __init__(self, image: Image, scene: Scene) -> None:
         self.image, self.scene = image, scene
         self.codes = "linear" if image.encoding == "linear" else "srgb"
-        self.test = image.rgb
-        self.target = encoded(image.rgb, self.codes)
         self.masks: dict[str, BOOL] = {}
         self.regions: Regions | None = None
         self.target_colour: NDArray[np.float64] | None = None
         self.allowance: dict[str, int] = {}  # differing pixels an exact match allows
+        self.reference: _Terms | None = None
+        self._set(image.rgb)
+
+    def _set(self, rgb: F32) -> None:
+        self.test = rgb
+        self.target = encoded(rgb, self.codes)
+        self._test_flat = rgb.reshape(-1, 3)
+        self._target_flat = self.target.reshape(-1, 3)
+        self.reference = None
+        if self.regions is not None:
+            self.target_colour = self.regions.colour(self.target)
 
     def set_test(self, rgb: F32) -> None:
         """Judge against `rgb` from now on (the un-mirrored image)."""
-        self.test = rgb
-        self.target = encoded(rgb, self.codes)
-        assert self.regions is not None
-        self.target_colour = self.regions.colour(self.target)
+        self._set(rgb)
 
     def check(self, c: Candidate, im: Image) -> None:
         """A render of the image's size; the first one's AOVs give the effect regions."""
@@ -218,26 +284,66 @@ class Target:
         first = exact_match([im.rgb], self.test, self.image.encoding, model="", masks=self.masks)
         self.allowance = {k: e.allowed for k, e in first.per_effect.items()}
 
-    def score(self, rgb: F32) -> Score:
-        assert self.regions is not None and self.target_colour is not None
+    def _terms(self, rgb: F32, idx: NDArray[np.intp] | None) -> tuple[I16, BOOL, I16]:
+        """(encoded, differs, excess) of the pixels idx (None: all) of a flattened render."""
+        target = self._target_flat if idx is None else self._target_flat[idx]
+        test = self._test_flat if idx is None else self._test_flat[idx]
         levels = _levels(rgb, self.codes)
         enc = np.rint(levels).astype(np.int16)
-        excess = _excess(enc, self.target)
-        tone = np.maximum(
-            np.abs(self.regions.colour(enc) - self.target_colour).max(axis=1) - 1.0, 0.0
+        off = _quick_differing(levels, target, rgb, test, self.image.encoding)
+        return enc, off, _excess(enc, target)
+
+    def _full(self, flat: F32) -> _Terms:
+        assert self.regions is not None
+        enc, off, excess = self._terms(flat, None)
+        labels = self.regions.labels
+        sums = [self.regions.sums(labels, v) for v in (off, excess, *enc.T)]
+        return _Terms(flat, enc, off, excess, np.stack(sums, axis=1))
+
+    def use_reference(self, rgb: F32) -> None:
+        """Count the next scores against this render (a neighbour of what comes next)."""
+        self.reference = self._full(rgb.reshape(-1, 3))
+
+    def _updated(self, flat: F32) -> tuple[I16, NDArray[np.float64]]:
+        """(encoded, region sums) of a render, judged again only where its values differ
+        from the reference's (bit for bit: a NaN the same, -0 not); judged whole when most
+        pixels differ."""
+        ref = self.reference
+        assert ref is not None and self.regions is not None
+        idx = _changed(flat, ref.rgb)
+        if idx.size > WHOLE_SHARE * len(flat):
+            whole = self._full(flat)
+            return whole.enc, whole.sums
+        enc_i, off_i, excess_i = self._terms(flat[idx], idx)
+        labels = self.regions.labels[idx]
+        changes = (
+            off_i.astype(np.int16) - ref.off[idx],
+            excess_i - ref.excess[idx],
+            *(enc_i - ref.enc[idx]).T,
         )
-        off = _quick_differing(levels, self.target, rgb, self.test, self.image.encoding)
+        delta = np.stack([self.regions.sums(labels, v) for v in changes], axis=1)
+        enc = ref.enc.copy()
+        enc[idx] = enc_i
+        return enc, ref.sums + delta
+
+    def score(self, rgb: F32) -> Score:
+        assert self.regions is not None and self.target_colour is not None
+        flat = rgb.reshape(-1, 3)
+        if self.reference is None:
+            self.reference = self._full(flat)
+        enc, sums = self._updated(flat)
+        counts = self.regions.counts
+        share = sums[:, 0] / counts
+        excess = sums[:, 1] / counts
+        colour = sums[:, 2:] / counts[:, None]
+        tone = np.maximum(np.abs(colour - self.target_colour).max(axis=1) - 1.0, 0.0)
         names = self.regions.names
-        share = self.regions.mean(off)
         return Score(
-            {
-                k: round(float(v * n))
-                for k, v, n in zip(names, share, self.regions.counts, strict=True)
-            },
+            {k: round(float(v * n)) for k, v, n in zip(names, share, counts, strict=True)},
             dict(zip(names, share.tolist(), strict=True)),
-            dict(zip(names, self.regions.mean(excess).tolist(), strict=True)),
+            dict(zip(names, excess.tolist(), strict=True)),
             dict(zip(names, tone.tolist(), strict=True)),
-            hashlib.blake2b(enc.tobytes(), digest_size=16).digest(),
+            hashlib.sha1(enc.data.cast("B"), usedforsecurity=False).digest(),
         )
 
     def exact(self, c: Candidate, renders: Sequence[Image]) -> ExactMatch:
@@ -250,6 +356,25 @@ class Target:
             masks=self.masks,
         )
 
+    def flip_means(self, rgb: F32, store: Store | None) -> dict[str, float]:
+        """Mean FLIP (metrics.flip_ldr_map, the judge's map) of the image against a render
+        in each effect region; with a store, kept under a name hashing both images' bytes,
+        the regions and the FLIP code, so that diagnosing the image again computes none."""
+        h = hashlib.sha256(_flip_code())
+        for a in (self.test, rgb):
+            h.update(str((a.dtype, a.shape)).encode() + np.ascontiguousarray(a).data.cast("B"))
+        for k, m in self.masks.items():
+            h.update(k.encode() + np.packbits(m).data.cast("B"))
+        name = f"diagnose-flip-{h.hexdigest()[:32]}.json"
+        known = _stored_means(store.get(name), self.masks) if store is not None else None
+        if known is not None:
+            return known
+        flip = flip_ldr_map(rgb, self.test)
+        out = {k: float(flip[m].mean()) for k, m in self.masks.items()}
+        if store is not None:
+            store.put(name, json.dumps({"format": FLIP_FORMAT, "means": out}))
+        return out
+
     def mirror_distances(self, renders: Sequence[Image]) -> dict[str, float]:
         """Per orientation ("" as is, and each of MIRRORS), the nearest render's distance."""
         encs = [encoded(im.rgb, self.codes) for im in renders]
@@ -257,6 +382,19 @@ class Target:
             key: min(_mirror_distance(e, _flip_codes(self.target, key)) for e in encs)
             for key in ("", *MIRRORS)
         }
+
+
+def _stored_means(text: str | None, masks: dict[str, BOOL]) -> dict[str, float] | None:
+    """The means a store kept, or None when there are none of this format for these
+    regions (anything else there is computed again)."""
+    if text is None:
+        return None
+    try:
+        raw = json.loads(text)
+        means = {k: float(raw["means"][k]) for k in masks}
+    except (ValueError, KeyError, TypeError):
+        return None
+    return means if raw.get("format") == FLIP_FORMAT else None
 
 
 class Trials:
@@ -270,9 +408,11 @@ class Trials:
         parallel: int,
         turns: Sequence[tuple[float, float]],
         grows: Sequence[int],
+        store: Store | None = None,
     ) -> None:
         self.target, self.render, self.parallel = target, render, parallel
         self.turns, self.grows = list(turns), list(grows)
+        self.store = store
         self.scores: dict[Candidate, Score] = {}
         self.kept: dict[Candidate, Image] = {}
         self.keep: set[Candidate] = set()
@@ -287,6 +427,15 @@ class Trials:
     def keep_only(self, keep: set[Candidate]) -> None:
         self.kept = {c: im for c, im in self.kept.items() if c in keep}
         self.keep = set(keep)
+
+    def near(self, c: Candidate) -> None:
+        """The candidates scored next are c's neighbours: count them against c's render
+        (read again from the renderer's cache unless kept)."""
+        self.target.use_reference(self.centre_once(c).rgb)
+
+    def centre_once(self, c: Candidate) -> Image:
+        """c's render at pixel centres, kept or rendered (not kept for later)."""
+        return self.kept[c] if c in self.kept else self.render(c)
 
     def evaluate(self, cands: Sequence[Candidate]) -> None:
         todo = [c for c in dict.fromkeys(cands) if c not in self.scores]
@@ -315,7 +464,7 @@ class Trials:
         rendered at pixel centres, with the camera turned by each turn and its spheres grown
         by each growth: the perturbed renders the verdict judges with."""
         if c not in self.exact_memo:
-            centre = self.kept[c] if c in self.kept else self.render(c)
+            centre = self.centre_once(c)
             perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
             self.exact_memo[c] = self.target.exact(c, [centre, *self.render_all(perturbed)])
         return self.exact_memo[c]

@@ -27,6 +27,9 @@ from compare.render.cache import RenderCache, renderer_identity
 from compare.render.jobs import RenderJob, render_one
 from compare.render.models import OFFSET_PIXELS, OFFSETS, SPHERE_ULPS, grown_scene, offset_scene
 from compare.render.runner import ToolError, rtdemo_path
+from scene_model.safe_paths import read_bounded, write_atomic
+
+STORE_MAX_BYTES = 1 << 20
 
 
 def exact_turns() -> list[tuple[float, float]]:
@@ -69,6 +72,23 @@ def _renders_quirks(root: str, identity: str, scene_file: str, quirks: str) -> b
     return True
 
 
+class DerivedStore:
+    """diagnose's Store in the render cache's derived/ (names carry their inputs' hashes):
+    a file that is not a regular one, or that cannot be read, counts as absent."""
+
+    def __init__(self, cache: RenderCache) -> None:
+        self.cache = cache
+
+    def get(self, name: str) -> str | None:
+        try:
+            return read_bounded(self.cache.derived(name), STORE_MAX_BYTES).decode()
+        except (OSError, UnicodeDecodeError):
+            return None
+
+    def put(self, name: str, text: str) -> None:
+        write_atomic(self.cache.derived(name), text)
+
+
 class CandidateRenderer:
     """`with CandidateRenderer(scene_file, w, h) as render: render(candidate) -> Image`.
     `cache`: the render cache (a folder, or by default the one every command shares); on
@@ -86,6 +106,7 @@ class CandidateRenderer:
         self.scene_file = str(scene_file)
         self.width, self.height, self.threads = width, height, threads
         self.cache = cache if isinstance(cache, RenderCache) else RenderCache(cache)
+        self.store = DerivedStore(self.cache)  # read by diagnose: where FLIP numbers are kept
         self._open = False
         self._lock = threading.Lock()
         # Every candidate asked for, by name (diagnose's steps name theirs), and cache use.
