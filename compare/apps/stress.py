@@ -179,62 +179,69 @@ def run_stress(
             progress=progress if isinstance(progress, Progress) else Progress(),
         )
         for n, (scene, jobs) in enumerate(per_scene, 1):
-            renders: dict[str, dict[str, np.ndarray]] = {}
-            shown: tuple[list[str], dict[str, str]] = ([], {})
-            for job in jobs:
-                method, name = job.key.split("|")
-                image = read_image(job.exr(cache))
-                renders.setdefault(method, {})[name] = image.rgb
-                if job.key == "mitsuba whitted|base":
-                    shown = _effects(scene, image)
-            reference = renders["mitsuba whitted"]["base"]
-            scene_result: dict[str, Any] = {
-                "scene": scene.name,
-                "description": scene.description,
-                "effects": shown[0],
-                "absent_effects": shown[1],
-                "methods": [],
-            }
-            for method, per in renders.items():
-                base = per["base"]
-                thumb = f"images/{scene.name}-{method.replace(' ', '-')}.png"
-                write_linear_png(out_dir / thumb, base)
-                finite = np.isfinite(base).all()
-                against = (
-                    None if method == "mitsuba whitted" else evaluate_pair(reference, base).metrics
-                )
-                r = MethodResult(
-                    method=method,
-                    nan=int(np.isnan(base).any(-1).sum()),
-                    inf=int(np.isinf(base).any(-1).sum()),
-                    flip_vs_reference=None if against is None else against.flip_ldr,
-                    ssim_vs_reference=None if against is None else against.ssim,
-                    stability={k: _flip(base, v) for k, v in per.items() if k != "base"},
-                    thumbnail=thumb,
-                )
-                if not finite:
-                    r.sentences.append(f"{method}: {r.nan} NaN and {r.inf} Inf pixels.")
-                worst = max(r.stability.items(), key=lambda kv: kv[1], default=None)
-                if worst and worst[1] > UNSTABLE_FLIP:
-                    r.sentences.append(
-                        f"{method}: unstable — '{worst[0]}' moves the image by FLIP {worst[1]:.3f}."
-                    )
-                if (
-                    method.startswith("demo physical")
-                    and r.flip_vs_reference is not None
-                    and r.flip_vs_reference > WRONG_FLIP
-                ):
-                    r.sentences.append(
-                        f"{method}: FLIP {r.flip_vs_reference:.3f} from the Whitted reference."
-                    )
-                scene_result["methods"].append({**r.__dict__, "worst_stability": r.worst_stability})
-            results.append(scene_result)
+            results.append(_scene_result(scene, jobs, cache, out_dir))
             progress(f"[{n}/{len(scene_files)}] {scene.name}")
     data = {"size": list(size), "unstable_flip": UNSTABLE_FLIP, "scenes": results}
     data = dict(json_safe(data))  # an undefined SSIM (images under 11 px) is null, not NaN
     write_atomic(out_dir / "stress.json", json.dumps(data, indent=2, default=float) + "\n")
     write_page(out_dir / "index.html", "stress.html.j2", data=data)
     return data
+
+
+def _scene_result(
+    scene: Scene, jobs: list[RenderJob], cache: RenderCache, out_dir: Path
+) -> dict[str, Any]:
+    """One stress scene: the effects it shows and each method's numbers and thumbnail."""
+    renders: dict[str, dict[str, np.ndarray]] = {}
+    shown: tuple[list[str], dict[str, str]] = ([], {})
+    for job in jobs:
+        method, name = job.key.split("|")
+        image = read_image(job.exr(cache))
+        renders.setdefault(method, {})[name] = image.rgb
+        if job.key == "mitsuba whitted|base":
+            shown = _effects(scene, image)
+    reference = renders["mitsuba whitted"]["base"]
+    methods = []
+    for method, per in renders.items():
+        thumb = f"images/{scene.name}-{method.replace(' ', '-')}.png"
+        write_linear_png(out_dir / thumb, per["base"])
+        r = _method_result(method, per, reference, thumb)
+        methods.append({**r.__dict__, "worst_stability": r.worst_stability})
+    return {
+        "scene": scene.name,
+        "description": scene.description,
+        "effects": shown[0],
+        "absent_effects": shown[1],
+        "methods": methods,
+    }
+
+
+def _method_result(
+    method: str, per: dict[str, np.ndarray], reference: np.ndarray, thumb: str
+) -> MethodResult:
+    """A method's NaN/Inf counts, error against the reference, stability and sentences."""
+    base = per["base"]
+    against = None if method == "mitsuba whitted" else evaluate_pair(reference, base).metrics
+    r = MethodResult(
+        method=method,
+        nan=int(np.isnan(base).any(-1).sum()),
+        inf=int(np.isinf(base).any(-1).sum()),
+        flip_vs_reference=None if against is None else against.flip_ldr,
+        ssim_vs_reference=None if against is None else against.ssim,
+        stability={k: _flip(base, v) for k, v in per.items() if k != "base"},
+        thumbnail=thumb,
+    )
+    if not np.isfinite(base).all():
+        r.sentences.append(f"{method}: {r.nan} NaN and {r.inf} Inf pixels.")
+    worst = max(r.stability.items(), key=lambda kv: kv[1], default=None)
+    if worst and worst[1] > UNSTABLE_FLIP:
+        r.sentences.append(
+            f"{method}: unstable — '{worst[0]}' moves the image by FLIP {worst[1]:.3f}."
+        )
+    physical = method.startswith("demo physical")
+    if physical and r.flip_vs_reference is not None and r.flip_vs_reference > WRONG_FLIP:
+        r.sentences.append(f"{method}: FLIP {r.flip_vs_reference:.3f} from the Whitted reference.")
+    return r
 
 
 def table(data: dict[str, Any]) -> str:

@@ -34,6 +34,7 @@ import hashlib
 import math
 import re
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,6 +53,9 @@ DEFAULT_RUBRIC_TEXT = """\
 pass_score = 60
 flip_at_zero = 0.5
 """
+
+
+_Fail = Callable[[str, str | None, str | None], "RubricError"]  # message, key, section
 
 
 class RubricError(ValueError):
@@ -107,7 +111,23 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
                 key,
                 None,
             )
-    top = raw.get("rubric", {})
+    values, against = _rubric_table(raw.get("rubric", {}), fail)
+    effects = _effect_rules(raw.get("effects", {}), fail)
+    if all(name in effects and effects[name].weight == 0 for name in EFFECTS):
+        raise fail("every effect has weight 0: at least one must count", None, "effects")
+    return Rubric(
+        pass_score=values.get("pass_score", 60.0),
+        flip_at_zero=values.get("flip_at_zero", FLIP_AT_ZERO_SCORE),
+        effects=effects,
+        source=source,
+        digest=hashlib.sha256(text.encode()).hexdigest()[:16],
+        against=against,
+        program=_program(raw["program"], fail) if "program" in raw else None,
+    )
+
+
+def _rubric_table(top: dict[str, Any], fail: _Fail) -> tuple[dict[str, float], str | None]:
+    """[rubric]: its numbers (pass_score, flip_at_zero) and the model named by `against`."""
     values: dict[str, float] = {}
     against = None
     for key, value in top.items():
@@ -136,8 +156,13 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
         raise fail("pass_score must be from 0 to 100", "pass_score", "rubric")
     if not values.get("flip_at_zero", FLIP_AT_ZERO_SCORE) > 0:
         raise fail("flip_at_zero must be > 0", "flip_at_zero", "rubric")
+    return values, against
+
+
+def _effect_rules(tables: dict[str, Any], fail: _Fail) -> dict[str, EffectRule]:
+    """[effects.NAME]: each effect's rule, every value checked for its range."""
     effects: dict[str, EffectRule] = {}
-    for name, table in raw.get("effects", {}).items():
+    for name, table in tables.items():
         section = f"effects.{name}"
         if name not in EFFECTS:
             raise fail(
@@ -165,17 +190,7 @@ def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
                 raise fail(f"{key} must be a number {span} (finite), got {value!r}", key, section)
             rule[key] = float(value)
         effects[name] = EffectRule(**rule)
-    if all(name in effects and effects[name].weight == 0 for name in EFFECTS):
-        raise fail("every effect has weight 0: at least one must count", None, "effects")
-    return Rubric(
-        pass_score=values.get("pass_score", 60.0),
-        flip_at_zero=values.get("flip_at_zero", FLIP_AT_ZERO_SCORE),
-        effects=effects,
-        source=source,
-        digest=hashlib.sha256(text.encode()).hexdigest()[:16],
-        against=against,
-        program=_program(raw["program"], fail) if "program" in raw else None,
-    )
+    return effects
 
 
 PROGRAM_KEYS = ("build", "run", "output", "output_format")
