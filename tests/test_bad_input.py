@@ -89,9 +89,12 @@ def test_missing_scene_file_everywhere(tmp_path: Path, rtdemo: str) -> None:
         assert proc.returncode == 3 and "nope.json" in proc.stderr, cmd
 
 
-def test_interrupted_report_leaves_no_complete_looking_files(
-    tmp_path: Path, render_cache: Path
-) -> None:
+def test_interrupted_report_leaves_no_complete_looking_files(tmp_path: Path) -> None:
+    # A cache of its own, cold: after the first render line the Mitsuba renders are still
+    # to come (seconds of work), so the interrupt lands inside the report, never after it
+    # (with the shared warm cache the rest took milliseconds). A lost interrupt, the other
+    # cause of this test's failure, is test_report_safety's.
+    cache = tmp_path / "cache"
     proc = subprocess.Popen(
         [
             RTVAL,
@@ -102,6 +105,8 @@ def test_interrupted_report_leaves_no_complete_looking_files(
             "--size",
             "64x48",
             "--no-pdf",
+            "--cache",
+            str(cache),
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -125,7 +130,7 @@ def test_interrupted_report_leaves_no_complete_looking_files(
     assert not (folder / "index.html").exists() and not (folder / "report.json").exists()
     leftovers = [p.name for p in folder.rglob("*") if ".tmp" in p.name or ".partial" in p.name]
     assert not leftovers, leftovers
-    half_made = list((render_cache / "tmp").glob("*"))  # renders in progress are removed
+    half_made = list((cache / "tmp").glob("*"))  # renders in progress are removed
     assert not half_made, half_made
 
 

@@ -15,17 +15,16 @@ against its model, then write the page, the PDF and report.json, last.
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 from typing import Any
 
 from jinja2 import Environment, PackageLoader, select_autoescape
 
+from compare.apps import report_interrupt as interrupt
 from compare.apps.page_security import with_csp
 from compare.apps.report_analysis import analyse
 from compare.apps.report_charts import draw_charts
 from compare.apps.report_context import (
-    SCENE_COPY,
     ReportContext,
     ReportOptions,
     Steps,
@@ -34,7 +33,8 @@ from compare.apps.report_context import (
     read_given,
     subject_of,
 )
-from compare.apps.report_derived import copy_file, derived_exr, derived_png
+from compare.apps.report_derived import derived_exr, derived_png
+from compare.apps.report_folder import prepare_folder, remove_finished, remove_unlinked
 from compare.apps.report_measure import difference_maps, measure
 from compare.apps.report_model import diagnosis, model_verdict
 from compare.apps.report_pdf import write_pdf
@@ -68,30 +68,15 @@ def build_report(
         Path(scene_path), Path(reports_dir), size, test_image, test_label, test_encoding,
         against, jobs, pdf,
     )  # fmt: skip
-    ctx = start(opts, RenderCache(cache_dir), progress or Progress())
-    steps = ctx.steps
-    with steps("images (PNG, EXR)"):
-        copy_images(ctx)
-    with steps("metrics"):
-        measured = measure(ctx)
-    with steps("difference maps"):
-        maps = difference_maps(ctx)
-    with steps("charts"):
-        charts = draw_charts(ctx, measured)
-    with steps("analysis"):
-        analysis = analyse(ctx, measured)
-    verdict, explained = judge_given(ctx, charts.ladder)
-    record = make_record(ctx, Judged(measured, maps, charts, analysis, verdict, explained))
-    remove_unlinked(ctx, record)
-    record.timings = steps.as_list()  # so far; report.json gets every step
-    with steps("page"):
-        write_page(ctx.out / "index.html", record)
-    if opts.pdf:
-        with steps("PDF (Chromium)"):
-            write_pdf(ctx.out / "index.html", ctx.out / "report.pdf")
-    record.timings = steps.as_list()
-    write_json(ctx.out / "report.json", record)
-    ctx.progress.line(steps.table())
+    with interrupt.stop_guard():
+        ctx = start(opts, RenderCache(cache_dir), progress or Progress())
+        try:
+            finish(ctx, examine(ctx))
+            interrupt.check()  # a stop signal whose exception was lost: still not complete
+        except BaseException:  # a failure or an interrupt leaves nothing that looks finished
+            remove_finished(ctx.out)
+            raise
+    ctx.progress.line(ctx.steps.table())
     return ctx.out / "index.html"
 
 
@@ -112,11 +97,38 @@ def start(opts: ReportOptions, cache: RenderCache, progress: Progress) -> Report
     return ReportContext(opts, scene, cache, progress, steps, out, rp, imgs, subject)
 
 
-def prepare_folder(out: Path, scene_file: Path) -> None:
-    shutil.rmtree(out / "cache", ignore_errors=True)  # the layout before the shared cache
-    for d in (out, out / "images"):
-        d.mkdir(parents=True, exist_ok=True)
-    copy_file(scene_file, out / SCENE_COPY)
+def examine(ctx: ReportContext) -> Judged:
+    """Every step that measures: the images copied, metrics, maps, charts, analysis and,
+    for a given image, its model's verdict and diagnosis."""
+    steps = ctx.steps
+    with steps("images (PNG, EXR)"):
+        copy_images(ctx)
+    with steps("metrics"):
+        measured = measure(ctx)
+    with steps("difference maps"):
+        maps = difference_maps(ctx)
+    with steps("charts"):
+        charts = draw_charts(ctx, measured)
+    with steps("analysis"):
+        analysis = analyse(ctx, measured)
+    verdict, explained = judge_given(ctx, charts.ladder)
+    return Judged(measured, maps, charts, analysis, verdict, explained)
+
+
+def finish(ctx: ReportContext, judged: Judged) -> None:
+    """The page, the PDF, then report.json: written last, it says the report is complete."""
+    steps = ctx.steps
+    record = make_record(ctx, judged)
+    remove_unlinked(ctx.images_dir, record.linked_images())
+    record.timings = steps.as_list()  # so far; report.json gets every step
+    with steps("page"):
+        write_page(ctx.out / "index.html", record)
+    if ctx.opts.pdf:
+        with steps("PDF (Chromium)"):
+            write_pdf(ctx.out / "index.html", ctx.out / "report.pdf")
+    record.timings = steps.as_list()
+    interrupt.check()
+    write_json(ctx.out / "report.json", record)
 
 
 def copy_images(ctx: ReportContext) -> None:
@@ -149,20 +161,12 @@ def judge_given(
     return verdict, explained
 
 
-def remove_unlinked(ctx: ReportContext, record: ReportRecord) -> None:
-    """Nothing of an earlier run stays (another test image, the EXRs of the layout before
-    the shared cache): images/ holds what this page links to."""
-    linked = record.linked_images()
-    for p in ctx.images_dir.iterdir():
-        if f"images/{p.name}" not in linked:
-            p.unlink()
-
-
 def write_page(path: Path, record: ReportRecord) -> None:
     env = Environment(
         loader=PackageLoader("compare.apps", "templates"),
         autoescape=select_autoescape(["html", "j2"]),
     )
+    env.filters["num"] = _number
     page = record.as_json()
     # Data reaches the page as inert, script-escaped JSON; the CSP admits only the
     # template's own script (compare/apps/page_security.py).
@@ -170,3 +174,8 @@ def write_page(path: Path, record: ReportRecord) -> None:
         report=page, renders_json=json_for_script(page["renders"])
     )
     write_atomic(path, with_csp(html))
+
+
+def _number(value: float | None, form: str) -> str:
+    """A number in `form` (printf style), or "-" where it is undefined (null in the record)."""
+    return "-" if value is None else form % value

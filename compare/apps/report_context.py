@@ -15,7 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from compare.apps import report_interrupt as interrupt
 from compare.apps.report_derived import Evaluator, LazyImages
+from compare.apps.report_label import label_problem
 from compare.judge.effects import effect_masks
 from compare.judge.images import Image, ImageError, ImageSizeError, read_image
 from compare.render.cache import RenderCache
@@ -40,6 +42,11 @@ class ReportOptions:
     jobs: int
     pdf: bool
 
+    def __post_init__(self) -> None:
+        why = label_problem(self.test_label) if self.test_label is not None else None
+        if why:
+            raise ValueError(f"--label: {why}")
+
 
 class Steps:
     """Wall time per step of the report run, for the table printed at its end."""
@@ -50,8 +57,10 @@ class Steps:
 
     @contextlib.contextmanager
     def __call__(self, name: str) -> Iterator[None]:
+        interrupt.check()  # a stop signal whose exception was lost stops the report here
         start = time.perf_counter()
         yield  # a failed step raises through: no time for it
+        interrupt.check()
         self.add(name, time.perf_counter() - start)
 
     def add(self, name: str, seconds: float) -> None:

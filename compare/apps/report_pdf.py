@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
+import signal
 import subprocess
+import sys
 from pathlib import Path
 
 from compare.apps.page_security import printable
@@ -46,25 +49,57 @@ def write_pdf(html: Path, pdf: Path) -> None:
         copy.unlink(missing_ok=True)
 
 
+# Runs Chromium in place of itself, set to be killed when rtval ends (PR_SET_PDEATHSIG
+# survives exec): a `kill -9` of rtval leaves no browser behind. A fresh process sets it, as a
+# preexec_fn in the forked child of a threaded parent could deadlock.
+_DIE_WITH_PARENT = """
+import ctypes, os, signal, sys
+ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+if os.getppid() != int(sys.argv[1]):  # the parent ended before the line above
+    sys.exit(1)
+os.execv(sys.argv[2], sys.argv[2:])
+"""
+PRINT_SECONDS = 120
+ERROR_TAIL = 500  # characters of Chromium's stderr in the error message
+
+
 def _print_pdf(chromium: str, html: Path, tmp: Path) -> None:
-    proc = subprocess.run(
-        [
-            chromium,
-            "--headless",
-            *_sandbox_flags(),
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--no-pdf-header-footer",
-            f"--print-to-pdf={tmp}",
-            html.resolve().as_uri(),
-        ],
-        capture_output=True,
+    args = [
+        chromium,
+        "--headless",
+        *_sandbox_flags(),
+        "--disable-gpu",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--no-pdf-header-footer",
+        f"--print-to-pdf={tmp}",
+        html.resolve().as_uri(),
+    ]
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _DIE_WITH_PARENT, str(os.getpid()), *args],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
         text=True,
-        check=False,
-        timeout=120,
+        errors="replace",
+        start_new_session=True,  # its own process group: stopping takes its helpers too
     )
+    try:
+        _, err = proc.communicate(timeout=PRINT_SECONDS)
+    except subprocess.TimeoutExpired:
+        _kill_group(proc)
+        raise ToolError(f"Chromium did not print {html} to PDF within {PRINT_SECONDS} s") from None
+    except BaseException:  # an interrupt, a stop signal: the browser goes with the report
+        _kill_group(proc)
+        raise
     if proc.returncode != 0 or not tmp.is_file():
-        raise ToolError(f"Chromium could not print {html} to PDF: {proc.stderr.strip()[-500:]}")
+        raise ToolError(f"Chromium could not print {html} to PDF: {err.strip()[-ERROR_TAIL:]}")
+
+
+def _kill_group(proc: subprocess.Popen[str]) -> None:
+    """Kills Chromium and every process of its group, and reaps it."""
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()

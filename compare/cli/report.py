@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 
+from compare.apps.report_label import MAX_LABEL, label_problem
 from compare.cli.common import add_cache_argument, positive_int, report_size_type
 
 
 def run_report(args: argparse.Namespace) -> int:
-    from compare.apps.report import build_report
+    from compare.apps import report_interrupt as interrupt
     from compare.judge.target_model import parse_model
-    from compare.render.progress import Progress
 
     if args.against:
         if not args.test_image:
@@ -21,7 +22,22 @@ def run_report(args: argparse.Namespace) -> int:
     if args.size is None:
         _check_scene_size(args.scene)
 
-    index = build_report(
+    try:
+        with interrupt.stop_guard():
+            index = _build(args)
+            interrupt.check()  # a stop signal whose exception was lost: never exit 0
+    except interrupt.Stopped as e:  # SIGINT, SIGTERM, SIGHUP: the report has removed what it began
+        print(f"rtval: interrupted ({signal.Signals(e.signum).name})", file=sys.stderr)
+        return e.exit_code
+    print(index)
+    return 0
+
+
+def _build(args: argparse.Namespace) -> Path:
+    from compare.apps.report import build_report
+    from compare.render.progress import Progress
+
+    return build_report(
         args.scene,
         args.reports_dir,
         size=args.size,
@@ -34,8 +50,6 @@ def run_report(args: argparse.Namespace) -> int:
         cache_dir=args.cache,
         progress=Progress(sys.stderr),
     )
-    print(index)
-    return 0
 
 
 def _check_scene_size(scene_file: str) -> None:
@@ -48,6 +62,13 @@ def _check_scene_size(scene_file: str) -> None:
             f"{scene_file}: its camera is {cam.width}x{cam.height}; a report needs at least "
             f"{REPORT_MIN_SIDE}x{REPORT_MIN_SIDE} (SSIM's window): pass --size"
         )
+
+
+def _label(text: str) -> str:
+    why = label_problem(text)
+    if why:
+        raise argparse.ArgumentTypeError(why)
+    return text
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -90,7 +111,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="with --test-image: the model it was asked to implement (default classic); the "
         "report gives its verdict against that model and against Mitsuba side by side",
     )
-    p.add_argument("--label", default=None, help="name of the --test-image renderer in the report")
+    p.add_argument(
+        "--label",
+        type=_label,
+        default=None,
+        help=f"name of the --test-image renderer in the report (one line, at most {MAX_LABEL} "
+        "characters)",
+    )
     p.add_argument(
         "--test-encoding",
         choices=("srgb", "linear"),
