@@ -8,7 +8,9 @@ Every row names the model; every fail says why.
 Each student is an idempotent task keyed by the hashes of its files, the model's renders and the
 rubric: a re-run (or a resumed, interrupted one) skips what is done. Bad submissions become
 rows with a reason, never an aborted batch. Tasks run in a local process pool or on a Dask
-cluster.
+cluster (grade_executors.py); each gives a typed result (grade_results.py), summed up in the
+gradebook (gradebook.py). Every folder written under OUT is made without following a link
+(output_folders.py): a link planted there stops the run, naming it.
 
 A submission that fails against a demo model is diagnosed (compare/apps/diagnosis.py): the
 gradebook's `diagnosis` column and the fail reasons say what it looks like ("looks like Q2
@@ -425,7 +427,8 @@ def run_grading(
             submissions, models, spec, size, out, cache.root, progress
         )
     ]
-    for t in tasks:  # every folder a task writes, checked here: a planted link stops the run
+    own_folder(out, "results")  # every folder a task writes, checked here: a planted link
+    for t in tasks:  # stops the run before any work
         own_folder(out, "students", student_slug(t.student))
     progress(f"grading {len(tasks)} submissions against {model.name} ({executor} executor)")
     start = time.perf_counter()
