@@ -15,7 +15,7 @@ from compare.judge.candidate import Candidate
 from compare.judge.diagnose import diagnose
 from compare.judge.target_model import parse_model
 from compare.render.cache import RenderCache
-from compare.render.candidates import CandidateRenderer
+from compare.render.candidates import CandidateRenderer, forget_recent
 from compare.render.jobs import set_key
 from compare.render.models import model_job
 from scene_model.scene import load_scene
@@ -27,6 +27,7 @@ W, H = 16, 12
 
 def test_candidates_are_entries_of_the_render_cache(tmp_path: Path) -> None:
     cache = RenderCache(tmp_path / "c")
+    forget_recent()  # renders another test read in this process would come from memory
     classic = Candidate.of_mode("classic")
     asked = [classic, classic.turned((1e-4, 0.0)), classic.with_mistake("no_offset", True)]
     with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
@@ -36,9 +37,14 @@ def test_candidates_are_entries_of_the_render_cache(tmp_path: Path) -> None:
     key = set_key(model_job(parse_model("classic"), CLASSIC, (W, H)))
     assert cache.info(key) is not None
     with CandidateRenderer(CLASSIC, W, H, cache=cache) as again:
-        second = [again(c).rgb for c in asked]
-    assert (again.rendered, again.cache_hits) == (0, 3)
-    assert all((a == b).all() for a, b in zip(first, second, strict=True))
+        second = [again(c).rgb for c in asked]  # this process read them: from memory
+    assert (again.rendered, again.cache_hits, again.memory_hits) == (0, 3, 3)
+    forget_recent()
+    with CandidateRenderer(CLASSIC, W, H, cache=cache) as third:
+        from_disk = [third(c).rgb for c in asked]
+    assert (third.rendered, third.cache_hits, third.memory_hits) == (0, 3, 0)
+    for a, b, d in zip(first, second, from_disk, strict=True):
+        assert (a == b).all() and (a == d).all()
     assert not list(cache.tmp_dir.iterdir())  # nothing half-made left behind
     stats = cache.stats()
     assert stats["misses"] >= 3 and stats["hits"] >= 3

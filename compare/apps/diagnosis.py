@@ -10,18 +10,18 @@ processes and on Dask workers alike.
 
 from __future__ import annotations
 
-import io
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from compare.files import json_safe, write_atomic
+from compare.files import json_safe
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose import Diagnosis, Step, diagnose, unmirror
 from compare.judge.images import Image, linear_to_srgb
 from compare.judge.mistakes import catalogue
+from compare.judge.png import FAST, write_display_png
 from compare.judge.quirks import QUIRKS
 from compare.render.cache import RenderCache
 from compare.render.candidates import CandidateRenderer
@@ -103,16 +103,6 @@ def render_command(d: Diagnosis, scene_file: str | Path) -> str:
     return text
 
 
-def _display_png(path: Path, data: np.ndarray) -> None:
-    from PIL import Image as PILImage
-
-    buf = io.BytesIO()
-    PILImage.fromarray(np.round(np.clip(data, 0.0, 1.0) * 255).astype(np.uint8)).save(
-        buf, format="PNG", compress_level=1
-    )
-    write_atomic(path, buf.getvalue())
-
-
 def _write_evidence(
     image: Image,
     d: Diagnosis,
@@ -134,8 +124,9 @@ def _write_evidence(
             i = len(shown)
             rgb = render(c).rgb
             disp = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
-            _display_png(folder / f"{prefix}-candidate-{i}.png", disp)
-            _display_png(folder / f"{prefix}-diff-{i}.png", np.abs(test - disp) * DIFF_GAIN)
+            write_display_png(folder / f"{prefix}-candidate-{i}.png", disp, compress_level=FAST)
+            diff = np.abs(test - disp) * DIFF_GAIN
+            write_display_png(folder / f"{prefix}-diff-{i}.png", diff, compress_level=FAST)
             shown[c.name] = f"{href}{prefix}-candidate-{i}.png"
             diffs[c.name] = f"{href}{prefix}-diff-{i}.png"
         return shown[c.name], diffs[c.name]

@@ -12,9 +12,11 @@ from a copy of the scene with that change, kept in the cache's derived/ and name
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import threading
+from collections import OrderedDict
 from functools import cache
 from pathlib import Path
 from types import TracebackType
@@ -24,7 +26,7 @@ from compare.judge.diagnose import BASE_QUIRKS, LATER_QUIRKS
 from compare.judge.images import Image, ImageError, read_image
 from compare.judge.target_model import TargetModel
 from compare.render.cache import RenderCache, renderer_identity
-from compare.render.jobs import RenderJob, render_one
+from compare.render.jobs import RenderJob, render_one, set_key
 from compare.render.models import OFFSET_PIXELS, OFFSETS, SPHERE_ULPS, grown_scene, offset_scene
 from compare.render.runner import ToolError, rtdemo_path
 from scene_model.safe_paths import read_bounded, write_atomic
@@ -72,6 +74,51 @@ def _renders_quirks(root: str, identity: str, scene_file: str, quirks: str) -> b
     return True
 
 
+class _Recent:
+    """The renders this process read last, by cache key, up to MEMORY_BYTES: the searches
+    of one process (a grading worker's students) ask for the same candidates, and one search
+    asks for some again (its references, its evidence pictures). Kept without the AOVs no
+    search reads (the normals)."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit, self.used = limit, 0
+        self.images: OrderedDict[str, Image] = OrderedDict()
+        self.lock = threading.Lock()
+
+    def get(self, key: str) -> Image | None:
+        with self.lock:
+            image = self.images.get(key)
+            if image is not None:
+                self.images.move_to_end(key)
+            return image
+
+    def put(self, key: str, image: Image) -> Image:
+        kept = dataclasses.replace(
+            image, aovs={k: v for k, v in image.aovs.items() if k in KEPT_AOVS}
+        )
+        size = kept.rgb.nbytes + sum(v.nbytes for v in kept.aovs.values())
+        with self.lock:
+            if key not in self.images and size <= self.limit:
+                self.images[key] = kept
+                self.used += size
+            while self.used > self.limit:
+                _, old = self.images.popitem(last=False)
+                self.used -= old.rgb.nbytes + sum(v.nbytes for v in old.aovs.values())
+        return kept
+
+
+MEMORY_BYTES = 512 * 2**20  # a 640x480 search's renders, twice over
+KEPT_AOVS = ("id", "depth")  # the effect masks' (diagnose_score.Target.check)
+_RECENT = _Recent(MEMORY_BYTES)
+
+
+def forget_recent() -> None:
+    """Read every render from the cache again (what this process read before is dropped)."""
+    with _RECENT.lock:
+        _RECENT.images.clear()
+        _RECENT.used = 0
+
+
 class DerivedStore:
     """diagnose's Store in the render cache's derived/ (names carry their inputs' hashes):
     a file that is not a regular one, or that cannot be read, counts as absent."""
@@ -112,7 +159,8 @@ class CandidateRenderer:
         # Every candidate asked for, by name (diagnose's steps name theirs), and cache use.
         self.seen: dict[str, Candidate] = {}
         self.rendered = 0
-        self.cache_hits = 0
+        self.cache_hits = 0  # renders not made: read from the cache, or from memory
+        self.memory_hits = 0  # ... the renders this process had read already (_RECENT)
         self.turns = exact_turns()  # read by diagnose: how exact matching renders a model
         self.grows = list(SPHERE_ULPS)  # and its spheres grown and shrunk
         later = ",".join(f"Q{q}" for q in LATER_QUIRKS)
@@ -131,7 +179,7 @@ class CandidateRenderer:
         tb: TracebackType | None,
     ) -> None:
         self._open = False
-        self.cache.count(hits=self.cache_hits, misses=self.rendered)
+        self.cache.count(hits=self.cache_hits - self.memory_hits, misses=self.rendered)
         if self.rendered:
             self.cache.evict()  # what this search just used is within the grace period
 
@@ -174,6 +222,12 @@ class CandidateRenderer:
         with self._lock:
             self.seen[c.name] = c
         job = self.job(c)
+        recent = _RECENT.get(set_key(job))
+        if recent is not None:  # read already by this process: the cache is not asked
+            with self._lock:
+                self.cache_hits += 1
+                self.memory_hits += 1
+            return recent
         extra = ["--threads", str(self.threads)] if self.threads else []
         hit = render_one(job, self.cache, extra_args=extra)
         try:
@@ -184,4 +238,4 @@ class CandidateRenderer:
         with self._lock:
             self.cache_hits += hit
             self.rendered += not hit
-        return image
+        return _RECENT.put(job.cache_key, image)
