@@ -348,7 +348,7 @@ def test_claims_of_a_match_are_the_verdicts(variants: dict[str, Path], rtdemo: s
     model = against.load(against.prepare(parse_model("classic"), CLASSIC, (W, H), RenderCache()))
     for path, passes in ((variants["exact"], True), (deep, False)):
         image = read_image(path)
-        verdict = against.judge(image, model)
+        verdict = against.judge_against_model(image, model)
         assert verdict.exact is not None and verdict.exact.passed is passes
         d = _diagnose(path)
         assert d.start == "classic"

@@ -239,7 +239,7 @@ def judge_against(case: CaseResult, test: Image, model: LoadedModel, *, keep: bo
     """Fills the case's verdict against a target model (against.judge: a demo model's exact
     match, Mitsuba's rubric), per effect of the model render's masks. An exact pass computes
     no FLIP and no SSIM."""
-    ev = against.judge(test, model)
+    ev = against.judge_against_model(test, model)
     score = ev.score
     if score is None:  # a model render without effect pixels: nothing to judge per effect
         raise ImageError(f"{model.renders.reference}: the model render has no effect pixels")

@@ -19,10 +19,17 @@ from scene_model.safe_paths import write_atomic
 @functools.cache
 def environment() -> Environment:
     """The templates' environment, made once per process (it caches compiled templates)."""
-    return Environment(
+    env = Environment(
         loader=PackageLoader("compare.apps", "templates"),
         autoescape=select_autoescape(["html", "j2"]),
     )
+    env.filters["num"] = number
+    return env
+
+
+def number(value: float | None, form: str) -> str:
+    """A number in `form` (printf style), or "-" where it is undefined (null in a record)."""
+    return "-" if value is None else form % value
 
 
 def render_page(template: str, **context: Any) -> str:

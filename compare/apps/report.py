@@ -18,10 +18,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from jinja2 import Environment, PackageLoader, select_autoescape
-
 from compare.apps import report_interrupt as interrupt
-from compare.apps.page_security import with_csp
+from compare.apps.pages import write_page
 from compare.apps.report_analysis import analyse
 from compare.apps.report_charts import draw_charts
 from compare.apps.report_context import (
@@ -122,7 +120,7 @@ def finish(ctx: ReportContext, judged: Judged) -> None:
     remove_unlinked(ctx.images_dir, record.linked_images())
     record.timings = steps.as_list()  # so far; report.json gets every step
     with steps("page"):
-        write_page(ctx.out / "index.html", record)
+        write_record_page(ctx.out / "index.html", record)
     if ctx.opts.pdf:
         with steps("PDF (Chromium)"):
             write_pdf(ctx.out / "index.html", ctx.out / "report.pdf")
@@ -161,21 +159,8 @@ def judge_given(
     return verdict, explained
 
 
-def write_page(path: Path, record: ReportRecord) -> None:
-    env = Environment(
-        loader=PackageLoader("compare.apps", "templates"),
-        autoescape=select_autoescape(["html", "j2"]),
-    )
-    env.filters["num"] = _number
-    page = record.as_json()
+def write_record_page(path: Path, record: ReportRecord) -> None:
     # Data reaches the page as inert, script-escaped JSON; the CSP admits only the
     # template's own script (compare/apps/page_security.py).
-    html = env.get_template("report.html.j2").render(
-        report=page, renders_json=json_for_script(page["renders"])
-    )
-    write_atomic(path, with_csp(html))
-
-
-def _number(value: float | None, form: str) -> str:
-    """A number in `form` (printf style), or "-" where it is undefined (null in the record)."""
-    return "-" if value is None else form % value
+    page = record.as_json()
+    write_page(path, "report.html.j2", report=page, renders_json=json_for_script(page["renders"]))

@@ -13,14 +13,14 @@ from compare.render.runner import ToolError
 
 def model_verdict(ctx: ReportContext, ladder: list[dict[str, Any]]) -> dict[str, Any]:
     """The test image against its model, and the quirks' costs read from the ablation ladder."""
-    from compare.apps.against import GRADE_DEFAULT, judge, load, prepare
+    from compare.apps.against import GRADE_DEFAULT, judge_against_model, load, prepare
     from compare.judge.target_model import MODE_QUIRKS, parse_model
 
     opts = ctx.opts
     model = parse_model(opts.against or GRADE_DEFAULT)
     ctx.progress.line(f"model {model.name} ...")
     prepared = prepare(model, opts.scene_file, opts.size, ctx.cache, progress=ctx.progress)
-    ev = judge(ctx.imgs[ctx.subject.key], load(prepared))
+    ev = judge_against_model(ctx.imgs[ctx.subject.key], load(prepared))
     assert ev.score is not None
     # Each ladder step fixes one quirk on top of the earlier ones: its FLIP drop is what that
     # quirk costs there (cumulative, so conditional on the earlier fixes).
