@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 
+from compare.judge.candidate import SWITCHABLE_EFFECTS
 from compare.judge.quirks import QUIRKS as QUIRK_TEXT
 from compare.render.jobs import RenderJob
 from scene_model.scene import Scene, load_scene
@@ -31,7 +32,6 @@ SAMPLING_QUIRK = "Q10"  # the ladder fixes it last, with LADDER_SPP: its end is 
 LADDER_SPP = 16
 # The order in which the ladder fixes the quirks: by number, pixel-centre sampling last.
 LADDER_ORDER = [q for q in QUIRK_NAMES if q != SAMPLING_QUIRK] + [SAMPLING_QUIRK]
-EFFECT_SWITCHES = ("shadows", "reflection", "refraction")
 DEMO_MODES_ABLATED = ("paper", "physical")  # the demo modes rendered with an effect off
 AREA_KEY = "ref-area"
 PAPER_KEY = "demo-paper-cpu"  # the demo's paper mode: the ladder's first step
@@ -315,7 +315,7 @@ def _ablation_jobs(
 ) -> tuple[RenderJob | None, tuple[Ablation, ...]]:
     """Effect ablation at pixel centres: each side with one effect switched off, for the
     switches that can change this scene (the others would give three copies of their base)."""
-    switches = [e for e in EFFECT_SWITCHES if e not in skipped]
+    switches = [e for e in SWITCHABLE_EFFECTS if e not in skipped]
     if not switches:
         return None, ()
     point = ("--light", "point", "--centre-rays")
