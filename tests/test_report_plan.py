@@ -8,9 +8,9 @@ from pathlib import Path
 
 from helpers import SCENES
 
+from compare.judge.candidate import SWITCHABLE_EFFECTS
 from compare.render.plan import (
     DEMO_SPPS,
-    EFFECT_SWITCHES,
     LADDER_ORDER,
     QUIRK_NAMES,
     RenderPlan,
@@ -34,7 +34,7 @@ def test_every_role_is_a_job_of_the_plan_and_keys_are_unique() -> None:
     assert len(keys) == len(set(keys)) == 43
     assert set(_roles(p)) <= set(keys)
     assert sorted(p.demo_convergence) == list(DEMO_SPPS)
-    assert [a.effect for a in p.ablations] == list(EFFECT_SWITCHES)
+    assert [a.effect for a in p.ablations] == list(SWITCHABLE_EFFECTS)
     assert [s.step.quirk for s in p.ladder] == [None, *LADDER_ORDER]
     assert sorted(LADDER_ORDER) == sorted(QUIRK_NAMES)
     # The ladder starts at the paper render and ends at physical mode, both planned once.
