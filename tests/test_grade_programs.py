@@ -515,7 +515,7 @@ def test_sandbox_cpu_limit_and_exit_words() -> None:
 def test_tar_entries_that_leave_the_tree_are_refused(
     tmp_path: Path, make: object, reason: str
 ) -> None:
-    from compare.apps.archives import TreeError, unpack
+    from compare.archives import TreeError, unpack
 
     archive = tmp_path / "s.tar.gz"
     with tarfile.open(archive, "w:gz") as t:

@@ -4,7 +4,7 @@
     rtval grade SUBMISSIONS --scene classic --build 'g++ -O2 -o rt *.cpp' --run './rt {scene} {out}'
 
 Each submission (a folder, .zip, .tar.gz) is copied or unpacked into a fresh folder
-(compare/apps/archives.py), built there by --build, and the built folder is copied afresh for
+(compare/archives.py), built there by --build, and the built folder is copied afresh for
 every scene, where --run renders it: {scene}, {out}, {width}, {height}, ... are the
 placeholders of `rtval check --renderer` (compare/render/foreign.py parses them), or the
 program writes a fixed file named by --output. Everything ends as a reason: "build failed:
@@ -26,15 +26,14 @@ import os
 import re
 import shlex
 import shutil
-import stat
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from compare.apps.archives import TreeError, TreeLimits, archive_suffix, copy_tree, unpack
-from compare.apps.archives import source_digest as tree_digest
 from compare.apps.submissions import IMAGE_SUFFIXES
+from compare.archives import TreeError, TreeLimits, archive_suffix, copy_tree, unpack
+from compare.archives import source_digest as tree_digest
 from compare.files import sha256_file, write_atomic
 from compare.judge.rubric import limit_value
 from compare.render.foreign import _FIELD, PLACEHOLDERS, TemplateError
@@ -47,6 +46,7 @@ from compare.sandbox import (
     probe,
     run_sandboxed,
 )
+from compare.sandbox_output import read_output
 from compare.student_ids import student_slug
 
 BUILD_LIMITS = Limits(wall=120.0)
@@ -418,61 +418,6 @@ def _run_argv(spec: ProgramSpec, scene: SceneJob, ws: Workspace) -> tuple[list[s
     for f in ws.inputs.iterdir():  # readable by the sandbox user, writable by nobody there
         os.chmod(f, 0o644)
     return [_FIELD.sub(lambda m: values[m.group(1)], w) for w in spec.run], out_name
-
-
-def output_cap(width: int, height: int) -> int:
-    """The largest output a width x height image may be: 64 bytes a pixel (16 float channels:
-    an EXR with its AOVs), at least 1 MiB."""
-    return max(1 << 20, 64 * width * height)
-
-
-def read_output(root: Path, rel: str, width: int, height: int) -> tuple[str, bytes]:
-    """(problem, bytes) of the image the program wrote at root/rel. Each folder on the way is
-    opened without following a link, and the file must be a regular one of a bounded size:
-    a link to /etc/passwd, a FIFO or a 10 GB file are reasons, never read."""
-    parts = rel.split("/")
-    fd = os.open(root, os.O_RDONLY | os.O_DIRECTORY)
-    try:
-        for part in parts[:-1]:
-            try:
-                nfd = os.open(part, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW, dir_fd=fd)
-            except FileNotFoundError:
-                return f"no output: the program wrote no {rel}", b""
-            except OSError:
-                return f"output is not a regular file: {part}/ is not a folder", b""
-            os.close(fd)
-            fd = nfd
-        return _read_regular(fd, parts[-1], rel, output_cap(width, height))
-    finally:
-        os.close(fd)
-
-
-def _read_regular(dir_fd: int, name: str, rel: str, cap: int) -> tuple[str, bytes]:
-    from scene_model.safe_paths import describe_mode
-
-    try:
-        st = os.stat(name, dir_fd=dir_fd, follow_symlinks=False)
-    except FileNotFoundError:
-        return f"no output: the program wrote no {rel}", b""
-    if stat.S_ISLNK(st.st_mode):
-        target = os.readlink(name, dir_fd=dir_fd)
-        return f"output is not a regular file: {rel} is a symbolic link (to {target[:200]})", b""
-    if not stat.S_ISREG(st.st_mode):
-        return f"output is not a regular file: {rel} is {describe_mode(st.st_mode)}", b""
-    if st.st_size > cap:
-        return (
-            f"output too large: {rel} is {human_size(st.st_size)}, at most {human_size(cap)} "
-            "for this image size",
-            b"",
-        )
-    fd = os.open(name, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK, dir_fd=dir_fd)
-    with os.fdopen(fd, "rb") as f:
-        if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
-            return f"output is not a regular file: {rel}", b""
-        data = f.read(cap + 1)
-    if len(data) > cap:
-        return f"output too large: {rel} is over {human_size(cap)}", b""
-    return "", data
 
 
 def _remove(path: Path) -> None:

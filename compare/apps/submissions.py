@@ -164,7 +164,7 @@ def collect_programs(
     notice: Callable[[str], None] | None = None,
 ) -> list[ProgramEntry]:
     """One ProgramEntry per student id, sorted by id; skipped entries as in collect_entries."""
-    from compare.apps.archives import ARCHIVE_SUFFIXES, archive_suffix
+    from compare.archives import ARCHIVE_SUFFIXES, archive_suffix
 
     by_id: dict[str, ProgramEntry] = {}
     for e, shown, utf8, mode in _listing(submissions, exclude, notice):

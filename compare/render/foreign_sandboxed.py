@@ -13,10 +13,10 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from compare.apps.archives import TreeLimits, copy_tree
-from compare.apps.programs import read_output
+from compare.archives import TreeLimits, copy_tree
 from compare.render.runner import ToolError
 from compare.sandbox import IN_DIR, OUT_DIR, WORK_DIR, Limits, Workspace, run_sandboxed
+from compare.sandbox_output import read_output
 
 SYSTEM_PREFIXES = ("/usr/", "/bin/", "/lib", "/etc/")  # visible read-only inside anyway
 
