@@ -36,7 +36,7 @@ from compare.judge.scoring import (
     score_effects,
     score_exact,
 )
-from compare.judge.tolerances import Tolerances, Verdict, judge
+from compare.judge.tolerances import Tolerances, Verdict, judge_metrics
 
 
 @dataclass(frozen=True)
@@ -91,7 +91,7 @@ class Evaluation:
                 [] if self.exact.passed else self.exact_reasons(),
                 failing_pixels=self.exact.differing,
             )
-        return judge(self.metrics, self.maps, self.tolerances, self.region)
+        return judge_metrics(self.metrics, self.maps, self.tolerances, self.region)
 
     @cached_property
     def per_effect(self) -> dict[str, EffectResult]:
@@ -103,7 +103,7 @@ class Evaluation:
             m = compute_metrics(
                 self.ref, self.test, self.maps, mask=pixels, threshold=self.tolerances.fail
             )
-            out[name] = EffectResult(m, judge(m, self.maps, self.tolerances, pixels))
+            out[name] = EffectResult(m, judge_metrics(m, self.maps, self.tolerances, pixels))
         return out
 
     def _pixels(self, name: str) -> BOOL | None:

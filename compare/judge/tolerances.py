@@ -78,7 +78,9 @@ class Verdict:
         return STATUS_CODE[self.status]
 
 
-def judge(metrics: Metrics, maps: Maps, tol: Tolerances, region: BOOL | None = None) -> Verdict:
+def judge_metrics(
+    metrics: Metrics, maps: Maps, tol: Tolerances, region: BOOL | None = None
+) -> Verdict:
     err = maps.abs_display if region is None else maps.abs_display[region]
     n = max(int(err.size), 1)
     failing = int((err > tol.fail).sum())
