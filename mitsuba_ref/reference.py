@@ -9,6 +9,7 @@ pixel means drops below `target_stderr`. Mean and per-sample variance are both r
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -48,6 +49,9 @@ class ReferenceSettings:
     time_budget: float | None = None
     target_stderr: float | None = None
     size: tuple[int, int] | None = None
+    # Sample counts below spp at which the running image is also handed out: the very image
+    # a render of that many samples gives (same seed, same passes), for the cost of one.
+    snapshots: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         if self.integrator not in INTEGRATORS:
@@ -58,6 +62,22 @@ class ReferenceSettings:
             raise ValueError(
                 f"image of {self.size[0]}x{self.size[1]} pixels is too large "
                 f"(at most {MAX_PIXELS} pixels)"
+            )
+        if self.snapshots:
+            self._check_snapshots()
+
+    def _check_snapshots(self) -> None:
+        if any(not 1 <= n < self.spp for n in self.snapshots):
+            raise ValueError(
+                f"snapshots must be 1 .. spp - 1 (spp {self.spp}), got {self.snapshots}"
+            )
+        if self.time_budget is not None or self.target_stderr is not None:
+            raise ValueError(
+                "snapshots need a render of exactly spp samples (no time budget or target)"
+            )
+        if _deterministic(self):
+            raise ValueError(
+                "snapshots: whitted with point lights through pixel centres is one pass for any spp"
             )
 
 
@@ -82,8 +102,11 @@ def render_reference(
     scene: Scene,
     settings: ReferenceSettings,
     progress: Callable[[int, int, float], None] | None = None,
+    snapshot: Callable[[ReferenceImage], None] | None = None,
 ) -> ReferenceImage:
-    """`progress(samples done, samples asked, seconds)` after each pass (or JIT batch)."""
+    """`progress(samples done, samples asked, seconds)` after each pass (or JIT batch);
+    `snapshot(image)` for each of settings.snapshots: the image a render of that spp returns
+    (taken on the way where the launches allow, as they do at >= MAX_WAVEFRONT / 2 pixels)."""
     mi = load_mitsuba(settings.variant)
     import drjit as dr
 
@@ -94,6 +117,84 @@ def render_reference(
     integrator = _integrator(mi, scene, settings)
     width, height = settings.size or (scene.camera.width, scene.camera.height)
     sensor = _sensor(mi, scene, exported, width, height)
+    jit = bool(dr.is_jit_v(mi.Float))
+
+    render_pass = _pass_renderer(mi, dr, mscene, sensor, integrator, (width, height), settings)
+
+    # JIT variants trace several samples per pixel in one wavefront (recording the
+    # recursion once per batch); scalar variants go one sample at a time.
+    batch_max = max(1, MAX_WAVEFRONT // (width * height)) if jit else 1
+    settings = _snapshots_apart(scene, settings, batch_max, snapshot)
+    sums = _Sums.zeros(height, width)
+
+    def image(stopped_by: str, seconds: float, at: ReferenceSettings) -> ReferenceImage:
+        aovs_key = (id(mscene), width, height)
+        if aovs_key not in _AOVS:  # the camera rays' hits: the same for every render here
+            _AOVS[aovs_key] = _primary_aovs(
+                mi, dr, mscene, sensor, exported.shape_index, width, height
+            )
+        aovs = {k: v.copy() for k, v in _AOVS[aovs_key].items()}
+        return _image(mi, scene, at, sums, aovs, exported, stopped_by, seconds)
+
+    def at_snapshot(seconds: float) -> None:
+        if snapshot is not None:
+            # Described as the render of that many samples would be.
+            alone = dataclasses.replace(settings, spp=sums.done, snapshots=())
+            snapshot(image("spp", seconds, alone))
+
+    stopped_by, seconds = _run_passes(render_pass, sums, batch_max, settings, progress, at_snapshot)
+    return image(stopped_by, seconds, settings)
+
+
+def _snapshots_apart(
+    scene: Scene,
+    settings: ReferenceSettings,
+    batch_max: int,
+    snapshot: Callable[[ReferenceImage], None] | None,
+) -> ReferenceSettings:
+    """Renders on its own each snapshot that falls inside a launch of several samples (the
+    render of its spp would cut its launches differently, so its samples are not a prefix
+    of these); returns the settings with the snapshots left to take on the way."""
+    for n in settings.snapshots:
+        if n % batch_max and snapshot is not None:
+            snapshot(render_reference(scene, dataclasses.replace(settings, spp=n, snapshots=())))
+    kept = tuple(n for n in settings.snapshots if n % batch_max == 0)
+    return dataclasses.replace(settings, snapshots=kept)
+
+
+def _image(
+    mi: Any,
+    scene: Scene,
+    settings: ReferenceSettings,
+    sums: _Sums,
+    aovs: dict[str, F32],
+    exported: ExportedScene,
+    stopped_by: str,
+    seconds: float,
+) -> ReferenceImage:
+    """The image of the samples in `sums`, made with `settings`."""
+    variance = None
+    if sums.done >= 2:
+        full = sums.variance()
+        sums.update_stderr(full)
+        variance = full.astype(np.float32)
+    header = _header(mi, scene, settings, sums, stopped_by, seconds)
+    mean = (sums.total / sums.done).astype(np.float32)
+    notes, warnings = list(exported.notes), list(exported.warnings)
+    return ReferenceImage(mean, variance, aovs, header, sums.done, seconds, notes, warnings)
+
+
+def _pass_renderer(
+    mi: Any,
+    dr: Any,
+    mscene: Any,
+    sensor: Any,
+    integrator: Any,
+    size: tuple[int, int],
+    settings: ReferenceSettings,
+) -> Callable[[int, int], NDArray[np.float64]]:
+    """render_pass(seed, batch): `batch` samples per pixel, batch x H x W x 3."""
+    width, height = size
     jit = bool(dr.is_jit_v(mi.Float))
 
     def render_pass(seed: int, batch: int) -> NDArray[np.float64]:
@@ -111,28 +212,7 @@ def render_reference(
             mi, dr, mscene, sensor, integrator, width, height, seed, settings.centre_rays
         )[None]
 
-    # JIT variants trace several samples per pixel in one wavefront (recording the
-    # recursion once per batch); scalar variants go one sample at a time.
-    batch_max = max(1, MAX_WAVEFRONT // (width * height)) if jit else 1
-    sums = _Sums.zeros(height, width)
-    stopped_by, seconds = _run_passes(render_pass, sums, batch_max, settings, progress)
-    aovs_key = (id(mscene), width, height)
-    if aovs_key not in _AOVS:  # the camera rays' hits: the same for every render of this scene
-        _AOVS[aovs_key] = _primary_aovs(mi, dr, mscene, sensor, exported.shape_index, width, height)
-    aovs = {k: v.copy() for k, v in _AOVS[aovs_key].items()}
-    variance = sums.variance().astype(np.float32) if sums.done >= 2 else None
-    header = _header(mi, scene, settings, sums, stopped_by, seconds)
-    mean = (sums.total / sums.done).astype(np.float32)
-    return ReferenceImage(
-        mean,
-        variance,
-        aovs,
-        header,
-        sums.done,
-        seconds,
-        list(exported.notes),
-        list(exported.warnings),
-    )
+    return render_pass
 
 
 def _export_options(settings: ReferenceSettings) -> ExportOptions:
@@ -192,6 +272,9 @@ class _Sums:
         )
         return var
 
+    def update_stderr(self, variance: NDArray[np.float64]) -> None:
+        self.stderr = float(np.mean(np.sqrt(variance / self.done)))
+
 
 def _run_passes(
     render_pass: Callable[[int, int], NDArray[np.float64]],
@@ -199,24 +282,29 @@ def _run_passes(
     batch_max: int,
     settings: ReferenceSettings,
     progress: Callable[[int, int, float], None] | None,
+    at_snapshot: Callable[[float], None],
 ) -> tuple[str, float]:
     """Renders passes into `sums` until spp, the time budget or the target standard error;
-    returns why it stopped and the seconds spent."""
+    returns why it stopped and the seconds spent. No pass crosses a snapshot, so the passes
+    up to one are those of a render of that many samples."""
     passes = 1 if _deterministic(settings) else settings.spp
+    stops = sorted({*settings.snapshots, passes})
     start = time.perf_counter()
     while sums.done < passes:
-        batch = min(batch_max, passes - sums.done)
+        batch = min(batch_max, next(n for n in stops if n > sums.done) - sums.done)
         seed = (settings.seed * 1_000_003 + sums.done) % 2**32  # samplers take 32 bits
         sums.add(render_pass(seed, batch), batch)
         elapsed = time.perf_counter() - start
-        if sums.done >= 2:
-            sums.stderr = float(np.mean(np.sqrt(sums.variance() / sums.done)))
+        target = settings.target_stderr
+        if target is not None and sums.done >= 2:  # per pass only when it can stop the loop
+            sums.update_stderr(sums.variance())
+        if sums.done in settings.snapshots:
+            at_snapshot(elapsed)
         if progress:
             progress(sums.done, passes, elapsed)
         over_budget = settings.time_budget is not None and elapsed >= settings.time_budget
         if over_budget and sums.done < passes:
             return "time budget", time.perf_counter() - start
-        target = settings.target_stderr
         if target is not None and sums.done >= 2 and sums.stderr <= target:
             return "target std err", time.perf_counter() - start
     return "spp", time.perf_counter() - start

@@ -101,7 +101,7 @@ def test_reference_on_a_full_disk_names_the_file_and_leaves_nothing(
     from compare.judge import images
     from mitsuba_ref import reference
 
-    def render(scene: Any, settings: Any, progress: Any = None) -> Any:
+    def render(scene: Any, settings: Any, progress: Any = None, snapshot: Any = None) -> Any:
         rgb = np.zeros((2, 2, 3), np.float32)
         return reference.ReferenceImage(
             rgb, None, {}, {"rtval.spp": "1", "rtval.stopped_by": "spp"}, 1, 0.0

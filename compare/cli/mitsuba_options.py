@@ -37,10 +37,11 @@ def add_scene_mapping_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def check_output(out: Path, scene: Path) -> None:
-    """Before any work: the output is a regular file or absent (never a device, a FIFO or a
-    link) and not the scene it is made from."""
-    check_outputs_distinct([("-o", str(out))], [("SCENE", str(scene))])
+def check_output(out: Path, scene: Path, more: list[tuple[str, str]] | None = None) -> None:
+    """Before any work: each output (-o, then `more` as (option, path)) is a regular file or
+    absent (never a device, a FIFO or a link), not the scene it is made from, and not
+    another output."""
+    check_outputs_distinct([("-o", str(out)), *(more or [])], [("SCENE", str(scene))])
 
 
 def check_output_folder(out: Path) -> None:

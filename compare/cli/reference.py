@@ -13,7 +13,7 @@ from compare.cli.common import Parser, positive_float, positive_int, seed_type, 
 from compare.cli.mitsuba_options import add_scene_mapping_args, check_output, check_output_folder
 
 if TYPE_CHECKING:
-    from mitsuba_ref.reference import ReferenceSettings
+    from mitsuba_ref.reference import ReferenceImage, ReferenceSettings
 
 
 def run_reference(args: argparse.Namespace) -> int:
@@ -45,6 +45,14 @@ def _parse_job(argv: list[str]) -> argparse.Namespace:
     return args
 
 
+def snapshot_type(text: str) -> tuple[int, str]:
+    """SPP:OUT.exr for --snapshot."""
+    spp, sep, path = text.partition(":")
+    if not sep or not path or not spp.isdigit() or int(spp) < 1:
+        raise argparse.ArgumentTypeError(f"expected SPP:OUT.exr, e.g. 4:ref-4spp.exr, got {text!r}")
+    return int(spp), path
+
+
 def _settings(args: argparse.Namespace) -> ReferenceSettings:
     from mitsuba_ref.reference import ReferenceSettings
 
@@ -64,33 +72,40 @@ def _settings(args: argparse.Namespace) -> ReferenceSettings:
         time_budget=args.time_budget,
         target_stderr=args.target_stderr,
         size=args.size,
+        snapshots=tuple(spp for spp, _ in args.snapshot),
     )
 
 
 def render_to_file(
-    args: argparse.Namespace, progress: Callable[[int, int, float], None]
+    args: argparse.Namespace,
+    progress: Callable[[int, int, float], None],
+    snapshot: Callable[[int, str, float], None] | None = None,
 ) -> tuple[float, str]:
-    """Renders one `rtval reference` command's image to its -o file; returns the wall
-    seconds and what was done (samples, why it stopped)."""
-    from compare.judge.images import write_exr
+    """Renders one `rtval reference` command's image to its -o file (and each --snapshot's
+    to its file, then `snapshot(spp, path, seconds)`); returns the wall seconds and what
+    was done (samples, why it stopped)."""
     from mitsuba_ref.reference import render_reference
     from scene_model.scene import load_scene
 
     start = time.perf_counter()
     out = Path(args.output)
-    check_output(out, Path(args.scene))
+    snapshots = dict(args.snapshot)
+    if len(snapshots) < len(args.snapshot):
+        raise ValueError("--snapshot: each SPP at most once")
+    check_output(out, Path(args.scene), [("--snapshot", p) for p in snapshots.values()])
     scene = load_scene(args.scene)
-    check_output_folder(out)
-    result = render_reference(scene, _settings(args), progress=progress)
+    for path in (out, *map(Path, snapshots.values())):
+        check_output_folder(path)
+
+    def write_snapshot(image: ReferenceImage) -> None:
+        _write(Path(snapshots[image.spp_done]), image)
+        if snapshot is not None:
+            snapshot(image.spp_done, snapshots[image.spp_done], time.perf_counter() - start)
+
+    result = render_reference(scene, _settings(args), progress=progress, snapshot=write_snapshot)
     for warning in result.warnings:
         print(f"rtval: warning: {args.scene}: {warning}", file=sys.stderr)
-    aovs = dict(result.aovs)
-    if result.variance is not None:
-        aovs.update({f"var.{c}": result.variance[..., i] for i, c in enumerate("RGB")})
-    try:
-        write_exr(out, result.rgb, aovs=aovs, header=result.header)
-    except RuntimeError as e:  # OpenEXR's write error (a full disk): its text names no path
-        raise OSError(f"{out}: cannot write: {_exr_reason(e)}") from None
+    _write(out, result)
     summary = f"{result.header['rtval.spp']} spp (stopped by {result.header['rtval.stopped_by']})"
     return time.perf_counter() - start, summary
 
@@ -109,9 +124,31 @@ def _add_stopping_and_effects(p: argparse.ArgumentParser) -> None:
         default=None,
         help="stop once the mean standard error of the pixel means is this low",
     )
+    p.add_argument(
+        "--snapshot",
+        type=snapshot_type,
+        action="append",
+        default=[],
+        metavar="SPP:OUT.exr",
+        help="also write the image after SPP samples (below --spp): the very image of the "
+        "same command with --spp SPP (its passes are a prefix of these), for no extra work; "
+        "repeatable",
+    )
     p.add_argument("--no-shadows", action="store_true", help="whitted: no shadow rays")
     p.add_argument("--no-reflection", action="store_true", help="whitted: no reflection lobes")
     p.add_argument("--no-refraction", action="store_true", help="whitted: no transmission lobes")
+
+
+def _write(out: Path, image: ReferenceImage) -> None:
+    from compare.judge.images import write_exr
+
+    aovs = dict(image.aovs)
+    if image.variance is not None:
+        aovs.update({f"var.{c}": image.variance[..., i] for i, c in enumerate("RGB")})
+    try:
+        write_exr(out, image.rgb, aovs=aovs, header=image.header)
+    except RuntimeError as e:  # OpenEXR's write error (a full disk): its text names no path
+        raise OSError(f"{out}: cannot write: {_exr_reason(e)}") from None
 
 
 def _exr_reason(e: RuntimeError) -> str:

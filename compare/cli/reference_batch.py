@@ -7,6 +7,7 @@ options), so every render in a batch is still a command a person can run alone.
 
 Output: one JSON object per line on stdout, for the caller (compare/render/jobs.py):
   {"event": "progress", "job": I, "done": N, "total": M, "elapsed": S}   samples so far
+  {"event": "snapshot", "job": I, "spp": N, "seconds": S, "output": PATH}  a --snapshot
   {"event": "done", "job": I, "seconds": S, "output": PATH}            the EXR is written
   {"event": "error", "job": I, "message": TEXT}                         then exit 1
 The jobs run in order; the first failure stops the batch.
@@ -52,11 +53,14 @@ def _emit(**event: Any) -> None:
 def run_batch(
     path: Path,
     parse: Callable[[list[str]], argparse.Namespace],
-    render: Callable[[argparse.Namespace, Callable[[int, int, float], None]], tuple[float, str]],
+    render: Callable[
+        [argparse.Namespace, Callable[[int, int, float], None], Callable[[int, str, float], None]],
+        tuple[float, str],
+    ],
 ) -> int:
     """`parse` turns one job's arguments into options (exits on bad ones, caught here);
-    `render` renders them to their -o file, reporting (done, total, elapsed), and returns
-    its wall time and a summary."""
+    `render` renders them to their -o file, reporting (done, total, elapsed) and each
+    snapshot written (spp, path, seconds), and returns its wall time and a summary."""
     jobs = read_batch(path)
     for i, args in enumerate(jobs):
         start = time.perf_counter()
@@ -66,7 +70,10 @@ def run_batch(
             def report(done: int, total: int, elapsed: float, i: int = i) -> None:
                 _emit(event="progress", job=i, done=done, total=total, elapsed=elapsed)
 
-            render(options, report)
+            def snapshot(spp: int, output: str, seconds: float, i: int = i) -> None:
+                _emit(event="snapshot", job=i, spp=spp, seconds=seconds, output=output)
+
+            render(options, report, snapshot)
         except SystemExit:  # argparse has printed why on stderr
             _emit(event="error", job=i, message=f"bad arguments: {' '.join(args)}")
             return 1
