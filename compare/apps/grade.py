@@ -30,7 +30,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -90,7 +90,7 @@ def task_key(task: GradeTask) -> str:
     for scene in sorted(task.files):
         f = task.files[scene]
         h.update(scene.encode())
-        h.update((sha256_file(Path(f)) if f and Path(f).is_file() else "missing").encode())
+        h.update((sha256_file(f) if f and _is_regular_file(Path(f)) else "missing").encode())
     return h.hexdigest()[:24]
 
 
@@ -329,19 +329,29 @@ def _student_result(
     )
 
 
+class Submission(NamedTuple):
+    """One student's row before grading: the images per scene (None: missing), why it
+    cannot be graded at all (None: it can), and the program to build first, if any."""
+
+    student: str
+    files: dict[str, str | None]
+    problem: str | None
+    program: ProgramJob | None = None
+
+
 def collect(
     submissions: Path,
     scenes: list[str],
     *,
     exclude: list[Path] | None = None,
     notice: Callable[[str], None] | None = None,
-) -> list[tuple[str, dict[str, str | None], str | None]]:
-    """(student, scene -> file, problem) for every id in the submissions folder (see
-    compare/apps/submissions.py: what is a submission, and the reasons for what is not)."""
+) -> list[Submission]:
+    """Every id in the submissions folder (see compare/apps/submissions.py: what is a
+    submission, and the reasons for what is not)."""
     from compare.apps.submissions import collect_entries
 
     return [
-        (e.student, e.files, "; ".join(e.problems) or None)
+        Submission(e.student, e.files, "; ".join(e.problems) or None)
         for e in collect_entries(submissions, scenes, exclude=exclude, notice=notice)
     ]
 
@@ -354,15 +364,15 @@ def _entries(
     out: Path,
     cache_root: Path,
     progress: Callable[[str], None],
-) -> list[tuple[str, dict[str, str | None], str | None, ProgramJob | None]]:
-    """(student, scene -> file, problem, program) for every submission: images, or programs
-    to build and run when the class has a [program] (compare/apps/programs.py)."""
+) -> list[Submission]:
+    """Every submission: images, or programs to build and run when the class has a
+    [program] (compare/apps/programs.py)."""
     if spec is None:
-        found = collect(submissions, list(models), exclude=[out], notice=progress)
-        return [(student, files, problem, None) for student, files, problem in found]
+        return collect(submissions, list(models), exclude=[out], notice=progress)
     from compare.apps.programs import program_entries
 
-    return program_entries(submissions, models, spec, size, out, cache_root, progress)
+    found = program_entries(submissions, models, spec, size, out, cache_root, progress)
+    return [Submission(*entry) for entry in found]
 
 
 def _copy_model_renders_out(renders: ModelRenders, scene_name: str, folder: Path) -> ModelRenders:
@@ -422,10 +432,8 @@ def run_grading(
     parallel = 0 if not diagnose else 1 if where.side_by_side else 2
     base = _base_task(models, rubric_text, rubric, out, cache, parallel)
     tasks = [
-        dataclasses.replace(base, student=student, files=files, problem=problem, program=job)
-        for student, files, problem, job in _entries(
-            submissions, models, spec, size, out, cache.root, progress
-        )
+        dataclasses.replace(base, **entry._asdict())
+        for entry in _entries(submissions, models, spec, size, out, cache.root, progress)
     ]
     own_folder(out, "results")  # every folder a task writes, checked here: a planted link
     for t in tasks:  # stops the run before any work
