@@ -4,6 +4,7 @@ and nothing is left outside the cache (no private temporary folder)."""
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from helpers import SCENES, render_demo, run
 from compare.judge import diagnose_score
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose import diagnose
+from compare.judge.images import Image
 from compare.judge.target_model import parse_model
 from compare.render.cache import RenderCache
 from compare.render.candidates import CandidateRenderer, forget_recent
@@ -79,9 +81,34 @@ def test_a_second_diagnosis_of_an_image_reads_its_flip_numbers(
 
     first = once()
     assert list(cache.derived_dir.glob("diagnose-flip-*.json"))
+    for kept in cache.derived_dir.glob("diagnosis-*.json"):
+        kept.unlink()  # searched again, but its FLIP numbers read
 
     def no_flip(*_a: object) -> None:
         raise AssertionError("FLIP computed again")
 
     monkeypatch.setattr(diagnose_score, "flip_ldr_map", no_flip)
     assert once() == first
+
+
+def test_an_image_diagnosed_before_is_not_searched_again(tmp_path: Path, rtdemo: str) -> None:
+    image = render_demo(rtdemo, CLASSIC, tmp_path / "nb.exr", "-q", "--mode", "classic",
+                        "--mistake", "black_background", size=(W, H))  # fmt: skip
+    cache = RenderCache(tmp_path / "c")
+    scene = load_scene(CLASSIC)
+
+    def once(im: Image) -> tuple[dict[str, object], int]:
+        with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
+            d = diagnose(im, scene, render)
+        out = d.as_dict()
+        out.pop("seconds")
+        return out, len(render.seen)
+
+    first, asked = once(image)
+    assert asked > 10 and list(cache.derived_dir.glob("diagnosis-*.json"))
+    again, asked_again = once(image)
+    assert again == first and asked_again == 0  # nothing rendered, nothing read
+    other = dataclasses.replace(image, rgb=image.rgb.copy())
+    other.rgb[0, 0, 0] += 0.25  # another image: searched
+    _, asked_other = once(other)
+    assert asked_other > 10

@@ -102,7 +102,7 @@ def test_student_page_shows_the_diagnosis_and_its_evidence(graded: tuple[Path, P
     assert after < before / 2  # Q2 explains the refraction
 
 
-def test_identical_candidates_render_once_across_students(graded: tuple[Path, Path]) -> None:
+def test_identical_submissions_render_nothing_again(graded: tuple[Path, Path]) -> None:
     root, out = graded
     subs = root / "subs"
     shutil.copy(subs / "eta.ppm", subs / "eta_twin.ppm")
@@ -114,7 +114,8 @@ def test_identical_candidates_render_once_across_students(graded: tuple[Path, Pa
     assert "(4 resumed)" in proc.stderr
     twin = json.loads((out / "results" / "eta_twin.json").read_text())
     cache = twin["scenes"][0]["diagnosis_detail"]["cache"]
-    assert cache["rendered"] == 0 and cache["hits"] > 10, cache
+    # The same pixels: the diagnosis kept for them, only its evidence pictures read.
+    assert cache["rendered"] == 0 and cache["hits"] > 0, cache
     assert _book(out)["eta_twin"]["diagnosis"] == _book(out)["eta"]["diagnosis"]
 
 

@@ -17,8 +17,7 @@ from typing import Any
 import numpy as np
 
 from compare.files import json_safe
-from compare.judge.candidate import Candidate
-from compare.judge.diagnose import Diagnosis, Step, diagnose, unmirror
+from compare.judge.diagnose import Diagnosis, diagnose, unmirror
 from compare.judge.images import Image, linear_to_srgb
 from compare.judge.mistakes import catalogue
 from compare.judge.png import FAST, write_display_png
@@ -103,79 +102,75 @@ def render_command(d: Diagnosis, scene_file: str | Path) -> str:
     return text
 
 
-def _write_evidence(
-    image: Image,
-    d: Diagnosis,
-    render: CandidateRenderer,
-    folder: Path,
-    prefix: str,
-    href: str,
-) -> list[dict[str, Any]]:
-    """Per step (or, with none, for the result): the candidate after it and the image's
-    difference from the candidate before and after, as PNGs in `folder`."""
-    # Against the un-mirrored image: the candidates are what the program computed.
-    rgb = unmirror(image.rgb, d.mirrored)
-    test = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
-    shown: dict[str, str] = {}  # candidate name -> its PNG (a candidate is written once)
-    diffs: dict[str, str] = {}
+class _Evidence:
+    """The evidence pictures of one diagnosis, written to `folder` as PREFIX-*.png: each
+    candidate once, beside the image's difference from it (against the un-mirrored image:
+    the candidates are what the program computed)."""
 
-    def picture(c: Candidate) -> tuple[str, str]:
-        if c.name not in shown:
-            i = len(shown)
-            rgb = render(c).rgb
-            disp = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
-            write_display_png(folder / f"{prefix}-candidate-{i}.png", disp, compress_level=FAST)
-            diff = np.abs(test - disp) * DIFF_GAIN
-            write_display_png(folder / f"{prefix}-diff-{i}.png", diff, compress_level=FAST)
-            shown[c.name] = f"{href}{prefix}-candidate-{i}.png"
-            diffs[c.name] = f"{href}{prefix}-diff-{i}.png"
-        return shown[c.name], diffs[c.name]
+    def __init__(
+        self, image: Image, d: Diagnosis, render: CandidateRenderer, folder: Path, prefix: str
+    ) -> None:
+        self.d, self.render, self.folder, self.prefix = d, render, folder, prefix
+        rgb = unmirror(image.rgb, d.mirrored)
+        self.test = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
+        self.shown: dict[str, tuple[str, str]] = {}  # candidate name -> (its PNG, its diff)
 
-    def candidate(name: str) -> Candidate:
-        return d.candidate if name == d.result else render.seen[name]
+    def picture(self, name: str) -> tuple[str, str]:
+        """The file names of the PNGs of the candidate called `name` and of its difference."""
+        if name not in self.shown:
+            c = self.d.candidates[name]
+            i = len(self.shown)
+            disp = linear_to_srgb(np.nan_to_num(self.render(c).rgb, nan=0.0, posinf=1.0))
+            diff = np.abs(self.test - disp) * DIFF_GAIN
+            for kind, data in (("candidate", disp), ("diff", diff)):
+                path = self.folder / f"{self.prefix}-{kind}-{i}.png"
+                write_display_png(path, data, compress_level=FAST)
+            self.shown[name] = (f"{self.prefix}-candidate-{i}.png", f"{self.prefix}-diff-{i}.png")
+        return self.shown[name]
 
-    out: list[dict[str, Any]] = []
-    steps: list[Step] = d.steps
-    before_name = d.start
-    for s in steps:
-        before_png, before_diff = picture(candidate(before_name))
-        after_png, after_diff = picture(candidate(s.candidate))
-        out.append(
-            {
-                "change": s.change,
-                "cause": s.cause,
-                "candidate": s.candidate,
-                "explains": list(s.explains),
-                "flip": {
-                    k: [d.effects[k].start_flip, d.effects[k].final_flip]
-                    for k in s.explains
-                    if k in d.effects
-                },
-                "before": before_name,
-                "before_png": before_png,
-                "before_diff": before_diff,
-                "candidate_png": after_png,
-                "diff": after_diff,
+    def entries(self, href: str) -> list[dict[str, Any]]:
+        """Per step (or, with none, for the result): the candidate after it and the image's
+        difference from the candidate before and after; pictures named href + file."""
+        d, out = self.d, []
+        before = d.start
+        for s in d.steps:
+            flip = {
+                k: [d.effects[k].start_flip, d.effects[k].final_flip]
+                for k in s.explains
+                if k in d.effects
             }
-        )
-        before_name = s.candidate
-    if not steps:
-        png, diff = picture(d.candidate)
-        out.append(
-            {
-                "change": f"nearest: {d.result}",
-                "cause": "",
-                "candidate": d.result,
-                "explains": [],
-                "flip": {},
-                "before": d.result,
-                "before_png": png,
-                "before_diff": diff,
-                "candidate_png": png,
-                "diff": diff,
-            }
-        )
-    return out
+            out.append(
+                self._entry(href, s.change, s.cause, s.candidate, list(s.explains), flip, before)
+            )
+            before = s.candidate
+        if not d.steps:
+            out.append(self._entry(href, f"nearest: {d.result}", "", d.result, [], {}, d.result))
+        return out
+
+    def _entry(
+        self,
+        href: str,
+        change: str,
+        cause: str,
+        candidate: str,
+        explains: list[str],
+        flip: dict[str, list[float]],
+        before: str,
+    ) -> dict[str, Any]:
+        before_png, before_diff = (href + p for p in self.picture(before))
+        png, diff = (href + p for p in self.picture(candidate))
+        return {
+            "change": change,
+            "cause": cause,
+            "candidate": candidate,
+            "explains": explains,
+            "flip": flip,
+            "before": before,
+            "before_png": before_png,
+            "before_diff": before_diff,
+            "candidate_png": png,
+            "diff": diff,
+        }
 
 
 def diagnose_image(
@@ -203,7 +198,7 @@ def diagnose_image(
         scene_file, w, h, threads=1 if parallel > 1 else 0, cache=cache
     ) as render:
         d = diagnose(image, scene, render, progress=progress, parallel=parallel)
-        evidence = _write_evidence(image, d, render, folder, prefix, href)
+        evidence = _Evidence(image, d, render, folder, prefix).entries(href)
         out = d.as_dict()
         out |= {
             "short": short_reason(d, assigned),

@@ -3,9 +3,9 @@ absent, which effects switched off, which recursion depth, which scene constants
 glass ior) and which named mistakes (mistakes.json) reproduce it, effect by effect.
 
 The search renders candidates through an injected `render` (this module starts no process)
-and scores each against the image per effect (diagnose_score.py). It first decides whether the
-image is mirrored (left-right or upside down: a program that draws its columns or rows the
-wrong way round) and un-mirrors it. Then it starts from the mode that matches most pixels of
+and scores each against the image per effect (diagnose_score.py; diagnose_trials.py keeps
+them). It first decides whether the image is mirrored (left-right or upside down: a program
+that draws its columns or rows the wrong way round) and un-mirrors it. Then it starts from the mode that matches most pixels of
 the whole image, tries one switch at a time (diagnose_switches.py: a quirk toggled, an effect
 off, another depth, background or ior, a mistake added or removed), keeps the one that lowers
 the summed per-effect distance most and clearly helps some effect, and repeats with the
@@ -27,6 +27,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from compare.judge.candidate import Candidate
+from compare.judge.diagnose_memo import keep, load, record_name
 from compare.judge.diagnose_report import (
     EXPLAINED_SHARE,
     Diagnosis,
@@ -44,7 +45,6 @@ from compare.judge.diagnose_score import (
     NoFinitePixels,
     Renderer,
     Target,
-    Trials,
     check_finite,
     explained,
     objective,
@@ -58,6 +58,7 @@ from compare.judge.diagnose_switches import (
     switches,
     undone,
 )
+from compare.judge.diagnose_trials import Trials
 from compare.judge.effects import EFFECTS
 from compare.judge.images import Image
 from compare.judge.target_model import QUIRK_COUNT, TargetModel
@@ -126,7 +127,12 @@ class Search:
         findings, text = self.report(found)
         seconds = time.perf_counter() - self.t0
         self.say(f"diagnose: {found.result.name} after {len(t.scores)} renders in {seconds:.1f} s")
-        facts = {"mode_objectives": modes, "renders": len(t.scores), "seconds": seconds}
+        facts = {
+            "mode_objectives": modes,
+            "renders": len(t.scores),
+            "seconds": seconds,
+            "candidates": found.candidates,
+        }
         return diagnosis(self.scene, self.image.path, found, findings, text, facts)
 
     # --- where to begin ------------------------------------------------------------------
@@ -196,7 +202,7 @@ class Search:
         differs least from in the quirks the scene shows."""
         current = self.shallowest(self.greedy(begin))
         # Switches that explain nothing go first, so that they cannot decide the mode below.
-        current, _ = self.justified(begin, current, False)
+        current, _, _ = self.justified(begin, current, False)
         invisible = self.invisible(current)
         untested = set(range(1, QUIRK_COUNT + 1)) - set(self.quirks) - {10}
         simpler = simplest(current, invisible | untested)
@@ -207,9 +213,10 @@ class Search:
             begin = Candidate.of_mode(simpler.mode)
             self.trials.evaluate([begin])
         or_more = self.depth_or_more(simpler)
-        current, steps = self.justified(begin, simpler, or_more)
+        current, steps, path = self.justified(begin, simpler, or_more)
         or_more = or_more and current.depth(self.scene) == simpler.depth(self.scene)
-        return Found(begin, current, steps, invisible, untested, or_more, mirrored)
+        cands = {c.name: c for c in (begin, *path, current)}
+        return Found(begin, current, steps, invisible, untested, or_more, mirrored, cands)
 
     def greedy(self, current: Candidate) -> Candidate:
         """One switch at a time; later rounds retry only the switches that helped (and the
@@ -340,9 +347,10 @@ class Search:
 
     def justified(
         self, begin: Candidate, final: Candidate, or_more: bool
-    ) -> tuple[Candidate, list[Step]]:
-        """The final without every switch that makes no explained effect's pixels match, and
-        its steps from begin: a mistake is named only where it explains pixels."""
+    ) -> tuple[Candidate, list[Step], list[Candidate]]:
+        """The final without every switch that makes no explained effect's pixels match, its
+        steps from begin and the candidate after each: a mistake is named only where it
+        explains pixels."""
         while True:
             self.trials.evaluate([final])
             gained = self.gained(begin, final)
@@ -356,7 +364,7 @@ class Search:
                     f"diagnose: drop {sw.change(self.scene)}: it makes no effect's pixels match"
                 )
             final = undone(final, begin, idle, self.scene)
-        return final, self._steps(begin, path, needs, or_more)
+        return final, self._steps(begin, path, needs, or_more), [after for _, after in path]
 
     def _steps(
         self,
@@ -422,11 +430,14 @@ def diagnose(
     renders a model with, and `search_quirks` the quirks the renderer can toggle: both default
     to the renderer's attributes of those names (CandidateRenderer has them), else to none and
     SEARCH_QUIRKS; so do `grows` (the sphere growths exact matching renders) and `store`
-    (where the FLIP numbers of an image and a render are kept, diagnose_score.Store). When the switches that helped stop helping and some effect is still not
+    (diagnose_score.Store: where the FLIP numbers of an image and a render, and the
+    diagnosis of an image, are kept; an image diagnosed before is not searched again,
+    diagnose_memo.py). When the switches that helped stop helping and some effect is still not
     reproduced, every switch is tried once more (while fewer than `max_renders` renders were
     made). Nothing depends on time, so a loaded machine gives the same diagnosis, later.
     An image without one finite pixel raises NoFinitePixels before any candidate is
     rendered."""
+    t0 = time.perf_counter()
     check_finite(image)
     turns = list(turns if turns is not None else getattr(render, "turns", ()))
     quirks = tuple(
@@ -434,11 +445,22 @@ def diagnose(
         if search_quirks is not None
         else getattr(render, "search_quirks", SEARCH_QUIRKS)
     )
-    grows, store = getattr(render, "grows", ()), getattr(render, "store", None)
-    trials = Trials(Target(image, scene), render, parallel, turns, grows, store)
-    search = Search(image, scene, trials, quirks, max_renders, progress or (lambda _m: None))
+    grows, store = list(getattr(render, "grows", ())), getattr(render, "store", None)
+    say = progress or (lambda _m: None)
     if start is not None:
         starts = [start if isinstance(start, Candidate) else Candidate.from_model(start)]
     else:
         starts = [Candidate.of_mode(m) for m in MODES]
-    return search.run(starts)
+    name = None
+    if store is not None:
+        tries = {"quirks": quirks, "turns": turns, "grows": grows, "max_renders": max_renders}
+        name = record_name(image, scene, starts, tries, store.identity, __file__)
+        known = load(store, name, image, t0)
+        if known is not None:
+            say(f"diagnose: {known.result}, as an earlier search of {known.renders} renders found")
+            return known
+    trials = Trials(Target(image, scene), render, parallel, turns, grows, store)
+    found = Search(image, scene, trials, quirks, max_renders, say).run(starts)
+    if store is not None and name is not None:
+        keep(store, name, found)
+    return found

@@ -6,6 +6,7 @@ whole image.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -88,6 +89,8 @@ class Diagnosis:
     renders: int
     seconds: float
     candidate: Candidate = field(repr=False)
+    # The start, every step's candidate and the result, by name (the evidence pictures').
+    candidates: dict[str, Candidate] = field(default_factory=dict, repr=False)
 
     @property
     def exact(self) -> bool:
@@ -112,11 +115,65 @@ class Diagnosis:
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d.pop("candidate")
+        d.pop("candidates")
         d["causes"] = self.causes
         d["reason"] = self.reason()
         for k, f in self.effects.items():
             d["effects"][k]["fixed_share"] = f.fixed_share
         return d
+
+    def record(self) -> dict[str, Any]:
+        """as_dict() with the candidates, for from_record (JSON-ready)."""
+        cands = {"candidate": self.candidate, **self.candidates}
+        return {
+            **self.as_dict(),
+            "record_candidates": {k: _candidate_fields(c) for k, c in cands.items()},
+        }
+
+    @staticmethod
+    def from_record(raw: dict[str, Any]) -> Diagnosis:
+        """The Diagnosis a record() was made of (ValueError, KeyError or TypeError when it
+        is not one)."""
+        cands = {k: _candidate(v) for k, v in raw["record_candidates"].items()}
+        fields = {f.name for f in dataclasses.fields(Diagnosis)} - {"candidate", "candidates"}
+        d = {k: raw[k] for k in fields}
+        d["steps"] = [Step(**{**st, "explains": tuple(st["explains"])}) for st in d["steps"]]
+        d["effects"] = {
+            k: EffectFinding(
+                **{
+                    **{n: v for n, v in e.items() if n != "fixed_share"},
+                    "explained_by": tuple(e["explained_by"]),
+                }
+            )
+            for k, e in d["effects"].items()
+        }
+        main = cands.pop("candidate")
+        return Diagnosis(**d, candidate=main, candidates=cands)
+
+
+def _candidate_fields(c: Candidate) -> dict[str, Any]:
+    return {
+        "mode": c.mode,
+        "quirks": sorted(c.quirks),
+        "effects_off": sorted(c.effects_off),
+        "max_depth": c.max_depth,
+        "mistakes": sorted(c.mistakes),
+        "background": list(c.background) if c.background is not None else None,
+        "ior": c.ior,
+    }
+
+
+def _candidate(raw: dict[str, Any]) -> Candidate:
+    bg = raw["background"]
+    return Candidate(
+        str(raw["mode"]),
+        frozenset(int(q) for q in raw["quirks"]),
+        frozenset(str(e) for e in raw["effects_off"]),
+        None if raw["max_depth"] is None else int(raw["max_depth"]),
+        frozenset(str(m) for m in raw["mistakes"]),
+        None if bg is None else (float(bg[0]), float(bg[1]), float(bg[2])),
+        None if raw["ior"] is None else float(raw["ior"]),
+    )
 
 
 @dataclass(frozen=True)
@@ -130,6 +187,7 @@ class Found:
     untested: set[int]  # quirks the renderer cannot render
     or_more: bool  # the result's depth: every deeper limit fits as well
     mirrored: str
+    candidates: dict[str, Candidate]  # the start, each step's and the result, by name
 
 
 @dataclass(frozen=True)
@@ -274,7 +332,8 @@ def diagnosis(
     text: str,
     facts: dict[str, Any],
 ) -> Diagnosis:
-    """The record; facts: mode_objectives, renders and seconds of the search."""
+    """The record; facts: mode_objectives, renders, seconds and candidates (by name: the
+    start, each step's and the result) of the search."""
     c = found.result
     hidden = found.invisible | found.untested
     mirrored = found.mirrored
@@ -305,4 +364,5 @@ def diagnosis(
         renders=facts["renders"],
         seconds=facts["seconds"],
         candidate=c,
+        candidates=facts["candidates"],
     )

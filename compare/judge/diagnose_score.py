@@ -3,8 +3,8 @@ effect region: the share of the region's pixels that are not what the candidate 
 (exact_match.py's rule, counted quickly: a code that neither a truncating nor a rounding writer
 of the candidate's value stores), plus a smooth term for how far they are off (the mean number
 of 8-bit levels beyond one, and the region's mean colour), so that a change that moves pixels
-towards the image counts before they match. `Trials` keeps every candidate's score and judges
-the ones a claim is made of exactly, as the verdict does.
+towards the image counts before they match. diagnose_trials.Trials keeps every candidate's
+score and judges the ones a claim is made of exactly, as the verdict does.
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ import hashlib
 import importlib.metadata
 import json
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -50,7 +49,11 @@ MIRRORS = {"lr": "left-right", "ud": "upside down", "lrud": "left-right and upsi
 
 class Store(Protocol):
     """Small texts kept between runs under names that carry their inputs' hashes (the
-    render cache's derived/, through the renderer's `store`)."""
+    render cache's derived/, through the renderer's `store`). `identity` names what renders
+    the candidates (the renderer, the scene file, the size): a kept diagnosis is used only by
+    the same."""
+
+    identity: str
 
     def get(self, name: str) -> str | None: ...
 
@@ -100,11 +103,9 @@ def _levels(rgb: F32, codes: str) -> F32:
     """255 x the value an 8-bit writer stores, in the image's own encoding: linear for a PPM
     read as linear, display (sRGB) otherwise. NaN counts as 0, as the paper's PPM writer
     stores it."""
-    if codes == "linear":
-        c = np.clip(np.nan_to_num(rgb, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
-    else:
-        c = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
-    out: F32 = (c * np.float32(255.0)).astype(np.float32)
+    # fmax/fmin take NaN to 0, +inf to 1, -inf to 0; linear_to_srgb clamps so itself.
+    c = np.fmin(np.fmax(rgb, 0.0), 1.0) if codes == "linear" else linear_to_srgb(rgb)
+    out: F32 = (c * np.float32(255.0)).astype(np.float32, copy=False)
     return out
 
 
@@ -395,136 +396,3 @@ def _stored_means(text: str | None, masks: dict[str, BOOL]) -> dict[str, float] 
     except (ValueError, KeyError, TypeError):
         return None
     return means if raw.get("format") == FLIP_FORMAT else None
-
-
-class Trials:
-    """Every candidate the search tried, with its score against the target; the renders it
-    keeps (for scoring again and for FLIP) and the exact matches claims are made of."""
-
-    def __init__(
-        self,
-        target: Target,
-        render: Renderer,
-        parallel: int,
-        turns: Sequence[tuple[float, float]],
-        grows: Sequence[int],
-        store: Store | None = None,
-    ) -> None:
-        self.target, self.render, self.parallel = target, render, parallel
-        self.turns, self.grows = list(turns), list(grows)
-        self.store = store
-        self.scores: dict[Candidate, Score] = {}
-        self.kept: dict[Candidate, Image] = {}
-        self.keep: set[Candidate] = set()
-        self.exact_memo: dict[Candidate, ExactMatch] = {}
-
-    def set_test(self, rgb: F32) -> None:
-        """Judge against `rgb` from now on: every kept render is scored again, every other
-        score is dropped."""
-        self.target.set_test(rgb)
-        self.scores = {c: self.target.score(im.rgb) for c, im in self.kept.items()}
-
-    def keep_only(self, keep: set[Candidate]) -> None:
-        self.kept = {c: im for c, im in self.kept.items() if c in keep}
-        self.keep = set(keep)
-
-    def near(self, c: Candidate) -> None:
-        """The candidates scored next are c's neighbours: count them against c's render
-        (read again from the renderer's cache unless kept)."""
-        self.target.use_reference(self.centre_once(c).rgb)
-
-    def centre_once(self, c: Candidate) -> Image:
-        """c's render at pixel centres, kept or rendered (not kept for later)."""
-        return self.kept[c] if c in self.kept else self.render(c)
-
-    def evaluate(self, cands: Sequence[Candidate]) -> None:
-        todo = [c for c in dict.fromkeys(cands) if c not in self.scores]
-        if not todo:
-            return
-        with ThreadPoolExecutor(max_workers=max(1, self.parallel)) as pool:
-            # Scored as they arrive: a round's renders are never all in memory at once.
-            for c, im in zip(todo, pool.map(self.render, todo), strict=True):
-                self.target.check(c, im)
-                self.scores[c] = self.target.score(im.rgb)
-                if c in self.keep:
-                    self.kept[c] = im
-
-    def render_all(self, cands: Sequence[Candidate]) -> list[Image]:
-        with ThreadPoolExecutor(max_workers=max(1, self.parallel)) as pool:
-            return list(pool.map(self.render, cands))
-
-    def centre(self, c: Candidate) -> Image:
-        """c's render at pixel centres (kept, or rendered again: the cache has it)."""
-        if c not in self.kept:
-            self.kept[c] = self.render(c)
-        return self.kept[c]
-
-    def exact_of(self, c: Candidate) -> ExactMatch:
-        """The verdict's own judging (exact_match.py) of the image against the candidate,
-        rendered at pixel centres, with the camera turned by each turn and its spheres grown
-        by each growth: the perturbed renders the verdict judges with."""
-        if c not in self.exact_memo:
-            centre = self.centre_once(c)
-            perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
-            self.exact_memo[c] = self.target.exact(c, [centre, *self.render_all(perturbed)])
-        return self.exact_memo[c]
-
-    def exact_differing(self, c: Candidate) -> dict[str, int]:
-        return {k: e.differing for k, e in self.exact_of(c).per_effect.items()}
-
-    def per(self, c: Candidate) -> dict[str, float]:
-        return self.scores[c].per_effect()
-
-    def differing(self, c: Candidate) -> dict[str, int]:
-        return self.scores[c].differing
-
-    def whole_differing(self, c: Candidate) -> int:
-        """Pixels of the whole image (every effect) that differ from the candidate."""
-        return sum(self.scores[c].differing.values())
-
-    def whole(self, c: Candidate) -> float:
-        """The distance of the whole image: each effect weighted by its pixels."""
-        regions = self.target.regions
-        assert regions is not None
-        per = self.per(c)
-        return float(sum(per[k] * n for k, n in zip(regions.names, regions.counts, strict=True)))
-
-    def total_pixels(self) -> int:
-        assert self.target.regions is not None
-        return int(self.target.regions.counts.sum())
-
-    def allowed(self, effect: str) -> int:
-        """Differing pixels an exact match allows in this effect (as exact_match says)."""
-        return self.target.allowance[effect]
-
-    def open_effects(self, c: Candidate) -> set[str]:
-        """Effects with more pixels differing from the candidate's centre render than an exact
-        match allows."""
-        return {k for k, n in self.scores[c].differing.items() if n > self.allowed(k)}
-
-    def matched(self, c: Candidate) -> bool:
-        """Every effect within the exact-match allowance of the candidate's centre render."""
-        return not self.open_effects(c)
-
-    def fits_as_well(self, a: Candidate, b: Candidate) -> bool:
-        """a leaves no more pixels of any effect differing than b, up to the exact-match
-        allowance (both scored): the image cannot tell them apart."""
-        da, db = self.differing(a), self.differing(b)
-        return all(da[k] <= db[k] + self.allowed(k) for k in da)
-
-    def best_fixed(self, begin: Candidate, effect: str) -> float:
-        """The largest share of begin's differing pixels in `effect` that a candidate tried
-        makes match (pixel-centre renders) without more pixels of the whole image differing
-        than begin's: how near the search came."""
-        d0 = self.differing(begin)[effect]
-        if not d0:
-            return 1.0
-        limit = self.whole_differing(begin)
-        return max(
-            0.0,
-            *(
-                1 - sc.differing[effect] / d0
-                for sc in self.scores.values()
-                if sum(sc.differing.values()) <= limit
-            ),
-        )

@@ -15,16 +15,20 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import os
+import sys
 import threading
 from collections import OrderedDict
 from functools import cache
 from pathlib import Path
 from types import TracebackType
 
+from compare.files import sha256_file
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose import BASE_QUIRKS, LATER_QUIRKS
 from compare.judge.images import Image, ImageError, read_image
 from compare.judge.target_model import TargetModel
+from compare.render import models
 from compare.render.cache import RenderCache, renderer_identity
 from compare.render.jobs import RenderJob, render_one, set_key
 from compare.render.models import OFFSET_PIXELS, OFFSETS, SPHERE_ULPS, grown_scene, offset_scene
@@ -123,8 +127,8 @@ class DerivedStore:
     """diagnose's Store in the render cache's derived/ (names carry their inputs' hashes):
     a file that is not a regular one, or that cannot be read, counts as absent."""
 
-    def __init__(self, cache: RenderCache) -> None:
-        self.cache = cache
+    def __init__(self, cache: RenderCache, identity: str) -> None:
+        self.cache, self.identity = cache, identity
 
     def get(self, name: str) -> str | None:
         try:
@@ -153,7 +157,8 @@ class CandidateRenderer:
         self.scene_file = str(scene_file)
         self.width, self.height, self.threads = width, height, threads
         self.cache = cache if isinstance(cache, RenderCache) else RenderCache(cache)
-        self.store = DerivedStore(self.cache)  # read by diagnose: where FLIP numbers are kept
+        # Read by diagnose: where its FLIP numbers and diagnoses are kept, and for what.
+        self.store = DerivedStore(self.cache, self._identity())
         self._open = False
         self._lock = threading.Lock()
         # Every candidate asked for, by name (diagnose's steps name theirs), and cache use.
@@ -167,6 +172,17 @@ class CandidateRenderer:
         identity = renderer_identity("rtdemo", rtdemo_path())
         known = _renders_quirks(str(self.cache.root), identity, self.scene_file, later)
         self.search_quirks = BASE_QUIRKS + (LATER_QUIRKS if known else ())
+
+    def _identity(self) -> str:
+        """What every render of this renderer depends on: rtdemo's binary and RTDEMO_*
+        environment, the scene file, the size, and the code that makes the commands and the
+        scene copies (this module and models.py)."""
+        h = hashlib.sha256(renderer_identity("rtdemo", rtdemo_path()).encode())
+        env = sorted((k, v) for k, v in os.environ.items() if k.startswith("RTDEMO_"))
+        h.update(json.dumps([env, self.width, self.height, sha256_file(self.scene_file)]).encode())
+        for module in (sys.modules[__name__], models):
+            h.update(Path(module.__file__ or "").read_bytes())
+        return h.hexdigest()
 
     def __enter__(self) -> CandidateRenderer:
         self._open = True
