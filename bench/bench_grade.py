@@ -146,7 +146,7 @@ def grade_timed(cmd: list[str]) -> tuple[float, float, float, str]:
 
 def pair_costs() -> dict[str, float]:
     """One 640x480 pair in-process: exact match only, and the full metrics on top."""
-    from compare.apps.against import judge_against_model as judge, load, prepare
+    from compare.apps.against import judge_against_model, load, prepare
     from compare.judge.images import read_image
     from compare.judge.target_model import parse_model
     from compare.render.cache import RenderCache
@@ -156,14 +156,14 @@ def pair_costs() -> dict[str, float]:
         prepare(parse_model("classic"), SCENES / "classic.json", None, RenderCache(CLASSIC_CACHE))
     )
     test = read_image(work / "renders" / "numpy.ppm")
-    judge(test, loaded)  # the model's bounds, once per process
+    judge_against_model(test, loaded)  # the model's bounds, once per process
     t = time.process_time()
     for _ in range(5):
-        ev = judge(test, loaded)
+        ev = judge_against_model(test, loaded)
     exact = (time.process_time() - t) / 5
     wrong = read_image(next((work / "subs-classic").glob("paper_*.ppm")))
     t = time.process_time()
-    ev = judge(wrong, loaded)
+    ev = judge_against_model(wrong, loaded)
     assert ev.score is not None
     failing = time.process_time() - t
     t = time.process_time()

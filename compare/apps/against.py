@@ -146,8 +146,5 @@ def judge_against_model(
     )
 
 
-judge = judge_against_model  # the name report.py still imports; goes when it switches
-
-
 def nan_pixels(img: Image) -> int:
     return int((~np.isfinite(img.rgb)).any(-1).sum())

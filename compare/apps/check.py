@@ -236,7 +236,7 @@ def judge_case(
 
 
 def judge_against(case: CaseResult, test: Image, model: LoadedModel, *, keep: bool) -> None:
-    """Fills the case's verdict against a target model (against.judge: a demo model's exact
+    """Fills the case's verdict against a target model (against.judge_against_model: a demo model's exact
     match, Mitsuba's rubric), per effect of the model render's masks. An exact pass computes
     no FLIP and no SSIM."""
     ev = against.judge_against_model(test, model)

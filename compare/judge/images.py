@@ -255,12 +255,10 @@ def read_image(
 
 
 def write_png(path: str | Path, rgb_linear: F32) -> None:
-    """Clamped, sRGB-encoded 8-bit PNG, written atomically."""
-    from PIL import Image as PILImage
+    """Clamped, sRGB-encoded 8-bit PNG, written atomically; non-finite pixels in png.MARKER."""
+    from compare.judge.png import write_linear_png  # png.py builds on this module
 
-    data = np.round(linear_to_srgb(rgb_linear) * 255.0).astype(np.uint8)
-    with atomic_output(path) as tmp:
-        PILImage.fromarray(data, "RGB").save(tmp, format="PNG")
+    write_linear_png(path, rgb_linear)
 
 
 def write_exr(
@@ -282,4 +280,7 @@ def write_exr(
     hdr: dict[str, object] = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     hdr.update(header or {})
     with atomic_output(p) as tmp, OpenEXR.File(hdr, channels) as f:
-        f.write(str(tmp))
+        try:
+            f.write(str(tmp))
+        except RuntimeError as e:  # OpenEXR's write error (a full disk): name the file
+            raise OSError(f"{p}: cannot write: {e}") from None

@@ -5,7 +5,7 @@ with the scene and output paths as placeholders. Demo jobs run as processes (in 
 every Mitsuba job that is not cached runs in ONE `rtval reference --batch` process, since
 importing drjit/Mitsuba and warming its JIT costs seconds per process
 (bench/bench_reference_batch.py measures it). The batch process reports progress and each
-finished render as JSON lines on stdout (mitsuba_ref/batch.py).
+finished render as JSON lines on stdout (compare/cli/reference_batch.py).
 """
 
 from __future__ import annotations
