@@ -193,10 +193,49 @@ def _facts(job: RenderJob) -> dict[str, Any]:
     return {"seconds": job.seconds, "label": job.label, "command": job.command("OUT.exr")}
 
 
+_NOT_PREFIXES = ("--time-budget", "--target-stderr")  # they stop after a number not known ahead
+
+
+def _spp_free(job: RenderJob) -> tuple[str, ...] | None:
+    """The job's command without its --spp value: jobs alike in it differ only in samples."""
+    if "--spp" not in job.args or any(a in job.args for a in _NOT_PREFIXES):
+        return None
+    i = job.args.index("--spp")
+    return (job.scene, *job.args[:i], *job.args[i + 2 :])
+
+
+def _spp(job: RenderJob) -> int:
+    return int(job.args[job.args.index("--spp") + 1]) if "--spp" in job.args else 1
+
+
+def _prefix_groups(jobs: list[RenderJob]) -> list[tuple[RenderJob, list[RenderJob]]]:
+    """(the job with the most samples, the jobs alike with fewer) for each group of jobs
+    that differ only in --spp. The fewer-sample ones become --snapshot's of the first:
+    the very image of their own command, taken on its way (mitsuba_ref/reference.py)."""
+    groups: dict[object, list[RenderJob]] = {}
+    for j in jobs:
+        groups.setdefault(_spp_free(j) or j.cache_key, []).append(j)
+    out = []
+    for alike in groups.values():
+        alike.sort(key=_spp, reverse=True)
+        out.append((alike[0], alike[1:]))
+    return out
+
+
 def _run_batch(jobs: list[RenderJob], cache: RenderCache, counter: _Counter) -> None:
-    """All Mitsuba jobs in one `rtval reference --batch` process."""
+    """All Mitsuba jobs in one `rtval reference --batch` process, a job's fewer-sample
+    twins as its snapshots."""
+    groups = _prefix_groups(jobs)
+    jobs = [carrier for carrier, _ in groups]
     outs = [cache.tmp_path(j.cache_key) for j in jobs]
+    snaps = {
+        (i, _spp(s)): (s, cache.tmp_path(s.cache_key))
+        for i, (_, ss) in enumerate(groups)
+        for s in ss
+    }
     spec = {"jobs": [j.command(out)[2:] for j, out in zip(jobs, outs, strict=True)]}
+    for (i, spp), (_, path) in snaps.items():
+        spec["jobs"][i] += ["--snapshot", f"{spp}:{path}"]
     with tempfile.TemporaryDirectory(prefix="rtval-batch-") as tmp_name:
         batch_file = Path(tmp_name) / "jobs.json"
         batch_file.write_text(json.dumps(spec, indent=1))
@@ -214,12 +253,14 @@ def _run_batch(jobs: list[RenderJob], cache: RenderCache, counter: _Counter) -> 
                 failed: int | None = None
                 try:
                     for line in proc.stdout:
-                        failed = _event(line, jobs, outs, cache, counter, failed)
+                        failed = _event(line, jobs, outs, snaps, cache, counter, failed)
                     proc.wait()
                 except BaseException:
                     proc.kill()
                     proc.wait()
                     raise
+                finally:
+                    proc.stdout.close()
             if proc.returncode != 0 or failed is not None:
                 which = jobs[failed] if failed is not None else None
                 head = (
@@ -229,7 +270,7 @@ def _run_batch(jobs: list[RenderJob], cache: RenderCache, counter: _Counter) -> 
                 )
                 raise ToolError(f"{head}\n{log.read_text().strip()[-2000:]}")
         finally:
-            for out in outs:
+            for out in [*outs, *(path for _, path in snaps.values())]:
                 out.unlink(missing_ok=True)
 
 
@@ -237,6 +278,7 @@ def _event(
     line: str,
     jobs: list[RenderJob],
     outs: list[Path],
+    snaps: dict[tuple[int, int], tuple[RenderJob, Path]],
     cache: RenderCache,
     counter: _Counter,
     failed: int | None,
@@ -254,6 +296,11 @@ def _event(
         job.seconds = float(ev["seconds"])
         job.info = cache.store(job.cache_key, outs[i], _facts(job))
         counter.finished(job)
+    elif kind == "snapshot":  # a fewer-sample job's image, seconds from the carrier's start
+        snap, path = snaps[i, int(ev["spp"])]
+        snap.seconds = float(ev["seconds"])
+        snap.info = cache.store(snap.cache_key, path, _facts(snap))
+        counter.finished(snap)
     elif kind == "error":
         return i
     return failed
