@@ -26,11 +26,13 @@ test-fast: $(STAMP) test-build
 	$(MAKE) --no-print-directory lint test-cpp
 	$(PY) -m pytest -q -m "not slow"
 
-# ruff and strict mypy as pyproject.toml configures them, clang-format as demo_cpp/.clang-format.
+# ruff and strict mypy as pyproject.toml configures them, clang-format as demo_cpp/.clang-format,
+# and the tree's shape: layers import downwards only, no function over 60 lines.
 lint: $(STAMP) lint-cpp
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/mypy
+	$(PY) scripts/check_structure.py
 
 # Configured once (ninja re-runs CMake itself when a CMakeLists changes).
 $(DEV_BUILD)/build.ninja: $(STAMP)

@@ -30,7 +30,7 @@ ALLOWED = {
     },
 }
 LAYERS = ("cli", "apps", "render", "judge")
-MAX_FUNCTION_LINES = 80
+MAX_FUNCTION_LINES = 60
 
 
 def part_of(module: str) -> str:
