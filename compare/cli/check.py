@@ -7,8 +7,13 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from compare.cli.common import add_cache_argument, positive_int, size_type
+
+if TYPE_CHECKING:
+    from compare.apps.check import CaseResult, CheckSettings
+    from compare.render.foreign import RendererCommand
 
 
 def _seconds(text: str) -> float:
@@ -21,35 +26,35 @@ def _seconds(text: str) -> float:
     return v
 
 
-def run_check(args: argparse.Namespace) -> int:
-    from compare.apps import check, check_output
+def _parse_renderer(args: argparse.Namespace) -> RendererCommand | None:
+    """The --renderer command, or None for rtdemo; refuses options that need the other."""
     from compare.render import foreign
-    from scene_model.safe_paths import check_outputs_distinct
 
-    renderer = None
-    if args.renderer is not None:
-        try:
-            renderer = foreign.parse_command(args.renderer, args.renderer_name, args.output_format)
-        except foreign.TemplateError as e:
-            raise ValueError(str(e)) from None
-        if args.backends != "cpu":
-            raise ValueError("--backends applies to rtdemo only, not to --renderer")
-        if args.rtdemo:
-            raise ValueError("--rtdemo and --renderer exclude each other")
-        if args.sandbox:
-            from compare.sandbox import require_sandbox
+    if args.renderer is None:
+        if args.renderer_name or args.output_format != "exr" or args.timeout or args.sandbox:
+            raise ValueError(
+                "--renderer-name, --output-format, --timeout and --sandbox need --renderer"
+            )
+        return None
+    try:
+        renderer = foreign.parse_command(args.renderer, args.renderer_name, args.output_format)
+    except foreign.TemplateError as e:
+        raise ValueError(str(e)) from None
+    if args.backends != "cpu":
+        raise ValueError("--backends applies to rtdemo only, not to --renderer")
+    if args.rtdemo:
+        raise ValueError("--rtdemo and --renderer exclude each other")
+    if args.sandbox:
+        from compare.sandbox import require_sandbox
 
-            require_sandbox()  # refuses, saying why, where no sandbox can be made
-    elif args.renderer_name or args.output_format != "exr" or args.timeout or args.sandbox:
-        raise ValueError(
-            "--renderer-name, --output-format, --timeout and --sandbox need --renderer"
-        )
-    html_page = Path(args.html) / "index.html" if args.html else None
-    check_outputs_distinct(
-        [("--json", args.json), ("--junit", args.junit), ("--html", html_page)],
-        [("--scenes", s) for s in args.scenes],
-    )
-    settings = check.CheckSettings(
+        require_sandbox()  # refuses, saying why, where no sandbox can be made
+    return renderer
+
+
+def _settings(args: argparse.Namespace, renderer: RendererCommand | None) -> CheckSettings:
+    from compare.apps.check import CheckSettings
+
+    return CheckSettings(
         scenes=args.scenes,
         baseline_dir=Path(args.baseline),
         size=args.size,
@@ -65,7 +70,12 @@ def run_check(args: argparse.Namespace) -> int:
         cache_dir=Path(args.cache) if args.cache else None,
         keep_images=bool(args.html),
     )
-    results = check.run_check(settings, progress=lambda m: print(m, file=sys.stderr))
+
+
+def _write_outputs(args: argparse.Namespace, results: list[CaseResult]) -> None:
+    """The table on stdout, then each file output asked for, then the CI step summary."""
+    from compare.apps import check_output
+
     print(check_output.table(results))
     if args.json:
         check_output.write_json(results, Path(args.json))
@@ -79,36 +89,55 @@ def run_check(args: argparse.Namespace) -> int:
     summary = os.environ.get("GITHUB_STEP_SUMMARY")
     if summary:
         check_output.append_step_summary(results, Path(summary))
+
+
+def run_check(args: argparse.Namespace) -> int:
+    from compare.apps import check
+    from scene_model.safe_paths import check_outputs_distinct
+
+    renderer = _parse_renderer(args)
+    html_page = Path(args.html) / "index.html" if args.html else None
+    check_outputs_distinct(
+        [("--json", args.json), ("--junit", args.junit), ("--html", html_page)],
+        [("--scenes", s) for s in args.scenes],
+    )
+    results = check.run_check(
+        _settings(args, renderer), progress=lambda m: print(m, file=sys.stderr)
+    )
+    _write_outputs(args, results)
     updated = [r.name for r in results if r.updated]
     if updated:
         print(f"updated baselines: {', '.join(updated)}", file=sys.stderr)
     return check.exit_code(results)
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    from compare.apps.check import DEFAULT_MODES, DEFAULT_SCENES
-    from compare.render.foreign import OUTPUT_FORMATS
+_DESCRIPTION = (
+    "Renders the scene set with rtdemo (every backend and mode asked for) or "
+    "with any program (--renderer) and compares each render with its baseline under "
+    "per-scene tolerances (BASELINE/tolerances.json), or with --against MODEL against a "
+    "target model (demo models: exact match). A failure names the scene and the effect. "
+    "A missing baseline fails; so does a renderer that exits non-zero, times out, or "
+    "writes no image, an unreadable one or one of the wrong size. Exit 0 pass, 1 warn, "
+    "2 fail, 1 when rtdemo cannot render a model, 4 an unreadable tolerances.json or an "
+    "output that is not a regular file, 64 bad arguments (also an output naming a scene "
+    "or another output)."
+)
 
-    p = sub.add_parser(
-        "check",
-        help="regression check of rtdemo or any renderer against baselines or a target model",
-        description="Renders the scene set with rtdemo (every backend and mode asked for) or "
-        "with any program (--renderer) and compares each render with its baseline under "
-        "per-scene tolerances (BASELINE/tolerances.json), or with --against MODEL against a "
-        "target model (demo models: exact match). A failure names the scene and the effect. "
-        "A missing baseline fails; so does a renderer that exits non-zero, times out, or "
-        "writes no image, an unreadable one or one of the wrong size. Exit 0 pass, 1 warn, "
-        "2 fail, 1 when rtdemo cannot render a model, 4 an unreadable tolerances.json or an "
-        "output that is not a regular file, 64 bad arguments (also an output naming a scene "
-        "or another output).",
-        epilog="Renderer placeholders: {scene} (scene JSON), {scene_xml} (its Mitsuba XML "
-        "export), {out} (the image to write), {width}, {height}, {spp}, {mode} (with it, one "
-        "case per --modes entry); {width}x{height} is the scene's own size unless --size says "
-        "otherwise. Example: rtval check --renderer 'python3 my_tracer.py "
-        "{scene} -o {out} --size {width}x{height}' --update. Baselines: "
-        "BASELINE/<renderer-name>/<scene>/<mode or default>.exr (rtdemo: "
-        "BASELINE/<scene>/<mode>.exr).",
-    )
+_EPILOG = (
+    "Renderer placeholders: {scene} (scene JSON), {scene_xml} (its Mitsuba XML "
+    "export), {out} (the image to write), {width}, {height}, {spp}, {mode} (with it, one "
+    "case per --modes entry); {width}x{height} is the scene's own size unless --size says "
+    "otherwise. Example: rtval check --renderer 'python3 my_tracer.py "
+    "{scene} -o {out} --size {width}x{height}' --update. Baselines: "
+    "BASELINE/<renderer-name>/<scene>/<mode or default>.exr (rtdemo: "
+    "BASELINE/<scene>/<mode>.exr)."
+)
+
+
+def _add_case_options(p: argparse.ArgumentParser) -> None:
+    """What is rendered and what it is compared with."""
+    from compare.apps.check import DEFAULT_MODES, DEFAULT_SCENES
+
     p.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), help="scene files")
     p.add_argument(
         "--modes",
@@ -133,11 +162,20 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--update", action="store_true", help="rewrite new or failing baselines, say which"
     )
+
+
+def _add_output_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
     p.add_argument(
         "--junit", metavar="OUT.xml", help="write JUnit XML (one testcase per case and effect)"
     )
     p.add_argument("--html", metavar="DIR", help="write a page for the failures to DIR/index.html")
+
+
+def _add_renderer_options(p: argparse.ArgumentParser) -> None:
+    """Which program renders: rtdemo, or any command line, and how it is run."""
+    from compare.render.foreign import OUTPUT_FORMATS
+
     p.add_argument(
         "--rtdemo", default=None, help="the rtdemo executable to check (default: the installed one)"
     )
@@ -167,6 +205,18 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "(bubblewrap: no network, nothing of yours visible but the files its command names, "
         "copied; docs/sandbox.md); --timeout is its wall time (default 600 s)",
     )
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "check",
+        help="regression check of rtdemo or any renderer against baselines or a target model",
+        description=_DESCRIPTION,
+        epilog=_EPILOG,
+    )
+    _add_case_options(p)
+    _add_output_options(p)
+    _add_renderer_options(p)
     p.add_argument(
         "--against",
         metavar="MODEL",
