@@ -4,9 +4,10 @@
 The images are the numpy classic program and its student-style variants
 (tests/student_variants.py), written as truncating PPMs; each is diagnosed by the command a
 user types (`rtval diagnose IMG --scene classic --json F --cache C`), timed as a whole
-process: once into an empty render cache (cold: every candidate rendered, the modes too), then
-again with the cache the first run left (cached: every candidate read). Prints a table and
-writes bench/results/diagnose.json.
+process: once into an empty render cache (cold: every candidate rendered, the modes too); then
+an image one byte away with the cache the first run left (cached: every candidate read, the
+search made again); then the first image again (again: its kept diagnosis read,
+diagnose_memo.py). Prints a table and writes bench/results/diagnose.json.
 
     python bench/bench_diagnose.py [--variants wrong_eta_leaving,...|all] [--sizes 640x480,1200x800]
 """
@@ -61,9 +62,15 @@ def _variant(size: str, variant: str, tmp: Path) -> list[dict[str, Any]]:
     folder = tmp / size / variant
     folder.mkdir(parents=True)
     image = render_variant(load_scene(SCENES / "classic.json"), variant, w, h, folder / "i.ppm")
+    # The same program's image with one byte changed: every candidate is cached, but the
+    # diagnosis kept for the first image is not this image's (diagnose_memo.py).
+    twin = folder / "twin.ppm"
+    data = bytearray(image.read_bytes())
+    data[-1] ^= 1
+    twin.write_bytes(bytes(data))
     out = []
-    for run in ("cold", "cached"):
-        r = _diagnose(image, folder / "cache", folder / f"{run}.json")
+    for run, im in (("cold", image), ("cached", twin), ("again", image)):
+        r = _diagnose(im, folder / "cache", folder / f"{run}.json")
         target = TARGETS.get((size, run))
         out.append({"size": size, "variant": variant, "run": run, "target_s": target,
                     "expected": VARIANTS.get(variant, ""), **r})  # fmt: skip
