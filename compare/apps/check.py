@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import tempfile
 import time
 from collections.abc import Callable
@@ -34,6 +35,7 @@ import numpy as np
 
 from compare.apps import against
 from compare.apps.against import LoadedModel
+from compare.apps.output_folders import own_folder
 from compare.judge.effects import BOOL, EFFECTS
 from compare.judge.evaluate import evaluate_pair
 from compare.judge.images import F32, Image, ImageError, image_size, read_image, write_exr
@@ -443,11 +445,14 @@ def _one_case(
         case.overhead_seconds = time.perf_counter() - start - case.seconds
         return case
     case.test_encoding = test.encoding
-    ref = (
-        model.reference.rgb if model else (read_image(baseline).rgb if baseline.is_file() else None)
-    )
+    try:
+        ref = model.reference.rgb if model else stored_baseline(baseline)
+    except ImageError as e:
+        ref, missing = None, f"unreadable baseline: {e}"
+    else:
+        missing = f"no baseline {baseline}"
     if ref is None:
-        case.status, case.reasons = "fail", [f"{case.label}: no baseline {baseline}"]
+        case.status, case.reasons = "fail", [f"{case.label}: {missing}"]
         case.failed_effects = ["baseline"]
     elif ref.shape != test.rgb.shape:
         case.status = "fail"
@@ -462,14 +467,30 @@ def _one_case(
         masks = scene_masks(Path(scene_path), size, cache)
         judge_case(case, ref, test.rgb, tol, masks, keep=settings.keep_images)
     if settings.update and case.status == "fail":
-        baseline.parent.mkdir(parents=True, exist_ok=True)
-        # Colour only: the AOVs are not compared and would triple the size. rtdemo's header
-        # (mode, quirks, ray counts) says what made the baseline.
-        header = test.header if cmd is None else None
-        write_exr(baseline, np.asarray(test.rgb, np.float32), header=header)
+        _write_baseline(settings.baseline_dir, baseline, test, header=cmd is None)
         case.updated = True
     case.overhead_seconds = time.perf_counter() - start - case.seconds
     return case
+
+
+def stored_baseline(baseline: Path) -> F32 | None:
+    """A baseline's colour; None when nothing is there. Something that is there but no
+    readable image (a link to /dev/zero, a FIFO, a truncated EXR) is an ImageError naming
+    it, never "no baseline"."""
+    if not os.path.lexists(baseline):
+        return None
+    return read_image(baseline).rgb
+
+
+def _write_baseline(baseline_dir: Path, baseline: Path, test: Image, *, header: bool) -> None:
+    """Writes a new baseline. The folders below --baseline are made by rtval and never a
+    planted link (own_folder); the file replaces only a regular file (write_exr)."""
+    baseline_dir.mkdir(parents=True, exist_ok=True)
+    own_folder(baseline_dir, *baseline.parent.relative_to(baseline_dir).parts)
+    # Colour only: the AOVs are not compared and would triple the size. rtdemo's header
+    # (mode, quirks, ray counts) says what made the baseline.
+    rgb = np.asarray(test.rgb, np.float32)
+    write_exr(baseline, rgb, header=test.header if header else None)
 
 
 def exit_code(results: list[CaseResult]) -> int:

@@ -58,7 +58,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args))
+        code = int(args.func(args))
+        sys.stdout.flush()  # here, not at exit, so that a reader gone is a BrokenPipeError below
+        return code
+    except BrokenPipeError:  # `rtval ... | head`: the reader has gone; say nothing more
+        # (before OSError, of which it is one)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141  # as a shell reports a command ended by SIGPIPE
     except SceneError as e:
         print(f"rtval: error: {e}", file=sys.stderr)
         return EXIT_SCENE
@@ -74,9 +80,6 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("rtval: interrupted", file=sys.stderr)
         return 130
-    except BrokenPipeError:  # `rtval ... | head`: the reader has gone; say nothing more
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 141  # as a shell reports a command ended by SIGPIPE
 
 
 if __name__ == "__main__":
