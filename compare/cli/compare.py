@@ -5,25 +5,18 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from compare.cli.common import add_cache_argument
 
+if TYPE_CHECKING:
+    from compare.apps.compare_pair import Comparison
+    from compare.judge.tolerances import Tolerances
 
-def run_compare(args: argparse.Namespace) -> int:
-    from compare.apps.compare_pair import (
-        load_mask,
-        run_against,
-        run_comparison,
-        table,
-        write_outputs,
-    )
-    from compare.judge.images import image_size, read_image
-    from compare.judge.metrics import SizeMismatch
-    from compare.judge.tolerances import EXIT_SIZE, Tolerances
-    from compare.render.cache import RenderCache
-    from compare.render.progress import Progress
+
+def _image_paths(args: argparse.Namespace) -> tuple[str | None, str]:
+    """(REF or None with --against, TEST), once the outputs are known to overwrite no input."""
     from scene_model.safe_paths import check_outputs_distinct
-    from scene_model.scene import load_scene
 
     if args.against:
         if len(args.images) != 1 or not args.scene:
@@ -42,7 +35,13 @@ def run_compare(args: argparse.Namespace) -> int:
             ("--aovs", args.aovs),
         ],
     )
-    tol = Tolerances(
+    return ref_path, test_path
+
+
+def _tolerances(args: argparse.Namespace) -> Tolerances:
+    from compare.judge.tolerances import Tolerances
+
+    return Tolerances(
         fail=args.fail,
         failpercent=args.failpercent,
         hardfail=args.hardfail,
@@ -51,36 +50,68 @@ def run_compare(args: argparse.Namespace) -> int:
         min_ssim=args.min_ssim,
         max_flip=args.max_flip,
     )
+
+
+def _judge_against(args: argparse.Namespace, test_path: str, tol: Tolerances) -> Comparison:
+    from compare.apps.compare_pair import load_mask, run_against
+    from compare.judge.images import read_image
+    from compare.render.cache import RenderCache
+    from compare.render.progress import Progress
+
+    test = read_image(test_path, encoding=args.test_encoding)
+    mask = load_mask(args.mask, test.shape) if args.mask else None
+    return run_against(
+        test,
+        args.against,
+        Path(args.scene),
+        RenderCache(args.cache),
+        tolerances=tol,
+        mask=mask,
+        progress=Progress(sys.stderr),
+    )
+
+
+def _judge_pair(
+    args: argparse.Namespace, ref_path: str, test_path: str, tol: Tolerances
+) -> Comparison | None:
+    """REF against TEST; None (said on stderr) when their headers give different sizes."""
+    from compare.apps.compare_pair import load_mask, run_comparison
+    from compare.judge.images import image_size, read_image
+    from scene_model.scene import load_scene
+
+    # Sizes from the headers first: a mismatch costs no decoding (two 8192^2 EXRs or a
+    # tiny PNG declaring 9400^2 pixels would otherwise take gigabytes before the refusal).
+    ref_size, test_size = image_size(ref_path), image_size(test_path)
+    if ref_size != test_size:
+        print(
+            f"rtval: size mismatch: reference {ref_path} is {ref_size[1]}x{ref_size[0]}, "
+            f"test {test_path} is {test_size[1]}x{test_size[0]} (never resampled)",
+            file=sys.stderr,
+        )
+        return None
+    ref = read_image(ref_path, encoding=args.ref_encoding)
+    test = read_image(test_path, encoding=args.test_encoding, expected_size=ref.shape)
+    mask = load_mask(args.mask, ref.shape) if args.mask else None
+    scene = load_scene(args.scene) if args.scene else None
+    aovs = read_image(args.aovs) if args.aovs else None
+    return run_comparison(ref, test, tolerances=tol, mask=mask, scene=scene, aovs=aovs)
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    from compare.apps.compare_pair import table, write_outputs
+    from compare.judge.metrics import SizeMismatch
+    from compare.judge.tolerances import EXIT_SIZE
+
+    ref_path, test_path = _image_paths(args)
+    tol = _tolerances(args)
     try:
         if ref_path is None:
-            test = read_image(test_path, encoding=args.test_encoding)
-            mask = load_mask(args.mask, test.shape) if args.mask else None
-            result = run_against(
-                test,
-                args.against,
-                Path(args.scene),
-                RenderCache(args.cache),
-                tolerances=tol,
-                mask=mask,
-                progress=Progress(sys.stderr),
-            )
+            result = _judge_against(args, test_path, tol)
         else:
-            # Sizes from the headers first: a mismatch costs no decoding (two 8192^2 EXRs or a
-            # tiny PNG declaring 9400^2 pixels would otherwise take gigabytes before the refusal).
-            ref_size, test_size = image_size(ref_path), image_size(test_path)
-            if ref_size != test_size:
-                print(
-                    f"rtval: size mismatch: reference {ref_path} is {ref_size[1]}x{ref_size[0]}, "
-                    f"test {test_path} is {test_size[1]}x{test_size[0]} (never resampled)",
-                    file=sys.stderr,
-                )
+            pair = _judge_pair(args, ref_path, test_path, tol)
+            if pair is None:
                 return EXIT_SIZE
-            ref = read_image(ref_path, encoding=args.ref_encoding)
-            test = read_image(test_path, encoding=args.test_encoding, expected_size=ref.shape)
-            mask = load_mask(args.mask, ref.shape) if args.mask else None
-            scene = load_scene(args.scene) if args.scene else None
-            aovs = read_image(args.aovs) if args.aovs else None
-            result = run_comparison(ref, test, tolerances=tol, mask=mask, scene=scene, aovs=aovs)
+            result = pair
     except SizeMismatch as e:
         print(f"rtval: {e}", file=sys.stderr)
         return EXIT_SIZE
@@ -90,16 +121,8 @@ def run_compare(args: argparse.Namespace) -> int:
     return result.verdict.exit_code
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser(
-        "compare",
-        help="metrics and a verdict for two images (EXR, PNG, PPM, PFM)",
-        description="Compares TEST against REF: SSIM, FLIP, PSNR, RMSE, MAE, relative MSE, "
-        "max error, pixels over threshold, NaN/Inf, each in a stated space; "
-        "per effect with --scene. With --against MODEL --scene S, TEST alone is judged "
-        "against the model rendered at TEST's size (demo models: exact match). "
-        "Exit 0 pass, 1 warn, 2 fail, 3 size mismatch, 4 unreadable input.",
-    )
+def _add_image_options(p: argparse.ArgumentParser) -> None:
+    """The images, where they come from and what is written about them."""
     p.add_argument("images", nargs="+", metavar="IMAGE", help="REF TEST, or TEST with --against")
     p.add_argument(
         "--against",
@@ -127,6 +150,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--scene", metavar="SCENE.json", help="add per-effect metrics (masks from id/depth AOVs)"
     )
     p.add_argument("--aovs", metavar="FILE.exr", help="take the id/depth AOVs from this EXR")
+
+
+def _add_tolerance_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("tolerances (per-pixel error = largest display-channel difference)")
     g.add_argument("--fail", type=float, default=0.01, help="failing pixel error (default 0.01)")
     g.add_argument(
@@ -147,6 +173,20 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     g.add_argument("--min-ssim", type=float, default=None, help="fail below this SSIM")
     g.add_argument("--max-flip", type=float, default=None, help="fail above this mean LDR FLIP")
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "compare",
+        help="metrics and a verdict for two images (EXR, PNG, PPM, PFM)",
+        description="Compares TEST against REF: SSIM, FLIP, PSNR, RMSE, MAE, relative MSE, "
+        "max error, pixels over threshold, NaN/Inf, each in a stated space; "
+        "per effect with --scene. With --against MODEL --scene S, TEST alone is judged "
+        "against the model rendered at TEST's size (demo models: exact match). "
+        "Exit 0 pass, 1 warn, 2 fail, 3 size mismatch, 4 unreadable input.",
+    )
+    _add_image_options(p)
+    _add_tolerance_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no table on stdout")
     add_cache_argument(p)
     p.set_defaults(func=run_compare)
