@@ -4,17 +4,63 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from compare.cli.common import positive_int
 
+if TYPE_CHECKING:
+    from compare.judge.images import Image
+    from compare.judge.ztest import ZTestResult
 
-def run_ztest(args: argparse.Namespace) -> int:
+
+def _size_mismatch(ref: tuple[int, int], test: tuple[int, int]) -> None:
+    print(
+        f"rtval: size mismatch: reference {ref[1]}x{ref[0]}, test {test[1]}x{test[0]}",
+        file=sys.stderr,
+    )
+
+
+def _load_pair(args: argparse.Namespace) -> tuple[Image, Image] | None:
+    """REF (with its variance channels) and TEST; None (said on stderr) when sizes differ."""
+    from compare.judge.images import ImageError, image_size, read_image
+
+    ref_size, test_size = image_size(args.ref), image_size(args.test)  # before decoding
+    if ref_size != test_size:
+        _size_mismatch(ref_size, test_size)
+        return None
+    ref = read_image(args.ref)
+    test = read_image(args.test)
+    if not all(f"var.{c}" in ref.aovs for c in "RGB"):
+        raise ImageError(
+            f"{args.ref}: no var.R/var.G/var.B channels: render the reference with "
+            "`rtval reference --spp N` (N >= 2), which stores per-sample variance"
+        )
+    if ref.shape != test.shape:
+        _size_mismatch(ref.shape, test.shape)
+        return None
+    return ref, test
+
+
+def _write_json(args: argparse.Namespace, result: ZTestResult, failing: int, spp: int) -> None:
     import json
 
+    from compare.files import write_atomic
+
+    record = {
+        "passed": result.passed,
+        "pass_fraction": result.pass_fraction,
+        "failing_pixels": failing,
+        "alpha": args.alpha,
+        "alpha_sidak": result.alpha_sidak,
+        "test_spp": spp,
+    }
+    write_atomic(args.json, json.dumps(record, indent=2) + "\n")
+
+
+def run_ztest(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from compare.files import write_atomic
-    from compare.judge.images import ImageError, image_size, read_image, write_exr
+    from compare.judge.images import write_exr
     from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_SIZE
     from compare.judge.ztest import z_test
     from scene_model.safe_paths import check_outputs_distinct
@@ -25,28 +71,10 @@ def run_ztest(args: argparse.Namespace) -> int:
     )
     if not (0 < args.alpha < 1):  # also refuses NaN
         raise ValueError(f"--alpha: expected a number between 0 and 1, got {args.alpha}")
-    ref_size, test_size = image_size(args.ref), image_size(args.test)  # before decoding
-    if ref_size != test_size:
-        print(
-            f"rtval: size mismatch: reference {ref_size[1]}x{ref_size[0]}, test "
-            f"{test_size[1]}x{test_size[0]}",
-            file=sys.stderr,
-        )
+    pair = _load_pair(args)
+    if pair is None:
         return EXIT_SIZE
-    ref = read_image(args.ref)
-    test = read_image(args.test)
-    if not all(f"var.{c}" in ref.aovs for c in "RGB"):
-        raise ImageError(
-            f"{args.ref}: no var.R/var.G/var.B channels: render the reference with "
-            "`rtval reference --spp N` (N >= 2), which stores per-sample variance"
-        )
-    if ref.shape != test.shape:
-        print(
-            f"rtval: size mismatch: reference {ref.shape[1]}x{ref.shape[0]}, test "
-            f"{test.shape[1]}x{test.shape[0]}",
-            file=sys.stderr,
-        )
-        return EXIT_SIZE
+    ref, test = pair
     spp = args.test_spp or int(test.header.get("rtval.spp", "0") or 0)
     if spp < 1:
         raise ValueError(f"{args.test}: header has no rtval.spp; give --test-spp N")
@@ -59,21 +87,7 @@ def run_ztest(args: argparse.Namespace) -> int:
         f"(alpha {args.alpha}, test spp {spp}): {'PASS' if result.passed else 'FAIL'}"
     )
     if args.json:
-        write_atomic(
-            args.json,
-            json.dumps(
-                {
-                    "passed": result.passed,
-                    "pass_fraction": result.pass_fraction,
-                    "failing_pixels": failing,
-                    "alpha": args.alpha,
-                    "alpha_sidak": result.alpha_sidak,
-                    "test_spp": spp,
-                },
-                indent=2,
-            )
-            + "\n",
-        )
+        _write_json(args, result, failing, spp)
     if not result.passed and args.pvalue_image:
         write_exr(
             args.pvalue_image,
