@@ -71,6 +71,35 @@ def _label(text: str) -> str:
     return text
 
 
+def _add_test_image_options(p: argparse.ArgumentParser) -> None:
+    """An image rendered elsewhere, graded in the demo's place."""
+    p.add_argument(
+        "--test-image",
+        metavar="IMAGE",
+        help="grade this render (EXR, PNG, PPM, PFM) in the demo's place",
+    )
+    p.add_argument(
+        "--against",
+        metavar="MODEL",
+        default=None,
+        help="with --test-image: the model it was asked to implement (default classic); the "
+        "report gives its verdict against that model and against Mitsuba side by side",
+    )
+    p.add_argument(
+        "--label",
+        type=_label,
+        default=None,
+        help=f"name of the --test-image renderer in the report (one line, at most {MAX_LABEL} "
+        "characters)",
+    )
+    p.add_argument(
+        "--test-encoding",
+        choices=("srgb", "linear"),
+        default=None,
+        help="8-bit encoding of --test-image (default: PNG srgb, PPM linear)",
+    )
+
+
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser(
         "report",
@@ -99,31 +128,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         metavar="WxH",
         help="override the camera's image size (each side at least 32: SSIM's window)",
     )
-    p.add_argument(
-        "--test-image",
-        metavar="IMAGE",
-        help="grade this render (EXR, PNG, PPM, PFM) in the demo's place",
-    )
-    p.add_argument(
-        "--against",
-        metavar="MODEL",
-        default=None,
-        help="with --test-image: the model it was asked to implement (default classic); the "
-        "report gives its verdict against that model and against Mitsuba side by side",
-    )
-    p.add_argument(
-        "--label",
-        type=_label,
-        default=None,
-        help=f"name of the --test-image renderer in the report (one line, at most {MAX_LABEL} "
-        "characters)",
-    )
-    p.add_argument(
-        "--test-encoding",
-        choices=("srgb", "linear"),
-        default=None,
-        help="8-bit encoding of --test-image (default: PNG srgb, PPM linear)",
-    )
+    _add_test_image_options(p)
     p.add_argument(
         "--jobs", type=positive_int, default=1, help="renders run in parallel (default 1)"
     )
