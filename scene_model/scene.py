@@ -255,8 +255,8 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not valid JSON")
 
 
-def parse_scene(text: str, source: str = "<string>") -> Scene:
-    """Parses and validates scene JSON text; ``source`` names it in errors."""
+def _decode_json(text: str, source: str) -> Any:
+    """The JSON value of ``text``, refusing what the C++ loader would read differently."""
     # RFC 8259 lets a parser ignore a leading byte order mark; the C++ loader (nlohmann
     # json) skips it, so this one does too: both accept the same files.
     text = text.removeprefix(_BOM)
@@ -268,14 +268,17 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
             f"{source}: invalid JSON: nested {depth} levels deep, at most {MAX_NESTING} allowed"
         )
     try:
-        root = json.loads(text, parse_constant=_reject_constant, parse_int=_parse_int)
+        return json.loads(text, parse_constant=_reject_constant, parse_int=_parse_int)
     except json.JSONDecodeError as e:
         raise SceneError(
             f"{source}: invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}"
         ) from None
     except ValueError as e:
         raise SceneError(f"{source}: invalid JSON: {e}") from None
-    c = _Checker(source)
+
+
+def _parse_header(root: Any, c: _Checker) -> str:
+    """Checks the root's keys and format; returns the scene's name."""
     if not isinstance(root, dict):
         raise c.fail("", "expected a JSON object")
     c.only_keys(
@@ -292,15 +295,10 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
     name = c.string(root["name"], "name")
     if not _NAME_RULE.fullmatch(name):
         raise c.fail("name", "expected a name of 1-64 characters [a-z0-9_-]", name)
-    description = c.string(root["description"], "description") if "description" in root else ""
-    camera = _parse_camera(root["camera"], c) if "camera" in root else Camera()
-    background = (
-        c.triple(root["background"], "background", ">= 0", _non_negative)
-        if "background" in root
-        else (2.0, 2.0, 2.0)
-    )
-    max_depth = c.integer(root["max_depth"], "max_depth", 0, 64) if "max_depth" in root else 5
-    bias = c.number(root["bias"], "bias", "> 0", lambda f: f > 0) if "bias" in root else 1e-4
+    return name
+
+
+def _parse_spheres(root: dict[str, Any], c: _Checker) -> tuple[Sphere, ...]:
     if "spheres" not in root:
         raise c.fail("spheres", "missing; expected an array of spheres")
     if not isinstance(root["spheres"], list):
@@ -313,9 +311,26 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
             raise c.fail(f"spheres[{i}].name", f'expected a unique name; "{s.name}" is used twice')
         seen.add(s.name)
         spheres.append(s)
+    return tuple(spheres)
+
+
+def parse_scene(text: str, source: str = "<string>") -> Scene:
+    """Parses and validates scene JSON text; ``source`` names it in errors."""
+    root = _decode_json(text, source)
+    c = _Checker(source)
+    name = _parse_header(root, c)
+    description = c.string(root["description"], "description") if "description" in root else ""
+    camera = _parse_camera(root["camera"], c) if "camera" in root else Camera()
+    background = (
+        c.triple(root["background"], "background", ">= 0", _non_negative)
+        if "background" in root
+        else (2.0, 2.0, 2.0)
+    )
+    max_depth = c.integer(root["max_depth"], "max_depth", 0, 64) if "max_depth" in root else 5
+    bias = c.number(root["bias"], "bias", "> 0", lambda f: f > 0) if "bias" in root else 1e-4
     return Scene(
         name=name,
-        spheres=tuple(spheres),
+        spheres=_parse_spheres(root, c),
         camera=camera,
         background=background,
         max_depth=max_depth,
