@@ -122,6 +122,54 @@ def _write_xml(scene: Scene, folder: Path, spp: int) -> Path:
     return path
 
 
+def _values(
+    cmd: RendererCommand,
+    scene: Scene,
+    scene_file: Path,
+    size: tuple[int, int],
+    spp: int,
+    mode: str,
+    out: Path,
+) -> dict[str, str]:
+    """What each placeholder stands for; {scene_xml} is written into `out`'s folder."""
+    width, height = size
+    values = {
+        "scene": str(Path(scene_file).resolve()),
+        "out": str(out),
+        "width": str(width),
+        "height": str(height),
+        "spp": str(spp),
+        "mode": mode,
+        "scene_xml": "",
+    }
+    if cmd.uses_xml:
+        sized = dataclasses.replace(
+            scene, camera=dataclasses.replace(scene.camera, width=width, height=height)
+        )
+        values["scene_xml"] = str(_write_xml(sized, out.parent, spp))
+    return values
+
+
+def _run_sandboxed(
+    cmd: RendererCommand,
+    values: dict[str, str],
+    out: Path,
+    size: tuple[int, int],
+    timeout: float | None,
+) -> tuple[float, list[str]]:
+    """Runs the renderer in the sandbox (compare/render/foreign_sandboxed.py) and moves its
+    image to `out`; (seconds, the command it ran)."""
+    from compare.render.foreign_sandboxed import SandboxedRenderFailed, render_sandboxed
+
+    try:
+        kept, seconds, argv = render_sandboxed(list(cmd.words), values, out.name, size, timeout)
+    except SandboxedRenderFailed as e:
+        raise RenderFailed(str(e)) from None
+    shutil.move(kept, out)
+    kept.parent.rmdir()
+    return seconds, argv
+
+
 def render(
     cmd: RendererCommand,
     *,
@@ -139,33 +187,10 @@ def render(
     size came from ("--size", "baseline", "scene"), for the advice on a wrongly sized image."""
     width, height = size
     with tempfile.TemporaryDirectory(prefix="rtval-render-") as tmp:
-        folder = Path(tmp)
-        out = folder / f"out.{cmd.output_format}"
-        values = {
-            "scene": str(Path(scene_file).resolve()),
-            "out": str(out),
-            "width": str(width),
-            "height": str(height),
-            "spp": str(spp),
-            "mode": mode,
-            "scene_xml": "",
-        }
-        if cmd.uses_xml:
-            sized = dataclasses.replace(
-                scene, camera=dataclasses.replace(scene.camera, width=width, height=height)
-            )
-            values["scene_xml"] = str(_write_xml(sized, folder, spp))
-        if sandbox:  # compare/render/foreign_sandboxed.py
-            from compare.render.foreign_sandboxed import SandboxedRenderFailed, render_sandboxed
-
-            try:
-                kept, seconds, argv = render_sandboxed(
-                    list(cmd.words), values, out.name, size, timeout
-                )
-            except SandboxedRenderFailed as e:
-                raise RenderFailed(str(e)) from None
-            shutil.move(kept, out)
-            kept.parent.rmdir()
+        out = Path(tmp) / f"out.{cmd.output_format}"
+        values = _values(cmd, scene, scene_file, size, spp, mode, out)
+        if sandbox:
+            seconds, argv = _run_sandboxed(cmd, values, out, size, timeout)
             shown, tail = shlex.join(argv), ""
         else:
             argv = [_FIELD.sub(lambda m: values[m.group(1)], w) for w in cmd.words]
@@ -185,9 +210,15 @@ def render(
         return ForeignRender(image, seconds, argv)
 
 
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
 def _run_plain(argv: list[str], shown: str, out: Path, timeout: float | None) -> tuple[float, str]:
     """Runs the renderer in its own process group; (seconds, the end of its stderr)."""
     start = time.perf_counter()
+    # A stop signal is held until the renderer is ours to kill: raised inside Popen, it
+    # would leave a renderer that no one knows running (in its own session, out of reach).
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
     try:
         proc = subprocess.Popen(
             argv,
@@ -195,13 +226,18 @@ def _run_plain(argv: list[str], shown: str, out: Path, timeout: float | None) ->
             stdout=subprocess.DEVNULL,
             stderr=subprocess.PIPE,
             start_new_session=True,  # its own process group: a timeout kills its children
+            preexec_fn=lambda: signal.pthread_sigmask(signal.SIG_SETMASK, held),
         )
-    except OSError as e:
-        raise RenderFailed(f"cannot start {shown}: {e.strerror or e}") from None
+    except BaseException as e:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        if isinstance(e, OSError):
+            raise RenderFailed(f"cannot start {shown}: {e.strerror or e}") from None
+        raise
     assert proc.stderr is not None
-    stderr = _Tail(proc.stderr.fileno())
-    proc.stderr.close()  # the reader has its own copy of the pipe
-    try:
+    try:  # from here on, a signal (rtval's SIGTERM is a Stopped) kills the renderer's group
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)  # one that came is raised here
+        stderr = _Tail(proc.stderr.fileno())
+        proc.stderr.close()  # the reader has its own copy of the pipe
         proc.wait(timeout=timeout)
     except subprocess.TimeoutExpired:
         _kill_group(proc)
