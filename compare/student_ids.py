@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import unicodedata
 
 _PLAIN = re.compile(r"[a-z0-9_][a-z0-9_-]{0,63}")
 _UNSAFE = re.compile(r"[^a-z0-9_-]+")
@@ -28,11 +29,29 @@ def student_slug(student: str) -> str:
     return f"{stem}.{digest}" if stem else f"id.{digest}"
 
 
-def displayable_name(name: str) -> tuple[str, bool]:
-    """(text, is_utf8) for a name from os.listdir: a name that is not UTF-8 arrives with
-    surrogate escapes, which cannot be written as UTF-8; show its bytes escaped instead."""
+def _hidden_or_active(c: str) -> bool:
+    """A character a terminal, a spreadsheet or a browser acts on or hides: controls (ESC
+    sequences), line separators and format characters such as the bidi overrides (U+202E
+    shows "eve", U+202E, "gnp.exe" as "eveexe.png") and the zero-width space (U+200B in
+    "mallory" hides). A TAB only moves the text on, and the zero-width (non-)joiners stay:
+    some scripts spell names with them."""
+    category = unicodedata.category(c)
+    if c in "\t\u200c\u200d":
+        return False
+    return category in ("Cc", "Cf", "Zl", "Zp")
+
+
+def displayable_name(name: str) -> tuple[str, str | None]:
+    """(text, problem) for a name from os.listdir. A name that is not UTF-8 (it arrives with
+    surrogate escapes) or holds characters that act or hide is shown with them escaped, and
+    the problem says why it must be renamed; a plain name is itself, with no problem."""
     try:
         name.encode("utf-8")
-        return name, True
     except UnicodeEncodeError:
-        return os.fsencode(name).decode("utf-8", "backslashreplace"), False
+        return os.fsencode(name).decode("utf-8", "backslashreplace"), "is not UTF-8"
+    if not any(_hidden_or_active(c) for c in name):
+        return name, None
+    shown = "".join(
+        c.encode("unicode_escape").decode("ascii") if _hidden_or_active(c) else c for c in name
+    )
+    return shown, "holds control or invisible characters"

@@ -85,14 +85,14 @@ def collect_entries(
     """One Entry per student id, sorted by id. ``exclude`` (the --out folder) and hidden
     entries are skipped, each with a notice."""
     by_id: dict[str, Entry] = {}
-    for e, shown, utf8, mode in _listing(submissions, exclude, notice):
+    for e, shown, bad_name, mode in _listing(submissions, exclude, notice):
         is_file_like = not stat.S_ISDIR(mode)
         student = os.path.splitext(shown)[0] if is_file_like else shown
         entry = by_id.setdefault(student, Entry(student, dict.fromkeys(scenes)))
         entry.names.append(shown)
         path = Path(e.path)
-        if not utf8:
-            entry.problems.append(f"the name {shown} is not UTF-8; rename the file")
+        if bad_name:
+            entry.problems.append(f"the name {shown} {bad_name}; rename the file")
         elif stat.S_ISDIR(mode):
             entry.files, problems = _scene_files(path, scenes)
             entry.problems.extend(problems)
@@ -119,8 +119,8 @@ def collect_entries(
 
 def _listing(
     submissions: Path, exclude: list[Path] | None, notice: Callable[[str], None] | None
-) -> Iterator[tuple[os.DirEntry[str], str, bool, int]]:
-    """(entry, displayable name, whether the name is UTF-8, lstat mode) of every entry to
+) -> Iterator[tuple[os.DirEntry[str], str, str | None, int]]:
+    """(entry, displayable name, what is wrong with the name or None, lstat mode) of every entry to
     grade, in byte order of the names; the --out folder and hidden entries are skipped, each
     with a notice."""
     st = os.stat(submissions)  # follows a link given on the command line: the user's choice
@@ -131,14 +131,14 @@ def _listing(
     with os.scandir(submissions) as it:
         entries = sorted(it, key=lambda e: os.fsencode(e.name))
     for e in entries:
-        shown, utf8 = displayable_name(e.name)
+        shown, bad_name = displayable_name(e.name)
         mode = e.stat(follow_symlinks=False).st_mode
         if stat.S_ISDIR(mode) and _same(e, excluded):
             say(f"skipping {shown}/: it is the output folder")
         elif e.name.startswith("."):
             say(f"skipping hidden entry {shown} (rename it without the leading dot to grade it)")
         else:
-            yield e, shown, utf8, mode
+            yield e, shown, bad_name, mode
 
 
 def _same(e: os.DirEntry[str], excluded: set[tuple[int, int]]) -> bool:
@@ -167,7 +167,7 @@ def collect_programs(
     from compare.archives import ARCHIVE_SUFFIXES, archive_suffix
 
     by_id: dict[str, ProgramEntry] = {}
-    for e, shown, utf8, mode in _listing(submissions, exclude, notice):
+    for e, shown, bad_name, mode in _listing(submissions, exclude, notice):
         suffix = archive_suffix(shown) if not stat.S_ISDIR(mode) else None
         if stat.S_ISDIR(mode):
             student = shown
@@ -175,8 +175,8 @@ def collect_programs(
             student = shown[: -len(suffix)] if suffix else os.path.splitext(shown)[0]
         entry = by_id.setdefault(student, ProgramEntry(student, None))
         entry.names.append(shown)
-        if not utf8:
-            entry.problems.append(f"the name {shown} is not UTF-8; rename it")
+        if bad_name:
+            entry.problems.append(f"the name {shown} {bad_name}; rename it")
         elif stat.S_ISDIR(mode) or (stat.S_ISREG(mode) and suffix):
             entry.source = e.path
         elif not stat.S_ISREG(mode):

@@ -4,8 +4,10 @@
 from __future__ import annotations
 
 import os
+import signal
 import sys
 
+from compare.apps import report_interrupt as interrupt
 from compare.cli import (
     cache,
     check,
@@ -58,7 +60,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        code = int(args.func(args))
+        # SIGTERM and SIGHUP unwind like SIGINT: every atomic writer removes its temporary
+        # file and children are killed, instead of the process vanishing mid-write.
+        with interrupt.stop_guard():
+            code = int(args.func(args))
         sys.stdout.flush()  # here, not at exit, so that a reader gone is a BrokenPipeError below
         return code
     except BrokenPipeError:  # `rtval ... | head`: the reader has gone; say nothing more
@@ -77,6 +82,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ToolError, MitsubaUnavailable) as e:
         print(f"rtval: error: {e}", file=sys.stderr)
         return 1
+    except interrupt.Stopped as e:
+        print(f"rtval: interrupted ({signal.Signals(e.signum).name})", file=sys.stderr)
+        return e.exit_code
     except KeyboardInterrupt:
         print("rtval: interrupted", file=sys.stderr)
         return 130
