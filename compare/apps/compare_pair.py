@@ -156,7 +156,8 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def table(c: Comparison) -> str:
+def _metric_lines(c: Comparison) -> list[str]:
+    """The inputs, then one line per whole-image metric with the space it is measured in."""
     m = c.metrics
     rows = [
         ("SSIM", m.ssim, "display"),
@@ -178,31 +179,41 @@ def table(c: Comparison) -> str:
         f"reference {c.ref.path} ({c.ref.encoding}), test {c.test.path} ({c.test.encoding}), {w}x{h}",
         f"{'metric':<24} {'value':>28}  space",
     ]
-    lines += [f"{name:<24} {_fmt(v):>28}  {space}" for name, v, space in rows]
-    if c.evaluation.per_effect:
-        lines.append("")
-        lines.append(f"per effect (masks from {c.aov_source}):")
-        ex = c.evaluation.exact
+    return lines + [f"{name:<24} {_fmt(v):>28}  {space}" for name, v, space in rows]
+
+
+def _effect_lines(c: Comparison) -> list[str]:
+    """One line per effect, failing ones first; none without per-effect masks."""
+    if not c.evaluation.per_effect:
+        return []
+    ex = c.evaluation.exact
+    lines = [
+        "",
+        f"per effect (masks from {c.aov_source}):",
+        f"{'effect':<12} {'pixels':>8} {'SSIM':>8} {'FLIP':>8} {'MAE lin':>9} "
+        f"{'relMSE':>9} {'over':>7}"
+        + (f" {'differ':>7} {'unstable':>8}" if ex else "")
+        + "  status",
+    ]
+    order = sorted(
+        c.evaluation.per_effect.items(),
+        key=lambda kv: ("pass", "warn", "fail").index(c._effect_status(kv[0])),
+        reverse=True,
+    )
+    for name, e in order:
+        pm = e.metrics
+        em = ex.per_effect.get(name) if ex else None
         lines.append(
-            f"{'effect':<12} {'pixels':>8} {'SSIM':>8} {'FLIP':>8} {'MAE lin':>9} "
-            f"{'relMSE':>9} {'over':>7}"
-            + (f" {'differ':>7} {'unstable':>8}" if ex else "")
-            + "  status"
+            f"{name:<12} {pm.pixels:>8} {pm.ssim:>8.4f} {pm.flip_ldr:>8.4f} "
+            f"{pm.mae_linear:>9.3g} {pm.rel_mse_linear:>9.3g} {pm.over_threshold:>7}"
+            + (f" {em.differing:>7} {em.unstable:>8}" if em else "")
+            + f"  {c._effect_status(name)}"
         )
-        order = sorted(
-            c.evaluation.per_effect.items(),
-            key=lambda kv: ("pass", "warn", "fail").index(c._effect_status(kv[0])),
-            reverse=True,
-        )
-        for name, e in order:
-            pm = e.metrics
-            em = ex.per_effect.get(name) if ex else None
-            lines.append(
-                f"{name:<12} {pm.pixels:>8} {pm.ssim:>8.4f} {pm.flip_ldr:>8.4f} "
-                f"{pm.mae_linear:>9.3g} {pm.rel_mse_linear:>9.3g} {pm.over_threshold:>7}"
-                + (f" {em.differing:>7} {em.unstable:>8}" if em else "")
-                + f"  {c._effect_status(name)}"
-            )
+    return lines
+
+
+def table(c: Comparison) -> str:
+    lines = _metric_lines(c) + _effect_lines(c)
     lines.append("")
     ex = c.evaluation.exact
     if ex is not None:
