@@ -417,34 +417,70 @@ def _one_case(
     )
     baseline = baseline_path(settings.baseline_dir, cmd.name if cmd else None, scene.name, mode)
     # Against a model there is no baseline: the model was rendered at --size or the scene's.
-    size, size_from = case_size(settings, scene, None if model else baseline)
-    case.size = size
+    sized = case_size(settings, scene, None if model else baseline)
+    case.size = sized[0]
     try:
-        if cmd is None:
-            demo = model is not None and model.target.is_demo and mode == model.target.name
-            mode_args = model.target.rtdemo_args() if model and demo else ["--mode", mode]
-            test, case.seconds, case.cached = _render_rtdemo(
-                settings, scene_path, backend, mode_args, cache, size
-            )
-        else:
-            got = foreign.render(
-                cmd,
-                scene=scene,
-                scene_file=Path(scene_path),
-                size=size,
-                spp=settings.spp,
-                mode=mode,
-                timeout=settings.timeout,
-                size_from=size_from,
-                sandbox=settings.sandbox,
-            )
-            test, case.seconds = got.image, got.seconds
+        test = _render_case(settings, case, scene, scene_path, backend, model, cache, sized)
     except (foreign.RenderFailed, ToolError, ImageError) as e:
         case.status, case.failed_effects = "fail", ["render"]
         case.reasons = [f"{case.label}: render failed: {e}"]
         case.overhead_seconds = time.perf_counter() - start - case.seconds
         return case
     case.test_encoding = test.encoding
+    _judge_case_image(settings, case, test, scene_path, baseline, model, tol, cache, sized[0])
+    if settings.update and case.status == "fail":
+        _write_baseline(settings.baseline_dir, baseline, test, header=cmd is None)
+        case.updated = True
+    case.overhead_seconds = time.perf_counter() - start - case.seconds
+    return case
+
+
+def _render_case(
+    settings: CheckSettings,
+    case: CaseResult,
+    scene: Scene,
+    scene_path: str,
+    backend: str,
+    model: LoadedModel | None,
+    cache: RenderCache,
+    sized: tuple[tuple[int, int], str],
+) -> Image:
+    """The case's image, by rtdemo or by the renderer under test; its seconds on the case."""
+    cmd, (size, size_from) = settings.renderer, sized
+    if cmd is None:
+        demo = model is not None and model.target.is_demo and case.mode == model.target.name
+        mode_args = model.target.rtdemo_args() if model and demo else ["--mode", case.mode]
+        test, case.seconds, case.cached = _render_rtdemo(
+            settings, scene_path, backend, mode_args, cache, size
+        )
+        return test
+    got = foreign.render(
+        cmd,
+        scene=scene,
+        scene_file=Path(scene_path),
+        size=size,
+        spp=settings.spp,
+        mode=case.mode,
+        timeout=settings.timeout,
+        size_from=size_from,
+        sandbox=settings.sandbox,
+    )
+    case.seconds = got.seconds
+    return got.image
+
+
+def _judge_case_image(
+    settings: CheckSettings,
+    case: CaseResult,
+    test: Image,
+    scene_path: str,
+    baseline: Path,
+    model: LoadedModel | None,
+    tol: Tolerances,
+    cache: RenderCache,
+    size: tuple[int, int],
+) -> None:
+    """The case's verdict: against the model, or against its baseline (none: a failure)."""
     try:
         ref = model.reference.rgb if model else stored_baseline(baseline)
     except ImageError as e:
@@ -466,11 +502,6 @@ def _one_case(
     else:
         masks = scene_masks(Path(scene_path), size, cache)
         judge_case(case, ref, test.rgb, tol, masks, keep=settings.keep_images)
-    if settings.update and case.status == "fail":
-        _write_baseline(settings.baseline_dir, baseline, test, header=cmd is None)
-        case.updated = True
-    case.overhead_seconds = time.perf_counter() - start - case.seconds
-    return case
 
 
 def stored_baseline(baseline: Path) -> F32 | None:
