@@ -11,7 +11,7 @@ import os
 import stat
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -188,12 +188,14 @@ def _read_8bit(path: Path, encoding: str) -> Image:
                 "error", PILImage.DecompressionBombWarning
             )  # refuse, never allocate
             with PILImage.open(f) as im:
-                im.load()
-                if im.mode not in ("RGB", "RGBA", "L"):
-                    raise ImageError(
-                        f"{path}: unsupported pixel mode {im.mode} (expected 8-bit RGB)"
-                    )
-                data = np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
+                data = _ppm_exact(path, f, im)  # before load(), which forgets the layout
+                if data is None:
+                    im.load()
+                    if im.mode not in ("RGB", "RGBA", "L"):
+                        raise ImageError(
+                            f"{path}: unsupported pixel mode {im.mode} (expected 8-bit RGB)"
+                        )
+                    data = np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
     except ImageError:
         raise
     except (
@@ -202,6 +204,28 @@ def _read_8bit(path: Path, encoding: str) -> Image:
         raise ImageError(f"{path}: cannot read image: {type(e).__name__}: {e}") from None
     rgb = srgb_to_linear(data) if encoding == "srgb" else data
     return Image(rgb=rgb.astype(np.float32), path=str(path), encoding=encoding)
+
+
+def _ppm_exact(path: Path, f: BinaryIO, im: Any) -> F32 | None:
+    """A binary PPM/PGM whose maxval is not 255, read as its codes / maxval (Pillow rounds
+    16-bit colour samples to 8 bits); None for every other image."""
+    if im.format != "PPM" or len(im.tile) != 1:
+        return None
+    f.seek(0)
+    head = f.read(im.tile[0].offset)
+    words = b" ".join(line.split(b"#")[0] for line in head.splitlines()).split()
+    if len(words) != 4 or words[0] not in (b"P5", b"P6") or int(words[3]) == 255:
+        return None
+    maxval, channels = int(words[3]), 3 if words[0] == b"P6" else 1
+    w, h = im.size
+    dtype = np.dtype(">u2" if maxval > 255 else "u1")
+    need = w * h * channels * dtype.itemsize
+    raw = f.read(need)
+    if len(raw) < need:
+        raise ImageError(f"{path}: truncated PPM: {len(raw)} bytes of pixels, expected {need}")
+    codes = np.frombuffer(raw, dtype=dtype).reshape(h, w, channels).astype(np.float32)
+    data = np.minimum(codes / np.float32(maxval), np.float32(1.0))  # codes above maxval: 1
+    return np.repeat(data, 3, axis=2) if channels == 1 else data
 
 
 def _read_pfm(path: Path) -> Image:
