@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from helpers import SCENES, run
 
-from compare.apps import report_interrupt as interrupt
+from compare import interrupts as interrupt
 from compare.judge.images import write_exr
 
 pytestmark = pytest.mark.slow

@@ -18,7 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from compare.apps import report_interrupt as interrupt
+from compare import interrupts as interrupt
 from compare.apps.pages import write_page
 from compare.apps.report_analysis import analyse
 from compare.apps.report_charts import draw_charts

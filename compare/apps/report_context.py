@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.apps import report_interrupt as interrupt
+from compare import interrupts as interrupt
 from compare.apps.report_derived import Evaluator, LazyImages
 from compare.apps.report_label import label_problem
 from compare.judge.effects import effect_masks

@@ -7,7 +7,7 @@ import os
 import signal
 import sys
 
-from compare.apps import report_interrupt as interrupt
+from compare import interrupts as interrupt
 from compare.cli import (
     cache,
     check,

@@ -12,7 +12,7 @@ from compare.cli.common import add_cache_argument, positive_int, report_size_typ
 
 
 def run_report(args: argparse.Namespace) -> int:
-    from compare.apps import report_interrupt as interrupt
+    from compare import interrupts as interrupt
     from compare.judge.target_model import parse_model
 
     if args.against:

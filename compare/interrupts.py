@@ -1,9 +1,9 @@
-"""Interrupts of `rtval report` that always stop it.
+"""Interrupts that always stop an rtval command (installed by compare/cli/main.py).
 
 Python raises KeyboardInterrupt wherever the main thread is when SIGINT arrives; inside a
 weakref callback or a __del__ (matplotlib's and concurrent.futures' WeakKeyDictionary
-callbacks) that exception is printed as "Exception ignored" and dropped, and the report
-went on to finish with exit 0. So the handlers here also remember the signal, and every step
+callbacks) that exception is printed as "Exception ignored" and dropped, and a command
+would go on to finish with exit 0. So the handlers here also remember the signal, and every step
 boundary raises again (`check`) until the command ends with 128 + the signal's number.
 SIGTERM gets the same treatment, so that temporary files are removed and children killed
 instead of the process vanishing mid-write.
