@@ -15,7 +15,7 @@ gradebook (gradebook.py). Every folder written under OUT is made without followi
 A submission that fails against a demo model is diagnosed (compare/apps/diagnosis.py): the
 gradebook's `diagnosis` column and the fail reasons say what it looks like ("looks like Q2
 (...)"), its page shows the evidence. Passing submissions cost nothing more; --no-diagnose
-skips it. Candidate renders are cached in the render cache's candidates/ folder by content hash, shared by every
+skips it. Candidate renders are entries of the render cache like any render, shared by every
 student and worker.
 """
 
@@ -74,7 +74,7 @@ class GradeTask:
     rubric_source: str
     out_dir: str
     diagnose: int = 0  # diagnose failing scenes with this many renders at once; 0: never
-    candidates_dir: str = ""  # the diagnosis' candidate renders, inside the render cache
+    cache_root: str = ""  # the render cache, which also holds the diagnoses' candidate renders
     # A program submission (compare/apps/programs.py): built and run first, in the sandbox.
     program: ProgramJob | None = None
     scene_problems: dict[str, str] = dataclasses.field(default_factory=dict)  # failed runs
@@ -228,7 +228,7 @@ def _diagnose_scene(
         return diagnose_image(
             img,
             renders.scene_file,
-            Path(task.candidates_dir),
+            task.cache_root,
             page_dir,
             prefix=f"{scene_name}-diagnosis",
             assigned=renders.model,
@@ -472,7 +472,7 @@ def _base_task(
         rubric_source=rubric.source,
         out_dir=str(out),
         diagnose=diagnose,
-        candidates_dir=str(cache.root / "candidates"),
+        cache_root=str(cache.root),
     )
 
 

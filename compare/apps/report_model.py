@@ -58,7 +58,7 @@ def diagnosis(ctx: ReportContext, assigned: str) -> dict[str, Any]:
         return diagnose_image(
             ctx.imgs[ctx.subject.key],
             ctx.opts.scene_file,
-            ctx.cache.root / "candidates",
+            ctx.cache,
             ctx.images_dir,
             prefix="diagnosis",
             href="images/",
