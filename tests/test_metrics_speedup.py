@@ -206,3 +206,15 @@ def test_display_flip_of_the_metrics_is_the_cropped_one() -> None:
     assert np.array_equal(maps.flip_ldr, whole)
     assert maps.flip_hdr is None
     assert F32(maps.flip_ldr[0, 0]) == 0.0  # the sky's corner: equal all around
+
+
+@pytest.mark.parametrize(("shape", "reach", "density"), [((50, 70), 10, 0.01), ((13, 9), 3, 0.1),
+                                                         ((1, 1), 10, 1.0), ((5, 5), 0, 0.3)])  # fmt: skip
+def test_the_crops_dilation_is_a_square_maximum_filter(
+    shape: tuple[int, int], reach: int, density: float
+) -> None:
+    from scipy.ndimage import maximum_filter
+
+    mask = np.random.default_rng(reach).random(shape) < density
+    want = maximum_filter(mask, size=2 * reach + 1, mode="constant").astype(bool)
+    np.testing.assert_array_equal(flip_crops._dilate(mask, reach), want)
