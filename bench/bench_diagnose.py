@@ -17,15 +17,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
-from common import ROOT, SCENES, print_table, tool, write_results
+from common import ROOT, SCENES, print_table, run_measured, tool, write_results
 
 sys.path.insert(0, str(ROOT / "tests"))
 
@@ -37,17 +34,10 @@ def _diagnose(image: Path, cache: Path, out: Path) -> dict[str, Any]:
     """One `rtval diagnose` process: wall and CPU seconds (rtval and every rtdemo it ran)."""
     cmd = [tool("rtval"), "diagnose", str(image), "--scene", str(SCENES / "classic.json"),
            "--json", str(out), "--cache", str(cache)]  # fmt: skip
-    cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    wall = time.perf_counter() - start
-    cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(cmd)} failed: {proc.stderr}")
-    d = json.loads(out.read_text())
+    _, wall, cpu = run_measured(cmd)
     # On a shared machine the wall time also holds other people's work; cpu / 2 is what 2
     # idle cores would need at best.
-    cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
+    d = json.loads(out.read_text())
     return {"diagnosis": d["result"], "mistakes": d["mistakes"], "unexplained": d["unexplained"],
             "renders": d["renders"], "search_s": d["seconds"], "wall_s": wall, "cpu_s": cpu,
             "load_1min": os.getloadavg()[0]}  # fmt: skip

@@ -21,16 +21,13 @@ from __future__ import annotations
 import argparse
 import csv
 import os
-import resource
 import shutil
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
-from common import ROOT, SCENES, print_table, tool, write_results
+from common import ROOT, SCENES, print_table, run_measured, tool, write_results
 
 sys.path.insert(0, str(ROOT / "tests"))
 
@@ -43,18 +40,12 @@ def _grade(
     cmd = [tool("rtval"), "grade", str(subs), "--scene", str(SCENES / "classic.json"),
            "--size", args.size, "--against", "classic", "--out", str(out), "--jobs",
            str(args.jobs), "--cache", str(cache), *extra]  # fmt: skip
-    cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    wall = time.perf_counter() - start
-    cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(cmd)} failed: {proc.stderr}")
+    _, wall, cpu = run_measured(cmd)
     with (out / "gradebook.csv").open() as f:
         book = {r["student"]: r for r in csv.DictReader(f)}
     return {
         "wall_s": wall,
-        "cpu_s": (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime),
+        "cpu_s": cpu,
         "submissions": len(book),
         "failing": sum(r["status"] == "fail" for r in book.values()),
         "diagnosis": {k: r["diagnosis"] for k, r in book.items()},

@@ -51,6 +51,22 @@ def time_process(
     }
 
 
+def run_measured(cmd: list[str]) -> tuple[subprocess.CompletedProcess[str], float, float]:
+    """One run of `cmd`: (the finished process, wall seconds, CPU seconds of it and every child
+    it waited for). Exits naming the command when it fails."""
+    import resource
+
+    cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - start
+    cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed: {proc.stderr}")
+    cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
+    return proc, wall, cpu
+
+
 def machine() -> dict[str, Any]:
     cpu = ""
     try:
