@@ -6,9 +6,11 @@ code, never a write through a link, a hang, exhausted memory or an orphaned work
 
 from __future__ import annotations
 
+import contextlib
 import os
 import queue
 import resource
+import select
 import shutil
 import signal
 import socket
@@ -177,6 +179,28 @@ def _children(pid: int) -> set[int]:
     return found
 
 
+def _ended(pids: set[int], bound: float) -> bool:
+    """Whether every process in `pids` ends within `bound` seconds, waited on through pidfds
+    (readable when the process exits), not by polling the clock."""
+    fds = []
+    for pid in pids:
+        with contextlib.suppress(ProcessLookupError):  # gone already
+            fds.append(os.pidfd_open(pid))
+    try:
+        deadline = time.monotonic() + bound
+        waiting = list(fds)
+        while waiting:
+            left = deadline - time.monotonic()
+            ready = select.select(waiting, [], [], max(0.0, left))[0] if left > 0 else []
+            if not ready:
+                return False
+            waiting = [fd for fd in waiting if fd not in ready]
+        return True
+    finally:
+        for fd in fds:
+            os.close(fd)
+
+
 def _stat(pid: int) -> tuple[str, int]:
     """(state, parent pid) of a process; ("X", 0) when it is gone."""
     try:
@@ -211,10 +235,7 @@ def test_pool_workers_die_with_grade(
         assert workers
         proc.send_signal(sig)
         proc.wait(timeout=BOUND_S)
-        deadline = time.monotonic() + 30  # a bound: PDEATHSIG acts at once
-        while any(_stat(w)[0] not in ("X", "Z") for w in workers):
-            assert time.monotonic() < deadline, f"workers outlived grade: {workers}"
-            time.sleep(0.05)
+        assert _ended(workers, bound=30), f"workers outlived grade: {workers}"  # PDEATHSIG: at once
     finally:
         if proc.poll() is None:
             proc.kill()
