@@ -175,3 +175,39 @@ def write_atomic(path: str | Path, data: str | bytes) -> None:
         f.write(raw)
         f.flush()
         os.fsync(f.fileno())  # a full disk shows here, before the rename
+
+
+def require_folder(path: str | Path, *, missing_ok: bool = False) -> None:
+    """`path` is a real folder (or absent, with missing_ok): a symbolic link, a device or a
+    file where a command writes or deletes would send its work elsewhere."""
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        if missing_ok:
+            return
+        raise UnsafePathError(f"{path}: no such folder") from None
+    except OSError as e:
+        raise UnsafePathError(f"{path}: cannot use: {e.strerror}") from None
+    if not stat.S_ISDIR(mode):
+        link = ": rtval never follows links (remove it)" if stat.S_ISLNK(mode) else ""
+        raise UnsafePathError(f"{path}: is {describe_mode(mode)}, not a folder{link}")
+
+
+def own_folder(root: Path, *parts: str) -> Path:
+    """root/parts..., each component made if missing and refused if it is a link or not a
+    folder: `rtval grade --out` may lie inside the submissions, where a student can plant
+    `OUT/students/bob -> /victim`. `parts` are names rtval made (slugs), never a path; `root`
+    is the user's own choice, link or not."""
+    path = root
+    for part in parts:
+        if not part or part in (".", "..") or "/" in part or "\0" in part:
+            raise ValueError(f"{part!r}: not a folder name")
+        path = path / part
+        try:
+            os.mkdir(path)
+        except FileExistsError:
+            pass
+        except OSError as e:
+            raise UnsafePathError(f"{path}: cannot make the folder: {e.strerror}") from None
+        require_folder(path)
+    return path

@@ -35,7 +35,6 @@ import numpy as np
 
 from compare.apps import against
 from compare.apps.against import LoadedModel
-from compare.apps.output_folders import own_folder
 from compare.judge.effects import BOOL, EFFECTS
 from compare.judge.evaluate import evaluate_pair
 from compare.judge.images import F32, Image, ImageError, image_size, read_image, write_exr
@@ -47,7 +46,7 @@ from compare.render.jobs import RenderJob, run_jobs
 from compare.render.models import scene_masks
 from compare.render.progress import Progress
 from compare.render.runner import ToolError
-from scene_model.safe_paths import read_bounded
+from scene_model.safe_paths import own_folder, read_bounded
 from scene_model.scene import Scene, load_scene
 
 DEFAULT_SCENES = ("scenes/paper.json", "scenes/lit.json", "scenes/classic.json")

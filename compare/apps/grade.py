@@ -10,7 +10,7 @@ rubric: a re-run (or a resumed, interrupted one) skips what is done. Bad submiss
 rows with a reason, never an aborted batch. Tasks run in a local process pool or on a Dask
 cluster (grade_executors.py); each gives a typed result (grade_results.py), summed up in the
 gradebook (gradebook.py). Every folder written under OUT is made without following a link
-(output_folders.py): a link planted there stops the run, naming it.
+(safe_paths.own_folder): a link planted there stops the run, naming it.
 
 A submission that fails against a demo model is diagnosed (compare/apps/diagnosis.py): the
 gradebook's `diagnosis` column and the fail reasons say what it looks like ("looks like Q2
@@ -44,13 +44,13 @@ from compare.apps.grade_results import (
     read_result,
 )
 from compare.apps.gradebook import write_gradebook
-from compare.apps.output_folders import own_folder
 from compare.apps.pages import write_page
 from compare.apps.programs import ProgramJob, ProgramOptions, ProgramSpec, resolve_spec
 from compare.apps.submissions import IMAGE_SUFFIXES  # noqa: F401  (re-exported)
 from compare.files import atomic_output, sha256_file, write_atomic
 from compare.judge.scoring import student_passes, student_score
 from compare.student_ids import student_slug
+from scene_model.safe_paths import own_folder
 
 if TYPE_CHECKING:
     from compare.apps.against import LoadedModel

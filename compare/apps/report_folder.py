@@ -6,35 +6,21 @@ from __future__ import annotations
 
 import os
 import shutil
-import stat
 from pathlib import Path
 
 from compare.apps.report_context import SCENE_COPY
 from compare.apps.report_derived import copy_file
-from scene_model.safe_paths import UnsafePathError, describe_mode
+from scene_model.safe_paths import require_folder
 
 FINISHED = ("index.html", "report.pdf", "report.json")  # written last, in this order
 OLD_LAYOUT = "cache"  # the folder's render cache before the shared one
-
-
-def require_folder(path: Path) -> None:
-    """A folder the report writes or deletes in is a real folder, or absent."""
-    try:
-        mode = os.lstat(path).st_mode
-    except FileNotFoundError:
-        return
-    except OSError as e:
-        raise UnsafePathError(f"{path}: cannot use: {e.strerror}") from None
-    if not stat.S_ISDIR(mode):
-        link = " (a report never writes or deletes through a link)" if stat.S_ISLNK(mode) else ""
-        raise UnsafePathError(f"{path}: is {describe_mode(mode)}, not a folder{link}")
 
 
 def prepare_folder(out: Path, scene_file: Path) -> None:
     """out/ and out/images/ as real folders, without an earlier run's finished files, and
     the scene's copy beside the page."""
     for d in (out, out / "images"):
-        require_folder(d)
+        require_folder(d, missing_ok=True)
     old = out / OLD_LAYOUT
     if os.path.isdir(old) and not os.path.islink(old):
         shutil.rmtree(old)
@@ -55,7 +41,7 @@ def remove_unlinked(images: Path, linked: set[str]) -> None:
     """Nothing of an earlier run stays (another test image, the EXRs of the layout before
     the shared cache): images/ holds what this page links to. A link in it is removed as a
     link, never followed."""
-    require_folder(images)
+    require_folder(images, missing_ok=True)
     for p in images.iterdir():
         if f"images/{p.name}" not in linked:
             p.unlink()

@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from compare.apps.output_folders import own_folder
 from compare.apps.pages import write_page
 from compare.files import json_safe, write_atomic
 from compare.judge.effects import EFFECTS, effect_masks
@@ -31,6 +30,7 @@ from compare.judge.scoring import ABSENT
 from compare.render.cache import RenderCache
 from compare.render.jobs import RenderJob, run_jobs
 from compare.render.progress import Progress
+from scene_model.safe_paths import own_folder
 from scene_model.scene import Scene, load_scene
 
 DEMO_METHODS = [

@@ -47,9 +47,10 @@ from typing import Any
 from compare.files import atomic_output, sha256_file, unique_sibling, write_atomic
 from compare.render.runner import ToolError, rtdemo_path
 from scene_model.safe_paths import (
+    UnsafePathError,
     check_output_target,
-    describe_mode,
     read_bounded,
+    require_folder,
     write_text_checked,
 )
 
@@ -398,18 +399,11 @@ def _is_folder(path: Path) -> bool:
 
 
 def _require_folder(path: Path) -> None:
-    """A cache folder must be a real folder: a symbolic link there would send writes and
-    deletions elsewhere."""
+    """A cache folder is a real folder (safe_paths.require_folder), named as the cache's."""
     try:
-        mode = os.lstat(path).st_mode
-    except OSError as e:
-        raise CacheError(f"render cache {path}: {e.strerror}") from None
-    if not stat.S_ISDIR(mode):
-        link = "; the cache never follows links" if stat.S_ISLNK(mode) else ""
-        raise CacheError(
-            f"render cache {path}: is {describe_mode(mode)}, not a folder{link} "
-            "(remove it, or use another --cache)"
-        )
+        require_folder(path)
+    except UnsafePathError as e:
+        raise CacheError(f"render cache {e} (remove it, or use another --cache)") from None
 
 
 def _plain_files(folder: Path) -> list[Path]:
