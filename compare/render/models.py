@@ -54,7 +54,8 @@ def model_job(model: TargetModel, scene_file: Path, size: tuple[int, int] | None
     """The render command of `model` (its cache key follows from it). Mitsuba models are the
     plan's own commands, so a report's renders serve them and the other way round."""
     if not model.is_demo:
-        return next(j for j in plan(str(scene_file), size) if j.key == MITSUBA_JOBS[model.kind])
+        jobs = plan(str(scene_file), size).jobs()
+        return next(j for j in jobs if j.key == MITSUBA_JOBS[model.kind])
     return RenderJob(
         f"model-{model.name}",
         f"{model.name} model",

@@ -14,7 +14,6 @@ for the roles the report gives them, so that no render key is spelled outside th
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 from compare.judge.candidate import SWITCHABLE_EFFECTS
@@ -130,9 +129,6 @@ class RenderPlan:
     def jobs(self) -> list[RenderJob]:
         """Every render job, in the order they run and the page lists them."""
         return list(self.all_jobs)
-
-    def __iter__(self) -> Iterator[RenderJob]:
-        return iter(self.all_jobs)
 
     def shown(self) -> list[RenderJob]:
         """The renders the page shows as PNGs (ablation renders are only measured)."""
