@@ -58,6 +58,29 @@ def test_a_replaced_render_is_discarded_and_made_again(
     assert cache.stats()["discarded"] == 1
 
 
+def test_an_entry_is_hashed_again_only_once_its_stamp_changes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An entry whose inode, size and times are those its sidecar recorded is the file that
+    was hashed when stored; a touched one (same bytes) is hashed and kept."""
+    from compare.render import cache as cache_module
+
+    cache = RenderCache(tmp_path)
+    job = _render(cache, "classic")
+    hashed: list[Path] = []
+    real = cache_module.sha256_file
+
+    def counting(path: Path) -> str:
+        hashed.append(path)
+        return real(path)
+
+    monkeypatch.setattr(cache_module, "sha256_file", counting)
+    cache_module._HASHES.clear()  # as a fresh process
+    assert cache.info(job.cache_key) is not None and hashed == []
+    os.utime(job.exr(cache))  # the same bytes, another time: hashed, still whole
+    assert cache.info(job.cache_key) is not None and hashed == [job.exr(cache)]
+
+
 def test_a_truncated_or_linked_entry_is_rendered_again(tmp_path: Path) -> None:
     cache = RenderCache(tmp_path)
     job = _render(cache, "classic")

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from compare.files import atomic_output
+from compare.judge import exr_scanlines
 from scene_model.safe_paths import UnsafePathError, check_regular_input
 
 F32 = NDArray[np.float32]
@@ -177,6 +178,26 @@ def _read_exr(path: Path) -> Image:
     return Image(rgb=rgb, path=str(path), aovs=aovs, header=header, encoding="float")
 
 
+def _read_exr_scanlines(path: Path, expected_size: tuple[int, int] | None) -> Image | None:
+    """The image, when the file is the plain layout exr_scanlines reads (its size checked
+    before its pixels are read); None: OpenEXR reads it."""
+    with _open_regular(path) as f:
+        layout = exr_scanlines.read_layout(f)
+        if layout is None or not {"R", "G", "B"} <= set(layout.channels):
+            return None
+        _check_size(path, (layout.height, layout.width), expected_size)
+        if os.fstat(f.fileno()).st_size != exr_scanlines.file_size(layout):
+            return None
+        f.seek(0)
+        found = exr_scanlines.parse(layout, f.read())
+    if found is None:
+        return None
+    aovs = {k: found.channel(k) for k in found.names if k not in ("R", "G", "B")}
+    # In OpenEXR's order (by name), as _read_exr gives them.
+    header = {k: v for k, v in sorted(found.strings.items()) if k != "rtval.padding"}
+    return Image(found.rgb(), str(path), aovs, header, "float")
+
+
 def _read_8bit(path: Path, encoding: str) -> Image:
     import warnings
 
@@ -268,6 +289,10 @@ def read_image(
         raise ImageError(
             f"{p}: unsupported image type '{suffix}' (expected .exr, .png, .ppm, .pfm)"
         )
+    if suffix == ".exr":
+        fast = _read_exr_scanlines(p, expected_size)
+        if fast is not None:
+            return fast
     _check_size(p, image_size(p), expected_size)
     if suffix == ".exr":
         return _read_exr(p)

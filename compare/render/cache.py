@@ -17,7 +17,8 @@ both succeed (the entry is the same render).
 
 Nothing in it is trusted blindly: its folders must be real folders (a symbolic link planted
 as `renders/` is refused, never followed or emptied), an entry must be two regular files
-whose EXR has the sha256 its sidecar recorded (else it is discarded and rendered again), and a
+whose EXR has the sha256 its sidecar recorded (else it is discarded and rendered again; an EXR
+whose stamp (inode, size, times) is the one recorded when it was stored is not hashed again), and a
 cache folder others may write to is named in a warning. It stays under a size cap
 (MAX_SIZE_ENV, `rtval cache --max-size`, else DEFAULT_MAX_BYTES): the entries used longest ago
 go first, never one used in the last GRACE_SECONDS (another process may be about to read it;
@@ -37,6 +38,7 @@ import re
 import shutil
 import stat
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -77,15 +79,26 @@ def default_cache_dir() -> Path:
     return Path.home() / ".cache" / "rtval"
 
 
-@cache
-def _content_hash(path: str, mtime_ns: int, size: int, inode: int) -> str:
-    """A file's sha256, hashed again only when its path, inode, time or size changes."""
-    return sha256_file(Path(path))
+_HASHES: dict[tuple[int, ...], str] = {}
+_HASHES_LOCK = threading.Lock()
+
+
+def _stamp(st: os.stat_result) -> list[int]:
+    """What any change to a file changes: its device and inode, size, modification time and
+    status-change time (which no process can set back, unlike the modification time)."""
+    return [st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns]
 
 
 def _file_hash(path: Path) -> str:
-    st = path.stat()
-    return _content_hash(str(path.resolve()), st.st_mtime_ns, st.st_size, st.st_ino)
+    """A file's sha256, hashed again only when its stamp changes."""
+    stamp = tuple(_stamp(path.stat()))
+    with _HASHES_LOCK:
+        known = _HASHES.get(stamp)
+    if known is None:
+        known = sha256_file(path)
+        with _HASHES_LOCK:
+            _HASHES[stamp] = known
+    return known
 
 
 def renderer_identity(tool: str, executable: str | None = None) -> str:
@@ -202,7 +215,9 @@ class RenderCache:
         except (OSError, ValueError, TypeError):
             self._discard(key, "has an unreadable sidecar")
             return None
-        if facts.get("sha256") != _file_hash(exr):
+        # The stamp stored with the entry unchanged: the file is the one hashed when stored.
+        unchanged = facts.get("stamp") == _stamp(exr.stat())
+        if not unchanged and facts.get("sha256") != _file_hash(exr):
             self._discard(key, "does not match the sha256 its sidecar recorded")
             return None
         _touch(side)  # the eviction order: least recently used first
@@ -226,10 +241,13 @@ class RenderCache:
     def store(self, key: str, produced: Path, facts: dict[str, Any]) -> dict[str, Any]:
         """Moves a finished render into the cache; the sidecar written last marks it whole."""
         self._ready()
-        info = {**facts, "sha256": sha256_file(produced), "stored": time.time()}
+        sha = sha256_file(produced)
         check_output_target(self.exr(key))  # only ever replace a regular file
         with _locked(self._key_lock(key)):  # two writers of one key: one whole entry
             produced.replace(self.exr(key))
+            # Stamped after the rename, which changes the file's status-change time.
+            stamp = _stamp(self.exr(key).stat())
+            info = {**facts, "sha256": sha, "stamp": stamp, "stored": time.time()}
             write_atomic(self._sidecar(key), json.dumps(info, indent=1))
         return info
 
