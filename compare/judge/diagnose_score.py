@@ -127,7 +127,11 @@ def _quick_differing(levels: F32, target: I16, rgb: F32, test: F32, encoding: st
             ok = np.abs(test - rgb) <= HALF_FLOAT * np.maximum(np.abs(rgb), HALF_FLOAT_FLOOR)
         ok |= np.isnan(test) & np.isnan(rgb)
     else:
-        ok = (target >= np.floor(levels)) & (target <= np.floor(levels + np.float32(0.5)))
+        # The codes as floats once: comparing int16 with float32 converts them every time.
+        codes = target.astype(np.float32)
+        ok = codes >= np.floor(levels)
+        upper = levels + np.float32(0.5)
+        ok &= codes <= np.floor(upper, out=upper)
     out: BOOL = ~(ok[..., 0] & ok[..., 1] & ok[..., 2])
     return out
 
@@ -163,7 +167,9 @@ def _mirror_distance(enc: I16, target: I16) -> float:
 
 
 class Regions:
-    """The effect masks as one label per pixel, so that per-region sums are one bincount."""
+    """The effect masks as one label per pixel, and the pixels in region order: a render
+    judged in that order sums each region over one contiguous run (np.add.reduceat), far
+    cheaper than a weighted bincount per term."""
 
     def __init__(self, masks: dict[str, BOOL]) -> None:
         self.names = list(masks)
@@ -173,12 +179,27 @@ class Regions:
             labels[m.ravel()] = i
         self.labels = labels
         self.counts = np.bincount(labels, minlength=n + 1)[:n].astype(np.float64)
+        self.order = np.argsort(labels, kind="stable")
+        self.sorted_labels = labels[self.order]
+        # Where each region's run starts (every region has pixels: masks are never empty),
+        # and the pixels in none after the last.
+        self.starts = np.flatnonzero(np.r_[True, self.sorted_labels[1:] != self.sorted_labels[:-1]])
+
+    def in_order(self, rgb: F32) -> F32:
+        """N x 3: the pixels of an H x W x 3 image in region order."""
+        out: F32 = np.take(rgb.reshape(-1, 3), self.order, axis=0)
+        return out
 
     def sums(self, labels: NDArray[np.intp], values: NDArray[Any]) -> NDArray[np.float64]:
         """Per region, the sum of `values` (one per entry of `labels`). Every value the score
         sums is a whole number, so sums are exact in any order."""
         n = len(self.names)
         return np.asarray(np.bincount(labels, weights=values, minlength=n + 1)[:n], np.float64)
+
+    def run_sums(self, values: NDArray[Any]) -> NDArray[np.float64]:
+        """Per region, the sum of `values` given for every pixel in region order."""
+        totals = np.add.reduceat(values, self.starts, dtype=np.int64)
+        return np.asarray(totals[: len(self.names)], np.float64)
 
     def colour(self, enc: I16) -> NDArray[np.float64]:
         """Mean colour per region, regions x 3, in levels."""
@@ -252,16 +273,20 @@ class Target:
         self.target_colour: NDArray[np.float64] | None = None
         self.allowance: dict[str, int] = {}  # differing pixels an exact match allows
         self.reference: _Terms | None = None
+        # The image's pixels in region order, once the regions are known (check).
+        self._test_flat: F32 = np.empty((0, 3), np.float32)
+        self._target_flat: I16 = np.empty((0, 3), np.int16)
         self._set(image.rgb)
 
     def _set(self, rgb: F32) -> None:
         self.test = rgb
         self.target = encoded(rgb, self.codes)
-        self._test_flat = rgb.reshape(-1, 3)
-        self._target_flat = self.target.reshape(-1, 3)
         self.reference = None
         if self.regions is not None:
             self.target_colour = self.regions.colour(self.target)
+            # The search judges pixels in region order (Regions); the target's once.
+            self._test_flat = self.regions.in_order(rgb)
+            self._target_flat = self.regions.in_order(self.target)
 
     def set_test(self, rgb: F32) -> None:
         """Judge against `rgb` from now on (the un-mirrored image)."""
@@ -281,12 +306,13 @@ class Target:
         found = effect_masks(self.scene, im.aovs["id"], im.aovs["depth"])
         self.masks.update({k: v for k, v in found.items() if v.any()})
         self.regions = Regions(self.masks)
-        self.target_colour = self.regions.colour(self.target)
+        self._set(self.test)
         first = exact_match([im.rgb], self.test, self.image.encoding, model="", masks=self.masks)
         self.allowance = {k: e.allowed for k, e in first.per_effect.items()}
 
     def _terms(self, rgb: F32, idx: NDArray[np.intp] | None) -> tuple[I16, BOOL, I16]:
-        """(encoded, differs, excess) of the pixels idx (None: all) of a flattened render."""
+        """(encoded, differs, excess) of the pixels idx (None: all) of a render in region
+        order."""
         target = self._target_flat if idx is None else self._target_flat[idx]
         test = self._test_flat if idx is None else self._test_flat[idx]
         levels = _levels(rgb, self.codes)
@@ -297,13 +323,13 @@ class Target:
     def _full(self, flat: F32) -> _Terms:
         assert self.regions is not None
         enc, off, excess = self._terms(flat, None)
-        labels = self.regions.labels
-        sums = [self.regions.sums(labels, v) for v in (off, excess, *enc.T)]
+        sums = [self.regions.run_sums(v) for v in (off, excess, *enc.T)]
         return _Terms(flat, enc, off, excess, np.stack(sums, axis=1))
 
     def use_reference(self, rgb: F32) -> None:
         """Count the next scores against this render (a neighbour of what comes next)."""
-        self.reference = self._full(rgb.reshape(-1, 3))
+        assert self.regions is not None
+        self.reference = self._full(self.regions.in_order(rgb))
 
     def _updated(self, flat: F32) -> tuple[I16, NDArray[np.float64]]:
         """(encoded, region sums) of a render, judged again only where its values differ
@@ -316,7 +342,7 @@ class Target:
             whole = self._full(flat)
             return whole.enc, whole.sums
         enc_i, off_i, excess_i = self._terms(flat[idx], idx)
-        labels = self.regions.labels[idx]
+        labels = self.regions.sorted_labels[idx]
         changes = (
             off_i.astype(np.int16) - ref.off[idx],
             excess_i - ref.excess[idx],
@@ -329,7 +355,7 @@ class Target:
 
     def score(self, rgb: F32) -> Score:
         assert self.regions is not None and self.target_colour is not None
-        flat = rgb.reshape(-1, 3)
+        flat = self.regions.in_order(rgb)
         if self.reference is None:
             self.reference = self._full(flat)
         enc, sums = self._updated(flat)
