@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "camera_rays.h"
+#include "mistake_settings.h"
 #include "packet/packet_engine.h"
 #include "worker_threads.h"
 
@@ -16,27 +17,29 @@ int strata_per_axis(int spp) {
     return k * k == spp ? k : 0;
 }
 
-bool renders_in_bands(const RenderSettings& settings) {
-    // The packet engine implements no named mistakes: a run with any takes the scalar tracer.
-    return settings.engine == Engine::packet && !settings.trace.mistakes.any();
-}
+bool renders_in_bands(const RenderSettings& settings) { return settings.engine == Engine::packet; }
 
 void render_cpu(const Scene& scene, const RenderSettings& settings, BandSink& sink,
                 RayCounts* rays) {
-    render_packet(scene, settings, isa_from_environment(), sink, rays);
+    const PlainRender plain = without_setting_mistakes(scene, settings);
+    render_packet(plain.scene, plain.settings, isa_from_environment(), sink, rays);
 }
 
 void render_cpu(const Scene& scene, const RenderSettings& settings, RenderedImage& image,
                 RayCounts* rays) {
-    if (renders_in_bands(settings))
-        render_packet(scene, settings, isa_from_environment(), image, rays);
-    else
+    if (renders_in_bands(settings)) {
+        const PlainRender plain = without_setting_mistakes(scene, settings);
+        render_packet(plain.scene, plain.settings, isa_from_environment(), image, rays);
+    } else {
         image = render_cpu(scene, settings, rays);
+    }
 }
 
 RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, RayCounts* rays) {
-    if (renders_in_bands(settings))
-        return render_packet(scene, settings, isa_from_environment(), rays);
+    if (renders_in_bands(settings)) {
+        const PlainRender plain = without_setting_mistakes(scene, settings);
+        return render_packet(plain.scene, plain.settings, isa_from_environment(), rays);
+    }
     RenderedImage image(settings.width, settings.height);
     const CameraRays shared_camera(scene.camera, settings.width, settings.height);
     const Tracer shared_tracer(scene, settings.trace);

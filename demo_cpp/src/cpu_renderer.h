@@ -34,7 +34,8 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings,
 void render_cpu(const Scene& scene, const RenderSettings& settings, RenderedImage& image,
                 RayCounts* rays = nullptr);
 
-// Whether the frame can be rendered into a BandSink: the packet engine, no named mistakes.
+// Whether the frame can be rendered into a BandSink: the packet engine (it renders every
+// named mistake, mistake_settings.h).
 bool renders_in_bands(const RenderSettings& settings);
 // The frame handed to `sink` band by band (band_sink.h). Precondition: renders_in_bands.
 void render_cpu(const Scene& scene, const RenderSettings& settings, BandSink& sink,

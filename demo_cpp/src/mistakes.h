@@ -31,6 +31,7 @@ class MistakeSet {
 public:
     bool has(Mistake m) const { return bits_.test(static_cast<std::size_t>(m)); }
     void add(Mistake m) { bits_.set(static_cast<std::size_t>(m)); }
+    void remove(Mistake m) { bits_.reset(static_cast<std::size_t>(m)); }
     bool any() const { return bits_.any(); }
     // "no_offset,double_gamma" in catalogue order, "none" when empty.
     std::string list() const;

@@ -19,8 +19,8 @@ struct TraceOptions {
     bool shadows = true;
     bool reflection = true;
     bool refraction = true;
-    // Named mistakes (mistakes.h) on top: only the scalar tracer implements them, so a
-    // renderer with another engine must fall back to it when mistakes.any().
+    // Named mistakes (mistakes.h) on top: this tracer and the packet engine implement each
+    // (the packet engine some as other settings, mistake_settings.h).
     MistakeSet mistakes;
 };
 

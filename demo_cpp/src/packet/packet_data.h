@@ -26,11 +26,14 @@ struct SceneArrays {
 };
 constexpr int kLight = 1, kSpecular = 2;
 
-// Quirks present (q[1] .. q[13]) and effect switches: uniform over a frame.
+// Quirks present (q[1] .. q[13]), effect switches and the named mistakes that change the
+// shading (mistakes.h; the others are settings, mistake_settings.h): uniform over a frame.
 struct Options {
     bool q[14];
     int max_depth;
     bool shadows, reflection, refraction;
+    bool no_inside_flip, flipped_normal, eta_inverted;
+    bool fresnel_missing, fresnel_constant, fresnel_exponent;
 };
 
 // Camera rays exactly as CameraRays::render_from_camera computes them.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <memory>
@@ -290,6 +291,13 @@ packet::Options options_for(const TraceOptions& trace) {
     opt.shadows = trace.shadows;
     opt.reflection = trace.reflection;
     opt.refraction = trace.refraction;
+    const MistakeSet& m = trace.mistakes;
+    opt.no_inside_flip = m.has(Mistake::no_inside_flip);
+    opt.flipped_normal = m.has(Mistake::flipped_normal);
+    opt.eta_inverted = m.has(Mistake::eta_inverted);
+    opt.fresnel_missing = m.has(Mistake::fresnel_missing);
+    opt.fresnel_constant = m.has(Mistake::fresnel_constant);
+    opt.fresnel_exponent = m.has(Mistake::fresnel_exponent);
     return opt;
 }
 
@@ -304,6 +312,8 @@ struct FrameJob {
     float inv_samples;
     int tiles_x, tiles;
     bool aovs;
+    float centre;       // of a pixel's stratum: 0.5, or 0 with --mistake half_pixel_offset
+    bool double_gamma;  // --mistake double_gamma: x^(1/2.2) of the pixel's colour
 };
 
 // The worker's queues and buffers, sized for one tile of the frame.
@@ -340,8 +350,7 @@ void trace_tile(Worker& wk, const FrameJob& job, const packet::Aov* with_aov) {
 void render_tile(Worker& wk, const FrameJob& job, int tile, const packet::Aov& aov,
                  const TilePixels& out) {
     const Kernels& kern = job.kern;
-    // Pixel centres: a run with --mistake half_pixel_offset renders with the scalar tracer.
-    const float centre = 0.5f;
+    const float centre = job.centre;
     const int k = job.k;
     const int x0 = (tile % job.tiles_x) * kTileW, y0 = tile / job.tiles_x * kTileH;
     const int tw = std::min(kTileW, job.width - x0), th = std::min(kTileH, job.height - y0);
@@ -371,7 +380,16 @@ void render_tile(Worker& wk, const FrameJob& job, int tile, const packet::Aov& a
             }
         cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
     }
-    kern.store_tile(cr, cg, cb, job.inv_samples, job.aovs ? &aov : nullptr, tw, th, job.width,
+    float inv_samples = job.inv_samples;
+    if (job.double_gamma) {
+        // As the scalar renderer: the mean first, then the power, then stored unscaled.
+        const float* in[] = {cr, cg, cb};
+        for (int c = 0; c < 3; ++c)
+            for (int i = 0; i < n; ++i) wk.sum[c][i] = std::pow(in[c][i] * inv_samples, 1 / 2.2f);
+        cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
+        inv_samples = 1.0f;
+    }
+    kern.store_tile(cr, cg, cb, inv_samples, job.aovs ? &aov : nullptr, tw, th, job.width,
                     at_x(out, x0));
 }
 
@@ -398,7 +416,9 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
                        1.0f / static_cast<float>(k * k),
                        tiles_x,
                        tiles_x * bands,
-                       settings.aovs};
+                       settings.aovs,
+                       settings.trace.mistakes.has(Mistake::half_pixel_offset) ? 0.0f : 0.5f,
+                       settings.trace.mistakes.has(Mistake::double_gamma)};
     std::unique_ptr<std::atomic<int>[]> tiles_left(new std::atomic<int>[bands]);
     for (int b = 0; b < bands; ++b) tiles_left[b] = tiles_x;
 

@@ -31,9 +31,9 @@ Isa best_isa();
 // Throws std::invalid_argument naming the variable for an unknown or unsupported value.
 Isa isa_from_environment();
 
-// Precondition: settings validated as for render_cpu, no named mistakes set
-// (settings.trace.mistakes: render_cpu takes the scalar tracer then), and `isa` supported by
-// this CPU.
+// Precondition: settings validated as for render_cpu, no named mistake that is a setting
+// (render_cpu turns those into the settings they are, mistake_settings.h), and `isa`
+// supported by this CPU.
 RenderedImage render_packet(const Scene& scene, const RenderSettings& settings, Isa isa,
                             RayCounts* rays = nullptr);
 // The same into `image`, as render_packet returned it for these settings: no new frame.
