@@ -58,6 +58,9 @@ class Trials:
         todo = [c for c in dict.fromkeys(cands) if c not in self.scores]
         if not todo:
             return
+        # The deepest first: a deep limit can cost a hundred shallow renders (a chain of glass
+        # with acne), and started last it would leave the other threads idle at the end.
+        todo.sort(key=lambda c: -c.depth(self.target.scene))
         with ThreadPoolExecutor(max_workers=max(1, self.parallel)) as pool:
             # Scored as they arrive: a round's renders are never all in memory at once.
             for c, im in zip(todo, pool.map(self.render, todo), strict=True):
