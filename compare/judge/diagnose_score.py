@@ -16,7 +16,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +32,7 @@ from scene_model.scene import Scene
 
 Renderer = Callable[[TargetModel | Candidate], Image]
 I16 = NDArray[np.int16]
+Px = TypeVar("Px", np.float32, np.int16)
 
 # One unit of distance per effect is the whole region differing; LEVELS_PER_UNIT levels of
 # mean excess weigh as much (so a change that halves how far pixels are off counts before
@@ -185,9 +186,9 @@ class Regions:
         # and the pixels in none after the last.
         self.starts = np.flatnonzero(np.r_[True, self.sorted_labels[1:] != self.sorted_labels[:-1]])
 
-    def in_order(self, rgb: F32) -> F32:
-        """N x 3: the pixels of an H x W x 3 image in region order."""
-        out: F32 = np.take(rgb.reshape(-1, 3), self.order, axis=0)
+    def in_order(self, pixels: NDArray[Px]) -> NDArray[Px]:
+        """N x 3: the pixels of an H x W x 3 image (values or codes) in region order."""
+        out: NDArray[Px] = np.take(pixels.reshape(-1, 3), self.order, axis=0)
         return out
 
     def sums(self, labels: NDArray[np.intp], values: NDArray[Any]) -> NDArray[np.float64]:
