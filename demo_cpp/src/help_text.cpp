@@ -107,7 +107,7 @@ image:
   --engine packet|scalar cpu: rays in SIMD lanes (default; AVX-512, AVX2 or one lane, as the
                          CPU allows; RTDEMO_ISA=scalar|avx2|avx512 forces one) or the
                          one-ray-at-a-time reference tracer; both give the same image
-                         (a --mistake run always takes the reference tracer)
+                         (--mistake runs included)
   --backend cpu|gl       the CPU tracer (default) or the GLSL tracer in a headless EGL
                          context (any GPU driver, or Mesa llvmpipe); same EXR layout
   --frames N             render N frames and time them (default 1); cpu: the header's

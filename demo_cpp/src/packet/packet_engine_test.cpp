@@ -1,8 +1,8 @@
 // The packet engine against the scalar tracer (the reference): the same image bit for bit —
 // colour, id, depth and normals — and the same ray counts, on the project's scenes in every
 // mode, with quirks fixed one at a time and together, with quirks added to a mode (--quirk),
-// and on stress scenes, for every instruction set this CPU runs. A run with a named mistake
-// (--mistake) takes the scalar tracer.
+// and on stress scenes, for every instruction set this CPU runs; also with the named mistakes
+// (--mistake), which both engines render.
 #include "packet/packet_engine.h"
 
 #include <gtest/gtest.h>
@@ -206,16 +206,22 @@ TEST(PacketEngine, RendersEveryMistakeAsTheScalarTracer) {
                 settings.spp = mode == Mode::physical ? 4 : 1;
                 for (Mistake m : set) settings.trace.mistakes.add(m);
                 settings.engine = Engine::scalar;
-                const RenderedImage ref = render_cpu(scene, settings);
+                RayCounts ref_rays;
+                const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
                 const PlainRender plain = without_setting_mistakes(scene, settings);
                 for (Isa isa : supported_isas()) {
                     SCOPED_TRACE(std::string(name) + " " + mode_name(mode) + " " +
                                  settings.trace.mistakes.list() + " isa " + isa_name(isa));
-                    const RenderedImage img = render_packet(plain.scene, plain.settings, isa);
+                    RayCounts rays;
+                    const RenderedImage img =
+                        render_packet(plain.scene, plain.settings, isa, &rays);
                     EXPECT_TRUE(same_bits(ref.rgb, img.rgb, "rgb"));
                     EXPECT_TRUE(same_bits(ref.id, img.id, "id"));
                     EXPECT_TRUE(same_bits(ref.depth, img.depth, "depth"));
                     EXPECT_TRUE(same_bits(ref.normal, img.normal, "normal"));
+                    EXPECT_EQ(rays.camera, ref_rays.camera);
+                    EXPECT_EQ(rays.secondary, ref_rays.secondary);
+                    EXPECT_EQ(rays.shadow, ref_rays.shadow);
                 }
             }
 }
@@ -262,27 +268,30 @@ TEST(PacketEngine, WithoutAovsTheColourAndRaysAreTheSame) {
 }
 
 // --frames renders the frames after the first into the first one's image: every pixel of
-// every plane is written again (none left from before), the rays counted afresh; the scalar
-// tracer (a named mistake) takes the same call.
+// every plane is written again (none left from before), the rays counted afresh; with a
+// named mistake too, and the scalar tracer takes the same call.
 TEST(PacketEngine, RenderingIntoAnImageRewritesEveryPixel) {
     const Scene scene = load_scene_file(kScenes + "/classic.json");
-    for (bool mistake : {false, true}) {
-        SCOPED_TRACE(mistake ? "scalar tracer" : "packet engine");
-        RenderSettings settings = classic_settings(scene, 83, 61);  // edge tiles cut
-        if (mistake) settings.trace.mistakes.add(Mistake::half_pixel_offset);
-        RayCounts first_rays, again_rays;
-        const RenderedImage first = render_cpu(scene, settings, &first_rays);
-        RenderedImage again = first;
-        for (Plane* p : {&again.rgb, &again.id, &again.depth, &again.normal})
-            std::fill(p->data(), p->data() + p->size(), std::nanf(""));
-        render_cpu(scene, settings, again, &again_rays);
-        EXPECT_TRUE(same_bits(first.rgb, again.rgb, "rgb"));
-        EXPECT_TRUE(same_bits(first.id, again.id, "id"));
-        EXPECT_TRUE(same_bits(first.depth, again.depth, "depth"));
-        EXPECT_TRUE(same_bits(first.normal, again.normal, "normal"));
-        EXPECT_EQ(first_rays.total(), again_rays.total());
-        EXPECT_GT(again_rays.total(), 0u);
-    }
+    for (Engine engine : {Engine::packet, Engine::scalar})
+        for (bool mistake : {false, true}) {
+            SCOPED_TRACE(std::string(engine == Engine::packet ? "packet" : "scalar") +
+                         (mistake ? " half_pixel_offset" : ""));
+            RenderSettings settings = classic_settings(scene, 83, 61);  // edge tiles cut
+            settings.engine = engine;
+            if (mistake) settings.trace.mistakes.add(Mistake::half_pixel_offset);
+            RayCounts first_rays, again_rays;
+            const RenderedImage first = render_cpu(scene, settings, &first_rays);
+            RenderedImage again = first;
+            for (Plane* p : {&again.rgb, &again.id, &again.depth, &again.normal})
+                std::fill(p->data(), p->data() + p->size(), std::nanf(""));
+            render_cpu(scene, settings, again, &again_rays);
+            EXPECT_TRUE(same_bits(first.rgb, again.rgb, "rgb"));
+            EXPECT_TRUE(same_bits(first.id, again.id, "id"));
+            EXPECT_TRUE(same_bits(first.depth, again.depth, "depth"));
+            EXPECT_TRUE(same_bits(first.normal, again.normal, "normal"));
+            EXPECT_EQ(first_rays.total(), again_rays.total());
+            EXPECT_GT(again_rays.total(), 0u);
+        }
 }
 
 // A sink that copies each band into a frame of its own, counts the deliveries per row, and
@@ -360,6 +369,37 @@ TEST(PacketEngine, BandsHandedToASinkMakeTheKeptFrame) {
                 }
                 EXPECT_EQ(kept_rays.total(), sunk_rays.total());
             }
+}
+
+// A streamed render with named mistakes (render_cpu into a BandSink, as rtdemo streams an EXR
+// or PPM) hands over the scalar tracer's frame: the mistakes that are settings and those the
+// tile applies (half_pixel_offset, double_gamma) reach the bands too, at spp 1 and 4.
+TEST(PacketEngine, BandsWithMistakesAreTheScalarTracersFrame) {
+    const Scene scene = load_scene_file(kScenes + "/classic.json");
+    const std::vector<std::vector<Mistake>> sets = {
+        {Mistake::no_offset, Mistake::double_gamma},
+        {Mistake::half_pixel_offset, Mistake::depth_cut, Mistake::fresnel_constant}};
+    for (int spp : {1, 4})
+        for (const auto& set : sets) {
+            RenderSettings settings = classic_settings(scene, 45, 37);  // cut tiles and bands
+            settings.trace.quirks = quirks_for(spp == 1 ? Mode::classic : Mode::physical);
+            settings.spp = spp;
+            for (Mistake m : set) settings.trace.mistakes.add(m);
+            SCOPED_TRACE(settings.trace.mistakes.list() + " spp " + std::to_string(spp));
+            settings.engine = Engine::scalar;
+            RayCounts ref_rays, sunk_rays;
+            const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
+            settings.engine = Engine::packet;
+            ASSERT_TRUE(renders_in_bands(settings));
+            CopyingSink sink(settings.width, settings.height, 1, 48, 0);
+            render_cpu(scene, settings, sink, &sunk_rays);
+            EXPECT_TRUE(sink.every_row_once());
+            EXPECT_TRUE(same_bits(ref.rgb, sink.frame().rgb, "rgb"));
+            EXPECT_TRUE(same_bits(ref.id, sink.frame().id, "id"));
+            EXPECT_TRUE(same_bits(ref.depth, sink.frame().depth, "depth"));
+            EXPECT_TRUE(same_bits(ref.normal, sink.frame().normal, "normal"));
+            EXPECT_EQ(ref_rays.total(), sunk_rays.total());
+        }
 }
 
 // The floats an 8-bit encoding must get right: specials, the edges of every level (k / 255 and
