@@ -122,10 +122,11 @@ def test_every_metric_stays_at_the_whole_image_implementations_value(name: str) 
     for region, pinned in PINNED[name].items():
         got = compute_metrics(ref, test, maps, mask=masks.get(region), threshold=1 / 255)
         for field, value in pinned.items():
-            if field == "flip_hdr":
-                assert getattr(got, field) == pytest.approx(value, abs=1e-6), (region, field)
-            else:
-                assert getattr(got, field) == pytest.approx(value, rel=1e-12), (region, field)
+            # Pinned on an AVX-512 machine. numpy's float32 loops (pow, exp, sums) take other
+            # code paths on AVX2 and differ there by up to ~2e-6 relative; a crop or exposure
+            # shortcut that changed a value would move it far more (and the bit-for-bit tests below compare crops with whole images).
+            tol = {"abs": 1e-6} if field == "flip_hdr" else {"rel": 1e-5}
+            assert getattr(got, field) == pytest.approx(value, **tol), (region, field)
 
 
 def _patched(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
