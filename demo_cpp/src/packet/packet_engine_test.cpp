@@ -70,6 +70,18 @@ std::string describe(const Case& c) {
     return ::testing::AssertionSuccess();
 }
 
+// Every plane bit for bit and every kind of ray counted alike.
+void expect_same_frame(const RenderedImage& ref, const RayCounts& ref_rays,
+                       const RenderedImage& img, const RayCounts& rays) {
+    EXPECT_TRUE(same_bits(ref.rgb, img.rgb, "rgb"));
+    EXPECT_TRUE(same_bits(ref.id, img.id, "id"));
+    EXPECT_TRUE(same_bits(ref.depth, img.depth, "depth"));
+    EXPECT_TRUE(same_bits(ref.normal, img.normal, "normal"));
+    EXPECT_EQ(rays.camera, ref_rays.camera);
+    EXPECT_EQ(rays.secondary, ref_rays.secondary);
+    EXPECT_EQ(rays.shadow, ref_rays.shadow);
+}
+
 void expect_same(const Case& c) {
     const Scene scene = load_scene_file(kScenes + "/" + c.scene);
     RenderSettings settings;
@@ -92,13 +104,7 @@ void expect_same(const Case& c) {
         SCOPED_TRACE(describe(c) + " isa " + isa_name(isa));
         RayCounts rays;
         const RenderedImage img = render_packet(scene, settings, isa, &rays);
-        EXPECT_TRUE(same_bits(ref.rgb, img.rgb, "rgb"));
-        EXPECT_TRUE(same_bits(ref.id, img.id, "id"));
-        EXPECT_TRUE(same_bits(ref.depth, img.depth, "depth"));
-        EXPECT_TRUE(same_bits(ref.normal, img.normal, "normal"));
-        EXPECT_EQ(rays.camera, ref_rays.camera);
-        EXPECT_EQ(rays.secondary, ref_rays.secondary);
-        EXPECT_EQ(rays.shadow, ref_rays.shadow);
+        expect_same_frame(ref, ref_rays, img, rays);
     }
 }
 
@@ -215,13 +221,7 @@ TEST(PacketEngine, RendersEveryMistakeAsTheScalarTracer) {
                     RayCounts rays;
                     const RenderedImage img =
                         render_packet(plain.scene, plain.settings, isa, &rays);
-                    EXPECT_TRUE(same_bits(ref.rgb, img.rgb, "rgb"));
-                    EXPECT_TRUE(same_bits(ref.id, img.id, "id"));
-                    EXPECT_TRUE(same_bits(ref.depth, img.depth, "depth"));
-                    EXPECT_TRUE(same_bits(ref.normal, img.normal, "normal"));
-                    EXPECT_EQ(rays.camera, ref_rays.camera);
-                    EXPECT_EQ(rays.secondary, ref_rays.secondary);
-                    EXPECT_EQ(rays.shadow, ref_rays.shadow);
+                    expect_same_frame(ref, ref_rays, img, rays);
                 }
             }
 }
