@@ -128,7 +128,7 @@ def _quick_differing(levels: F32, target: I16, rgb: F32, test: F32, encoding: st
             ok = np.abs(test - rgb) <= HALF_FLOAT * np.maximum(np.abs(rgb), HALF_FLOAT_FLOOR)
         ok |= np.isnan(test) & np.isnan(rgb)
     else:
-        # The codes as floats once: comparing int16 with float32 converts them every time.
+        # The codes as floats, converted once for both comparisons (each would convert them).
         codes = target.astype(np.float32)
         ok = codes >= np.floor(levels)
         upper = levels + np.float32(0.5)
