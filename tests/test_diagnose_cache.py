@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from helpers import SCENES, render_demo, run
 
-from compare.judge import diagnose_score
+from compare.judge import diagnose_flip
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose import diagnose
 from compare.judge.images import Image
@@ -87,7 +87,7 @@ def test_a_second_diagnosis_of_an_image_reads_its_flip_numbers(
     def no_flip(*_a: object) -> None:
         raise AssertionError("FLIP computed again")
 
-    monkeypatch.setattr(diagnose_score, "flip_ldr_map", no_flip)
+    monkeypatch.setattr(diagnose_flip.Flips, "_map", no_flip)
     assert once() == first
 
 

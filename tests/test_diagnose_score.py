@@ -1,6 +1,7 @@
 """The search's score counted against a reference render (only the pixels that differ from
 it judged again) is the score of judging every pixel, whatever differs: a few pixels, most
-of them, NaN, -0, and for each way an image is encoded."""
+of them, NaN, -0, float noise in every pixel (most codes kept, so few pixels judged again),
+values on the half-level boundaries, and for each way an image is encoded."""
 
 from __future__ import annotations
 
@@ -47,9 +48,34 @@ def test_counting_against_a_reference_changes_no_score(encoding: str) -> None:
     odd[1, :4] = -0.0
     odd[2, :4] = np.inf
     variants.append(odd)
+    variants.append(np.nextafter(base, np.float32(2)))  # one ulp up in every value
     for v in variants:
         fresh = _target(encoding, np.random.default_rng(3))
         whole = fresh.score(v)  # its own reference: every pixel judged
         counted = _target(encoding, np.random.default_rng(3))
         counted.use_reference(base)
+        assert counted.score(v) == whole
+
+
+@pytest.mark.parametrize("step", [0.0, 0.5])
+def test_values_crossing_a_level_boundary_by_an_ulp_are_judged_again(step: float) -> None:
+    """A render one ulp either side of k / 255 or (k + 1/2) / 255 keeps its rounded code on
+    one of them but not what a truncating writer stores: counted against its twin on the
+    other side, against an image whose codes are k - 1, k and k + 1, the score is still the
+    whole judging's."""
+    rng = np.random.default_rng(5)
+    k = rng.integers(1, 254, (H, W, 3))
+    edge = ((k + step) / 255).astype(np.float32)
+    below, above = np.nextafter(edge, np.float32(-1)), np.nextafter(edge, np.float32(2))
+    image = ((k + rng.integers(-1, 2, (H, W, 3))) / 255).astype(np.float32)
+
+    def target() -> Target:
+        t = Target(Image(rgb=image, encoding="linear"), load_scene(SCENES / "classic.json"))
+        t.check(Candidate.of_mode("classic"), _render(image))
+        return t
+
+    for ref, v in ((below, edge), (below, above), (above, below), (edge, below)):
+        whole = target().score(v)
+        counted = target()
+        counted.use_reference(ref)
         assert counted.score(v) == whole

@@ -158,6 +158,19 @@ def test_ldr_flip_over_crops_is_the_whole_images_bit_for_bit(monkeypatch: Any) -
     assert short > 0
 
 
+def test_a_map_updated_from_a_known_one_is_the_whole_images_bit_for_bit() -> None:
+    """The diagnosis's second FLIP map starts from the first (diagnose_flip.py): the image
+    against another render that differs from the first in a few rectangles."""
+    rng = np.random.default_rng(5)
+    image, first = _patched(rng)
+    second = first.copy()
+    second[40:52, 0:9] = 0.25
+    second[140:150, 100:130] = rng.random(3)
+    known = flip_crops.cropped_ldr_flip(first, image)
+    whole = flip_evaluator.evaluate(second, image, "LDR", applyMagma=False, parameters=PPD)[0]
+    assert np.array_equal(flip_crops.updated_ldr_flip(second, image, first, known), whole[..., 0])
+
+
 def test_identical_images_need_no_flip_call() -> None:
     a = np.random.default_rng(2).random((40, 50, 3)).astype(np.float32)
     assert flip_crops.crops(np.zeros(a.shape[:2], bool)) == []

@@ -122,6 +122,7 @@ class Search:
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
         mirrored, begin = self.begin(starts)
+        t.flip_soon(begin)  # the start's FLIP while the search runs
         modes = {c.name: float(t.whole_differing(c)) for c in starts}
         found = self.explain(begin, mirrored)
         findings, text = self.report(found)
@@ -391,10 +392,11 @@ class Search:
         self.say("diagnose: exact match and FLIP per effect for the start and the result")
         t, begin, final = self.trials, found.begin, found.result
         both = list(dict.fromkeys((begin, final)))
-        ims = {c: t.centre(c) for c in both}
+        for c in both:
+            t.flip_soon(c)  # while the exact matches are made
         exact = {c: t.exact_of(c) for c in both}
         # FLIP alone (the judge's map, metrics.py), not evaluate_pair's SSIM and other maps.
-        flip = {c: t.target.flip_means(ims[c].rgb, t.store) for c in both}
+        flip = {c: t.flip_means(c) for c in both}
         findings = {}
         for k in EFFECTS:
             if k not in t.target.masks:
@@ -460,7 +462,10 @@ def diagnose(
             say(f"diagnose: {known.result}, as an earlier search of {known.renders} renders found")
             return known
     trials = Trials(Target(image, scene), render, parallel, turns, grows, store)
-    found = Search(image, scene, trials, quirks, max_renders, say).run(starts)
+    try:
+        found = Search(image, scene, trials, quirks, max_renders, say).run(starts)
+    finally:
+        trials.flips.close()
     if store is not None and name is not None:
         keep(store, name, found)
     return found

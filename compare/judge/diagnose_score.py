@@ -10,23 +10,17 @@ score and judges the ones a claim is made of exactly, as the verdict does.
 from __future__ import annotations
 
 import hashlib
-import importlib.metadata
-import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import cache
-from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from compare.judge import flip_crops, images, metrics
 from compare.judge.candidate import Candidate
 from compare.judge.effects import BOOL, effect_masks
 from compare.judge.exact_match import ExactMatch, exact_match
 from compare.judge.images import F32, Image, linear_to_srgb
-from compare.judge.metrics import flip_ldr_map
 from compare.judge.target_model import TargetModel
 from scene_model.scene import Scene
 
@@ -59,18 +53,6 @@ class Store(Protocol):
     def get(self, name: str) -> str | None: ...
 
     def put(self, name: str, text: str) -> None: ...
-
-
-FLIP_FORMAT = "rtval-diagnose-flip/1"
-
-
-@cache
-def _flip_code() -> bytes:
-    """What the FLIP numbers are computed by: the judge's FLIP code and flip-evaluator."""
-    h = hashlib.sha256(importlib.metadata.version("flip-evaluator").encode())
-    for module in (flip_crops, metrics, images):
-        h.update(Path(module.__file__ or "").read_bytes())
-    return h.digest()
 
 
 class DiagnoseError(ValueError):
@@ -118,21 +100,20 @@ def encoded(rgb: F32, codes: str) -> I16:
     return out
 
 
-def _quick_differing(levels: F32, target: I16, rgb: F32, test: F32, encoding: str) -> BOOL:
+def _quick_differing(halves: I16, doubled: I16, rgb: F32, test: F32, encoding: str) -> BOOL:
     """H x W: pixels the search counts as not matching the candidate: an 8-bit code that
     neither a truncating nor a rounding writer of the candidate's value stores (a float image:
     off by more than half-float precision). exact_match's rule without its slack of 2^-16 in
-    the value; the search's count only, every claim is exact_match's."""
+    the value; the search's count only, every claim is exact_match's. With h the candidate's
+    half-levels (_Codes) and c the code, floor(levels) <= c <= floor(levels + 0.5) is
+    h >> 1 <= c <= (h + 1) >> 1, that is |h - 2c| <= 1 (`doubled` holds 2c)."""
     if encoding == "float":
         with np.errstate(invalid="ignore"):
             ok = np.abs(test - rgb) <= HALF_FLOAT * np.maximum(np.abs(rgb), HALF_FLOAT_FLOOR)
         ok |= np.isnan(test) & np.isnan(rgb)
     else:
-        # The codes as floats, converted once for both comparisons (each would convert them).
-        codes = target.astype(np.float32)
-        ok = codes >= np.floor(levels)
-        upper = levels + np.float32(0.5)
-        ok &= codes <= np.floor(upper, out=upper)
+        d = halves - doubled
+        ok = np.abs(d, out=d) <= 1
     out: BOOL = ~(ok[..., 0] & ok[..., 1] & ok[..., 2])
     return out
 
@@ -210,12 +191,34 @@ class Regions:
 
 
 @dataclass
-class _Terms:
-    """Per-pixel terms of one render against the target (pixels flattened): the encoded
-    render, whether each pixel differs, its excess levels; and their per-region sums."""
+class _Codes:
+    """A render's pixels (N x 3) as the score sees them: their whole codes (rounded levels,
+    _levels) and half-levels floor(2 x levels). A pixel's terms depend on its value only
+    through its code and half-levels: the floors that _quick_differing compares are
+    floor(levels) = halves >> 1 and floor(levels + 0.5) = (halves + 1) >> 1 (levels lie in
+    [0, 255], where levels + 0.5 rounds to no other integer part)."""
 
-    rgb: F32  # N x 3
-    enc: I16  # N x 3
+    rgb: F32
+    enc: I16
+    halves: I16
+
+    @classmethod
+    def of(cls, rgb: F32, codes: str) -> _Codes:
+        levels = _levels(rgb, codes)
+        enc: I16 = np.rint(levels).astype(np.int16)
+        halves: I16 = np.floor(levels * np.float32(2.0)).astype(np.int16)
+        return cls(rgb, enc, halves)
+
+    def at(self, idx: NDArray[np.intp]) -> _Codes:
+        return _Codes(self.rgb[idx], self.enc[idx], self.halves[idx])
+
+
+@dataclass
+class _Terms:
+    """Per-pixel terms of one render against the target (pixels flattened): its codes,
+    whether each pixel differs, its excess levels; and their per-region sums."""
+
+    codes: _Codes
     off: BOOL  # N
     excess: I16  # N
     sums: NDArray[np.float64]  # regions x 5: off, excess, then colour (r, g, b)
@@ -277,6 +280,7 @@ class Target:
         # The image's pixels in region order, once the regions are known (check).
         self._test_flat: F32 = np.empty((0, 3), np.float32)
         self._target_flat: I16 = np.empty((0, 3), np.int16)
+        self._doubled_flat: I16 = self._target_flat
         self._set(image.rgb)
 
     def _set(self, rgb: F32) -> None:
@@ -288,6 +292,7 @@ class Target:
             # The search judges pixels in region order (Regions); the target's once.
             self._test_flat = self.regions.in_order(rgb)
             self._target_flat = self.regions.in_order(self.target)
+            self._doubled_flat = self._target_flat * np.int16(2)
 
     def set_test(self, rgb: F32) -> None:
         """Judge against `rgb` from now on (the un-mirrored image)."""
@@ -311,55 +316,61 @@ class Target:
         first = exact_match([im.rgb], self.test, self.image.encoding, model="", masks=self.masks)
         self.allowance = {k: e.allowed for k, e in first.per_effect.items()}
 
-    def _terms(self, rgb: F32, idx: NDArray[np.intp] | None) -> tuple[I16, BOOL, I16]:
-        """(encoded, differs, excess) of the pixels idx (None: all) of a render in region
-        order."""
+    def _terms(self, c: _Codes, idx: NDArray[np.intp] | None) -> tuple[BOOL, I16]:
+        """(differs, excess) of the pixels idx (None: all) of a render in region order."""
         target = self._target_flat if idx is None else self._target_flat[idx]
+        doubled = self._doubled_flat if idx is None else self._doubled_flat[idx]
         test = self._test_flat if idx is None else self._test_flat[idx]
-        levels = _levels(rgb, self.codes)
-        enc = np.rint(levels).astype(np.int16)
-        off = _quick_differing(levels, target, rgb, test, self.image.encoding)
-        return enc, off, _excess(enc, target)
+        off = _quick_differing(c.halves, doubled, c.rgb, test, self.image.encoding)
+        return off, _excess(c.enc, target)
 
-    def _full(self, flat: F32) -> _Terms:
+    def _full(self, c: _Codes) -> _Terms:
         assert self.regions is not None
-        enc, off, excess = self._terms(flat, None)
-        sums = [self.regions.run_sums(v) for v in (off, excess, *enc.T)]
-        return _Terms(flat, enc, off, excess, np.stack(sums, axis=1))
+        off, excess = self._terms(c, None)
+        sums = [self.regions.run_sums(v) for v in (off, excess, *c.enc.T)]
+        return _Terms(c, off, excess, np.stack(sums, axis=1))
 
     def use_reference(self, rgb: F32) -> None:
         """Count the next scores against this render (a neighbour of what comes next)."""
         assert self.regions is not None
-        self.reference = self._full(self.regions.in_order(rgb))
+        self.reference = self._full(_Codes.of(self.regions.in_order(rgb), self.codes))
 
-    def _updated(self, flat: F32) -> tuple[I16, NDArray[np.float64]]:
-        """(encoded, region sums) of a render, judged again only where its values differ
-        from the reference's (bit for bit: a NaN the same, -0 not); judged whole when most
-        pixels differ."""
+    def _changed(self, c: _Codes) -> NDArray[np.intp]:
+        """The pixels whose terms can differ from the reference's. Against 8-bit codes a
+        pixel's terms are its code and its half-levels (_Codes), so a pixel whose value
+        moved by float noise and kept both is not judged again; against floats, every pixel
+        whose value changed bit for bit."""
+        ref = self.reference
+        assert ref is not None
+        if self.image.encoding == "float":
+            return _changed(c.rgb, ref.codes.rgb)
+        ne = (c.enc != ref.codes.enc) | (c.halves != ref.codes.halves)
+        return np.flatnonzero(ne[:, 0] | ne[:, 1] | ne[:, 2])
+
+    def _updated(self, codes: _Codes) -> tuple[I16, NDArray[np.float64]]:
+        """(encoded, region sums) of a render, judged again only where its terms can differ
+        from the reference's (_changed); judged whole when most pixels do."""
         ref = self.reference
         assert ref is not None and self.regions is not None
-        idx = _changed(flat, ref.rgb)
-        if idx.size > WHOLE_SHARE * len(flat):
-            whole = self._full(flat)
-            return whole.enc, whole.sums
-        enc_i, off_i, excess_i = self._terms(flat[idx], idx)
+        idx = self._changed(codes)
+        if idx.size > WHOLE_SHARE * len(codes.rgb):
+            return codes.enc, self._full(codes).sums
+        off_i, excess_i = self._terms(codes.at(idx), idx)
         labels = self.regions.sorted_labels[idx]
         changes = (
             off_i.astype(np.int16) - ref.off[idx],
             excess_i - ref.excess[idx],
-            *(enc_i - ref.enc[idx]).T,
+            *(codes.enc[idx] - ref.codes.enc[idx]).T,
         )
         delta = np.stack([self.regions.sums(labels, v) for v in changes], axis=1)
-        enc = ref.enc.copy()
-        enc[idx] = enc_i
-        return enc, ref.sums + delta
+        return codes.enc, ref.sums + delta
 
     def score(self, rgb: F32) -> Score:
         assert self.regions is not None and self.target_colour is not None
-        flat = self.regions.in_order(rgb)
+        codes = _Codes.of(self.regions.in_order(rgb), self.codes)
         if self.reference is None:
-            self.reference = self._full(flat)
-        enc, sums = self._updated(flat)
+            self.reference = self._full(codes)
+        enc, sums = self._updated(codes)
         counts = self.regions.counts
         share = sums[:, 0] / counts
         excess = sums[:, 1] / counts
@@ -384,25 +395,6 @@ class Target:
             masks=self.masks,
         )
 
-    def flip_means(self, rgb: F32, store: Store | None) -> dict[str, float]:
-        """Mean FLIP (metrics.flip_ldr_map, the judge's map) of the image against a render
-        in each effect region; with a store, kept under a name hashing both images' bytes,
-        the regions and the FLIP code, so that diagnosing the image again computes none."""
-        h = hashlib.sha256(_flip_code())
-        for a in (self.test, rgb):
-            h.update(str((a.dtype, a.shape)).encode() + np.ascontiguousarray(a).data.cast("B"))
-        for k, m in self.masks.items():
-            h.update(k.encode() + np.packbits(m).data.cast("B"))
-        name = f"diagnose-flip-{h.hexdigest()[:32]}.json"
-        known = _stored_means(store.get(name), self.masks) if store is not None else None
-        if known is not None:
-            return known
-        flip = flip_ldr_map(rgb, self.test)
-        out = {k: float(flip[m].mean()) for k, m in self.masks.items()}
-        if store is not None:
-            store.put(name, json.dumps({"format": FLIP_FORMAT, "means": out}))
-        return out
-
     def mirror_distances(self, renders: Sequence[Image]) -> dict[str, float]:
         """Per orientation ("" as is, and each of MIRRORS), the nearest render's distance."""
         encs = [encoded(im.rgb, self.codes) for im in renders]
@@ -410,16 +402,3 @@ class Target:
             key: min(_mirror_distance(e, _flip_codes(self.target, key)) for e in encs)
             for key in ("", *MIRRORS)
         }
-
-
-def _stored_means(text: str | None, masks: dict[str, BOOL]) -> dict[str, float] | None:
-    """The means a store kept, or None when there are none of this format for these
-    regions (anything else there is computed again)."""
-    if text is None:
-        return None
-    try:
-        raw = json.loads(text)
-        means = {k: float(raw["means"][k]) for k in masks}
-    except (ValueError, KeyError, TypeError):
-        return None
-    return means if raw.get("format") == FLIP_FORMAT else None

@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 from compare.judge.candidate import Candidate
+from compare.judge.diagnose_flip import Flips, Means
 from compare.judge.diagnose_score import Renderer, Score, Store, Target
 from compare.judge.exact_match import ExactMatch
 from compare.judge.images import F32, Image
@@ -30,6 +31,7 @@ class Trials:
         self.target, self.render, self.parallel = target, render, parallel
         self.turns, self.grows = list(turns), list(grows)
         self.store = store
+        self.flips = Flips(store)
         self.scores: dict[Candidate, Score] = {}
         self.kept: dict[Candidate, Image] = {}
         self.keep: set[Candidate] = set()
@@ -78,6 +80,16 @@ class Trials:
         if c not in self.kept:
             self.kept[c] = self.render(c)
         return self.kept[c]
+
+    def flip_soon(self, c: Candidate) -> None:
+        """Start c's FLIP means in the background (the search goes on meanwhile)."""
+        t = self.target
+        self.flips.start(c, self.centre(c).rgb, t.test, t.masks)
+
+    def flip_means(self, c: Candidate) -> Means:
+        """Mean FLIP of the image against c's centre render, per effect region."""
+        t = self.target
+        return self.flips.means(c, self.centre(c).rgb, t.test, t.masks)
 
     def exact_of(self, c: Candidate) -> ExactMatch:
         """The verdict's own judging (exact_match.py) of the image against the candidate,

@@ -114,11 +114,18 @@ def _ldr_flip(ref: F32, test: F32, srgb: bool) -> F32:
 
 def cropped_ldr_flip(ref: F32, test: F32, *, srgb: bool = True) -> F32:
     """LDR-FLIP map of two [0, 1] images (sRGB-encoded, or linear with srgb=False), computed
-    over the crops around their differences; 0 elsewhere."""
+    over the crops around their differences; 0 elsewhere (the map of test against itself)."""
+    return updated_ldr_flip(ref, test, test, np.zeros(ref.shape[:2], np.float32), srgb=srgb)
+
+
+def updated_ldr_flip(ref: F32, test: F32, known_ref: F32, known: F32, *, srgb: bool = True) -> F32:
+    """The LDR-FLIP map of (ref, test) from `known`, the map of (known_ref, test): a pixel
+    whose neighbourhood (FLIP_REACH) is the same in ref as in known_ref keeps its value
+    there, the crops around where they differ are evaluated again."""
     h, w = ref.shape[:2]
-    out = np.zeros((h, w), np.float32)
+    out = known.copy()
     r = FLIP_REACH
-    for y0, y1, x0, x1 in crops(np.asarray((ref != test).any(axis=-1), bool)):
+    for y0, y1, x0, x1 in crops(np.asarray((ref != known_ref).any(axis=-1), bool)):
         cy0, cy1, cx0, cx1 = max(0, y0 - r), min(h, y1 + r), max(0, x0 - r), min(w, x1 + r)
         part = _ldr_flip(ref[cy0:cy1, cx0:cx1], test[cy0:cy1, cx0:cx1], srgb)
         out[y0:y1, x0:x1] = part[y0 - cy0 : y1 - cy0, x0 - cx0 : x1 - cx0]

@@ -1,0 +1,106 @@
+"""The FLIP numbers a diagnosis reports (diagnose.py): the mean LDR-FLIP (metrics.flip_ldr_map,
+the judge's map) of the image against a candidate's render in each effect region.
+
+They are computed on a thread of their own while the search goes on (flip-evaluator releases
+the GIL), the start's as soon as the start is chosen. A later candidate's map is the first
+map's, evaluated again only around the pixels where the two renders differ
+(flip_crops.updated_ldr_flip: the same values). With a store, the means are kept under a name
+hashing both images' bytes, the regions and the FLIP code, so that diagnosing the image again
+computes none.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata
+import json
+from concurrent.futures import Future, ThreadPoolExecutor
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+
+from compare.judge import flip_crops, images, metrics
+from compare.judge.candidate import Candidate
+from compare.judge.diagnose_score import Store
+from compare.judge.effects import BOOL
+from compare.judge.images import F32
+
+FLIP_FORMAT = "rtval-diagnose-flip/1"
+Means = dict[str, float]
+
+
+@cache
+def _flip_code() -> bytes:
+    """What the FLIP numbers are computed by: the judge's FLIP code and flip-evaluator."""
+    h = hashlib.sha256(importlib.metadata.version("flip-evaluator").encode())
+    for module in (flip_crops, metrics, images):
+        h.update(Path(module.__file__ or "").read_bytes())
+    return h.digest()
+
+
+def _name(test: F32, rgb: F32, masks: dict[str, BOOL]) -> str:
+    h = hashlib.sha256(_flip_code())
+    for a in (test, rgb):
+        h.update(str((a.dtype, a.shape)).encode() + np.ascontiguousarray(a).data.cast("B"))
+    for k, m in masks.items():
+        h.update(k.encode() + np.packbits(m).data.cast("B"))
+    return f"diagnose-flip-{h.hexdigest()[:32]}.json"
+
+
+def _stored_means(text: str | None, masks: dict[str, BOOL]) -> Means | None:
+    """The means a store kept, or None when there are none of this format for these
+    regions (anything else there is computed again)."""
+    if text is None:
+        return None
+    try:
+        raw = json.loads(text)
+        means = {k: float(raw["means"][k]) for k in masks}
+    except (ValueError, KeyError, TypeError):
+        return None
+    return means if raw.get("format") == FLIP_FORMAT else None
+
+
+class Flips:
+    """The FLIP means of candidates against one image, each computed once, in the
+    background. `close` waits for what is running (a start the search left behind)."""
+
+    def __init__(self, store: Store | None) -> None:
+        self.store = store
+        self.pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose-flip")
+        self.jobs: dict[Candidate, Future[Means]] = {}
+        # The first map computed here, with the display values of its render and of the
+        # image: later maps of that image are evaluated again only where renders differ.
+        self.known: tuple[F32, F32, F32] | None = None
+
+    def start(self, c: Candidate, rgb: F32, test: F32, masks: dict[str, BOOL]) -> None:
+        """Begin c's means (its render `rgb` against the image `test`), unless begun."""
+        if c not in self.jobs:
+            self.jobs[c] = self.pool.submit(self._means, rgb, test, dict(masks))
+
+    def means(self, c: Candidate, rgb: F32, test: F32, masks: dict[str, BOOL]) -> Means:
+        self.start(c, rgb, test, masks)
+        return self.jobs[c].result()
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+    def _means(self, rgb: F32, test: F32, masks: dict[str, BOOL]) -> Means:
+        name = _name(test, rgb, masks)
+        known = _stored_means(self.store.get(name), masks) if self.store is not None else None
+        if known is not None:
+            return known
+        flip = self._map(metrics.display(rgb), metrics.display(test))
+        out = {k: float(flip[m].mean()) for k, m in masks.items()}
+        if self.store is not None:
+            self.store.put(name, json.dumps({"format": FLIP_FORMAT, "means": out}))
+        return out
+
+    def _map(self, ref: F32, test: F32) -> F32:
+        """metrics.flip_ldr_map of the display values, from the first map where one is
+        known (runs on the pool's one thread: `known` is never written at once)."""
+        if self.known is not None and np.array_equal(self.known[2], test):
+            return flip_crops.updated_ldr_flip(ref, test, self.known[0], self.known[1])
+        flip = flip_crops.cropped_ldr_flip(ref, test)
+        self.known = (ref, flip, test)
+        return flip
