@@ -61,6 +61,19 @@ def test_compressed_exrs_go_to_openexr(rtdemo: str, tmp_path: Path, compression:
     assert a.rgb.tobytes() == b.rgb.tobytes() and a.aovs["id"].tobytes() == b.aovs["id"].tobytes()
 
 
+@pytest.mark.parametrize("extra", [(), ("--exr-compression", "zip")])
+def test_only_the_aovs_asked_for_are_read(rtdemo: str, tmp_path: Path, extra: tuple) -> None:
+    """Both readers (the plain layout's and OpenEXR's) keep the AOVs named, the pixels as
+    they are."""
+    exr = _render(rtdemo, tmp_path / "r.exr", *extra)
+    every, some = read_image(exr), read_image(exr, aovs=("id", "depth"))
+    assert set(every.aovs) == {"id", "depth", "N.X", "N.Y", "N.Z"}
+    assert set(some.aovs) == {"id", "depth"}
+    assert some.rgb.tobytes() == every.rgb.tobytes()
+    assert all(some.aovs[k].tobytes() == every.aovs[k].tobytes() for k in some.aovs)
+    assert read_image(exr, aovs=()).aovs == {}
+
+
 def _write(path: Path, channels: dict[str, np.ndarray], compression: object) -> None:
     """(OpenEXR.File turns the dict's arrays into its own Channel objects.)"""
     header = {"compression": compression, "type": OpenEXR.scanlineimage}

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import os
 import stat
+from collections.abc import Collection
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -178,9 +179,12 @@ def _read_exr(path: Path) -> Image:
     return Image(rgb=rgb, path=str(path), aovs=aovs, header=header, encoding="float")
 
 
-def _read_exr_scanlines(path: Path, expected_size: tuple[int, int] | None) -> Image | None:
-    """The image, when the file is the plain layout exr_scanlines reads (its size checked
-    before its pixels are read); None: OpenEXR reads it."""
+def _read_exr_scanlines(
+    path: Path, expected_size: tuple[int, int] | None, keep: Collection[str] | None
+) -> Image | None:
+    """The image with the AOVs in `keep` (None: every one), when the file is the plain
+    layout exr_scanlines reads (its size checked before its pixels are read); None: OpenEXR
+    reads it."""
     with _open_regular(path) as f:
         layout = exr_scanlines.read_layout(f)
         if layout is None or not {"R", "G", "B"} <= set(layout.channels):
@@ -192,7 +196,11 @@ def _read_exr_scanlines(path: Path, expected_size: tuple[int, int] | None) -> Im
         found = exr_scanlines.parse(layout, f.read())
     if found is None:
         return None
-    aovs = {k: found.channel(k) for k in found.names if k not in ("R", "G", "B")}
+    aovs = {
+        k: found.channel(k)
+        for k in found.names
+        if k not in ("R", "G", "B") and (keep is None or k in keep)
+    }
     # In OpenEXR's order (by name), as _read_exr gives them.
     header = {k: v for k, v in sorted(found.strings.items()) if k != "rtval.padding"}
     return Image(found.rgb(), str(path), aovs, header, "float")
@@ -272,8 +280,10 @@ def read_image(
     *,
     encoding: str | None = None,
     expected_size: tuple[int, int] | None = None,
+    aovs: Collection[str] | None = None,
 ) -> Image:
-    """Reads an image as linear float32 RGB.
+    """Reads an image as linear float32 RGB, with the EXR's other channels in `aovs` (None:
+    every one; a search reads only what it uses, copying no other channel).
 
     ``encoding`` ("srgb" or "linear") applies to 8-bit files only; by default PNG is sRGB
     and PPM linear. The path must be a regular file; its header is read first and an image
@@ -290,12 +300,15 @@ def read_image(
             f"{p}: unsupported image type '{suffix}' (expected .exr, .png, .ppm, .pfm)"
         )
     if suffix == ".exr":
-        fast = _read_exr_scanlines(p, expected_size)
+        fast = _read_exr_scanlines(p, expected_size, aovs)
         if fast is not None:
             return fast
     _check_size(p, image_size(p), expected_size)
     if suffix == ".exr":
-        return _read_exr(p)
+        image = _read_exr(p)
+        if aovs is not None:
+            image.aovs = {k: v for k, v in image.aovs.items() if k in aovs}
+        return image
     if suffix == ".pfm":
         return _read_pfm(p)
     if suffix == ".png":

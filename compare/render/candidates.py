@@ -12,7 +12,6 @@ from a copy of the scene with that change, kept in the cache's derived/ and name
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 import os
@@ -82,7 +81,7 @@ class _Recent:
     """The renders this process read last, by cache key, up to MEMORY_BYTES: the searches
     of one process (a grading worker's students) ask for the same candidates, and one search
     asks for some again (its references, its evidence pictures). Kept without the AOVs no
-    search reads (the normals)."""
+    search reads (read_image's `aovs`)."""
 
     def __init__(self, limit: int) -> None:
         self.limit, self.used = limit, 0
@@ -96,10 +95,7 @@ class _Recent:
                 self.images.move_to_end(key)
             return image
 
-    def put(self, key: str, image: Image) -> Image:
-        kept = dataclasses.replace(
-            image, aovs={k: v for k, v in image.aovs.items() if k in KEPT_AOVS}
-        )
+    def put(self, key: str, kept: Image) -> Image:
         size = kept.rgb.nbytes + sum(v.nbytes for v in kept.aovs.values())
         with self.lock:
             if key not in self.images and size <= self.limit:
@@ -247,10 +243,10 @@ class CandidateRenderer:
         extra = ["--threads", str(self.threads)] if self.threads else []
         hit = render_one(job, self.cache, extra_args=extra)
         try:
-            image = read_image(job.exr(self.cache))
+            image = read_image(job.exr(self.cache), aovs=KEPT_AOVS)
         except ImageError:  # whole by its sha256 but unreadable: render it again
             hit = render_one(job, self.cache, extra_args=extra, again=True)
-            image = read_image(job.exr(self.cache))
+            image = read_image(job.exr(self.cache), aovs=KEPT_AOVS)
         with self._lock:
             self.cache_hits += hit
             self.rendered += not hit
