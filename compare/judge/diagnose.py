@@ -122,7 +122,8 @@ class Search:
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
         mirrored, begin = self.begin(starts)
-        t.flip_soon(begin)  # the start's FLIP while the search runs
+        t.flip_soon(begin)  # the start's FLIP and exact match while the search runs
+        t.exact_soon(begin)
         modes = {c.name: float(t.whole_differing(c)) for c in starts}
         found = self.explain(begin, mirrored)
         findings, text = self.report(found)
@@ -465,7 +466,7 @@ def diagnose(
     try:
         found = Search(image, scene, trials, quirks, max_renders, say).run(starts)
     finally:
-        trials.flips.close()
+        trials.close()
     if store is not None and name is not None:
         keep(store, name, found)
     return found

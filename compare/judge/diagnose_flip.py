@@ -14,7 +14,7 @@ from __future__ import annotations
 import hashlib
 import importlib.metadata
 import json
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Executor, Future
 from functools import cache
 from pathlib import Path
 
@@ -62,12 +62,11 @@ def _stored_means(text: str | None, masks: dict[str, BOOL]) -> Means | None:
 
 
 class Flips:
-    """The FLIP means of candidates against one image, each computed once, in the
-    background. `close` waits for what is running (a start the search left behind)."""
+    """The FLIP means of candidates against one image, each computed once, on `background`
+    (one thread: the maps are computed in turn)."""
 
-    def __init__(self, store: Store | None) -> None:
-        self.store = store
-        self.pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose-flip")
+    def __init__(self, store: Store | None, background: Executor) -> None:
+        self.store, self.pool = store, background
         self.jobs: dict[Candidate, Future[Means]] = {}
         # The first map computed here, with the display values of its render and of the
         # image: later maps of that image are evaluated again only where renders differ.
@@ -82,9 +81,6 @@ class Flips:
         self.start(c, rgb, test, masks)
         return self.jobs[c].result()
 
-    def close(self) -> None:
-        self.pool.shutdown(wait=True, cancel_futures=True)
-
     def _means(self, rgb: F32, test: F32, masks: dict[str, BOOL]) -> Means:
         name = _name(test, rgb, masks)
         known = _stored_means(self.store.get(name), masks) if self.store is not None else None
@@ -98,7 +94,7 @@ class Flips:
 
     def _map(self, ref: F32, test: F32) -> F32:
         """metrics.flip_ldr_map of the display values, from the first map where one is
-        known (runs on the pool's one thread: `known` is never written at once)."""
+        known (runs on the one background thread: `known` is never written at once)."""
         if self.known is not None and np.array_equal(self.known[2], test):
             return flip_crops.updated_ldr_flip(ref, test, self.known[0], self.known[1])
         flip = flip_crops.cropped_ldr_flip(ref, test)

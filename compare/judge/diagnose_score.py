@@ -335,26 +335,29 @@ class Target:
         assert self.regions is not None
         self.reference = self._full(_Codes.of(self.regions.in_order(rgb), self.codes))
 
-    def _changed(self, c: _Codes) -> NDArray[np.intp]:
+    def _changed(self, c: _Codes, ref: _Terms) -> NDArray[np.intp]:
         """The pixels whose terms can differ from the reference's. Against 8-bit codes a
         pixel's terms are its code and its half-levels (_Codes), so a pixel whose value
         moved by float noise and kept both is not judged again; against floats, every pixel
         whose value changed bit for bit."""
-        ref = self.reference
-        assert ref is not None
         if self.image.encoding == "float":
             return _changed(c.rgb, ref.codes.rgb)
         ne = (c.enc != ref.codes.enc) | (c.halves != ref.codes.halves)
         return np.flatnonzero(ne[:, 0] | ne[:, 1] | ne[:, 2])
 
-    def _updated(self, codes: _Codes) -> tuple[I16, NDArray[np.float64]]:
-        """(encoded, region sums) of a render, judged again only where its terms can differ
-        from the reference's (_changed); judged whole when most pixels do."""
+    def _sums(self, codes: _Codes) -> NDArray[np.float64]:
+        """The region sums of a render, judged again only where its terms can differ from
+        the reference's (_changed); judged whole when most pixels do. Without a reference
+        the render becomes it: the sums are the same against any reference, so threads
+        scoring at once may each set it."""
         ref = self.reference
-        assert ref is not None and self.regions is not None
-        idx = self._changed(codes)
+        assert self.regions is not None
+        if ref is None:
+            self.reference = self._full(codes)
+            return self.reference.sums
+        idx = self._changed(codes, ref)
         if idx.size > WHOLE_SHARE * len(codes.rgb):
-            return codes.enc, self._full(codes).sums
+            return self._full(codes).sums
         off_i, excess_i = self._terms(codes.at(idx), idx)
         labels = self.regions.sorted_labels[idx]
         changes = (
@@ -363,14 +366,14 @@ class Target:
             *(codes.enc[idx] - ref.codes.enc[idx]).T,
         )
         delta = np.stack([self.regions.sums(labels, v) for v in changes], axis=1)
-        return codes.enc, ref.sums + delta
+        return ref.sums + delta
 
     def score(self, rgb: F32) -> Score:
+        """The render against the image, per region (thread-safe once `check` has set the
+        regions: nothing else is written)."""
         assert self.regions is not None and self.target_colour is not None
         codes = _Codes.of(self.regions.in_order(rgb), self.codes)
-        if self.reference is None:
-            self.reference = self._full(codes)
-        enc, sums = self._updated(codes)
+        sums = self._sums(codes)
         counts = self.regions.counts
         share = sums[:, 0] / counts
         excess = sums[:, 1] / counts
@@ -382,7 +385,7 @@ class Target:
             dict(zip(names, share.tolist(), strict=True)),
             dict(zip(names, excess.tolist(), strict=True)),
             dict(zip(names, tone.tolist(), strict=True)),
-            hashlib.sha1(enc.data.cast("B"), usedforsecurity=False).digest(),
+            hashlib.sha1(codes.enc.data.cast("B"), usedforsecurity=False).digest(),
         )
 
     def exact(self, c: Candidate, renders: Sequence[Image]) -> ExactMatch:

@@ -6,7 +6,7 @@ verdict judges a model) that its claims are made of.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose_flip import Flips, Means
@@ -31,11 +31,13 @@ class Trials:
         self.target, self.render, self.parallel = target, render, parallel
         self.turns, self.grows = list(turns), list(grows)
         self.store = store
-        self.flips = Flips(store)
+        # One thread for the work a claim needs later (FLIP, exact matches), begun early.
+        self.background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose")
+        self.flips = Flips(store, self.background)
         self.scores: dict[Candidate, Score] = {}
         self.kept: dict[Candidate, Image] = {}
         self.keep: set[Candidate] = set()
-        self.exact_memo: dict[Candidate, ExactMatch] = {}
+        self.exact_memo: dict[Candidate, Future[ExactMatch]] = {}
 
     def set_test(self, rgb: F32) -> None:
         """Judge against `rgb` from now on: every kept render is scored again, every other
@@ -63,13 +65,24 @@ class Trials:
         # The deepest first: a deep limit can cost a hundred shallow renders (a chain of glass
         # with acne), and started last it would leave the other threads idle at the end.
         todo.sort(key=lambda c: -c.depth(self.target.scene))
+        if self.target.regions is None:  # the first render's AOVs give them: judged alone
+            self._keep(todo[0], *self._judged(todo.pop(0)))
         with ThreadPoolExecutor(max_workers=max(1, self.parallel)) as pool:
-            # Scored as they arrive: a round's renders are never all in memory at once.
-            for c, im in zip(todo, pool.map(self.render, todo), strict=True):
-                self.target.check(c, im)
-                self.scores[c] = self.target.score(im.rgb)
-                if c in self.keep:
-                    self.kept[c] = im
+            # Each thread renders and scores (numpy lets go of the GIL), and a render not
+            # kept is dropped once scored: a round's renders are never all in memory at once.
+            for c, judged in zip(todo, pool.map(self._judged, todo), strict=True):
+                self._keep(c, *judged)
+
+    def _judged(self, c: Candidate) -> tuple[Image | None, Score]:
+        """c's score, and its render when it is to be kept."""
+        im = self.render(c)
+        self.target.check(c, im)
+        return (im if c in self.keep else None), self.target.score(im.rgb)
+
+    def _keep(self, c: Candidate, im: Image | None, score: Score) -> None:
+        self.scores[c] = score
+        if im is not None:
+            self.kept[c] = im
 
     def render_all(self, cands: Sequence[Candidate]) -> list[Image]:
         with ThreadPoolExecutor(max_workers=max(1, self.parallel)) as pool:
@@ -96,10 +109,23 @@ class Trials:
         rendered at pixel centres, with the camera turned by each turn and its spheres grown
         by each growth: the perturbed renders the verdict judges with."""
         if c not in self.exact_memo:
-            centre = self.centre_once(c)
-            perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
-            self.exact_memo[c] = self.target.exact(c, [centre, *self.render_all(perturbed)])
-        return self.exact_memo[c]
+            done: Future[ExactMatch] = Future()
+            done.set_result(self._exact(c, self.centre_once(c)))
+            self.exact_memo[c] = done
+        return self.exact_memo[c].result()
+
+    def exact_soon(self, c: Candidate) -> None:
+        """Begin c's exact match in the background (the search goes on meanwhile)."""
+        if c not in self.exact_memo:
+            self.exact_memo[c] = self.background.submit(self._exact, c, self.centre_once(c))
+
+    def _exact(self, c: Candidate, centre: Image) -> ExactMatch:
+        perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
+        return self.target.exact(c, [centre, *self.render_all(perturbed)])
+
+    def close(self) -> None:
+        """Waits for the background work still running (a start the search left behind)."""
+        self.background.shutdown(wait=True, cancel_futures=True)
 
     def exact_differing(self, c: Candidate) -> dict[str, int]:
         return {k: e.differing for k, e in self.exact_of(c).per_effect.items()}
