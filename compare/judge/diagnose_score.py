@@ -126,7 +126,7 @@ def _excess(enc: I16, target: I16) -> I16:
     return out
 
 
-def _changed(a: F32, b: F32) -> NDArray[np.intp]:
+def _bits_changed(a: F32, b: F32) -> NDArray[np.intp]:
     """The pixels (rows of N x 3) whose values differ bit for bit (compared as integers of
     their width where both are one contiguous float type; else as values, where a NaN always
     differs and -0 equals 0, which every term treats alike)."""
@@ -341,7 +341,7 @@ class Target:
         moved by float noise and kept both is not judged again; against floats, every pixel
         whose value changed bit for bit."""
         if self.image.encoding == "float":
-            return _changed(c.rgb, ref.codes.rgb)
+            return _bits_changed(c.rgb, ref.codes.rgb)
         ne = (c.enc != ref.codes.enc) | (c.halves != ref.codes.halves)
         return np.flatnonzero(ne[:, 0] | ne[:, 1] | ne[:, 2])
 

@@ -30,7 +30,6 @@ class Trials:
     ) -> None:
         self.target, self.render, self.parallel = target, render, parallel
         self.turns, self.grows = list(turns), list(grows)
-        self.store = store
         # One thread for the work a claim needs later (FLIP, exact matches), begun early.
         self.background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose")
         self.flips = Flips(store, self.background)
