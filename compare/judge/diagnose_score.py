@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from compare.judge.candidate import Candidate
 from compare.judge.effects import BOOL, effect_masks
-from compare.judge.exact_match import ExactMatch, exact_match
+from compare.judge.exact_match import Bounds, ExactMatch, allowed_differing, match_bounds
 from compare.judge.images import F32, Image, linear_to_srgb
 from compare.judge.target_model import TargetModel
 from scene_model.scene import Scene
@@ -43,7 +43,7 @@ MIRRORS = {"lr": "left-right", "ud": "upside down", "lrud": "left-right and upsi
 
 
 class Store(Protocol):
-    """Small texts kept between runs under names that carry their inputs' hashes (the
+    """Texts and bytes kept between runs under names that carry their inputs' hashes (the
     render cache's derived/, through the renderer's `store`). `identity` names what renders
     the candidates (the renderer, the scene file, the size): a kept diagnosis is used only by
     the same."""
@@ -53,6 +53,10 @@ class Store(Protocol):
     def get(self, name: str) -> str | None: ...
 
     def put(self, name: str, text: str) -> None: ...
+
+    def get_bytes(self, name: str, max_bytes: int) -> bytes | None: ...
+
+    def put_bytes(self, name: str, data: bytes) -> None: ...
 
 
 class DiagnoseError(ValueError):
@@ -313,8 +317,7 @@ class Target:
         self.masks.update({k: v for k, v in found.items() if v.any()})
         self.regions = Regions(self.masks)
         self._set(self.test)
-        first = exact_match([im.rgb], self.test, self.image.encoding, model="", masks=self.masks)
-        self.allowance = {k: e.allowed for k, e in first.per_effect.items()}
+        self.allowance = {k: allowed_differing(int(m.sum())) for k, m in self.masks.items()}
 
     def _terms(self, c: _Codes, idx: NDArray[np.intp] | None) -> tuple[BOOL, I16]:
         """(differs, excess) of the pixels idx (None: all) of a render in region order."""
@@ -388,14 +391,11 @@ class Target:
             hashlib.sha1(codes.enc.data.cast("B"), usedforsecurity=False).digest(),
         )
 
-    def exact(self, c: Candidate, renders: Sequence[Image]) -> ExactMatch:
-        """The verdict's own judging of the image against c's renders (the centre first)."""
-        return exact_match(
-            [im.rgb for im in renders],
-            self.test,
-            self.image.encoding,
-            model=c.name,
-            masks=self.masks,
+    def exact(self, c: Candidate, pair: tuple[Bounds, Bounds], renders: int) -> ExactMatch:
+        """The verdict's own judging of the image against c's bounds (model_bounds of its
+        `renders` renders)."""
+        return match_bounds(
+            pair, renders, self.test, self.image.encoding, model=c.name, masks=self.masks
         )
 
     def mirror_distances(self, renders: Sequence[Image]) -> dict[str, float]:

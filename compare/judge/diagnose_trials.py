@@ -8,10 +8,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 
+from compare.judge import diagnose_bounds
 from compare.judge.candidate import Candidate
+from compare.judge.diagnose_bounds import bounds_name
 from compare.judge.diagnose_flip import Flips, Means
 from compare.judge.diagnose_score import Renderer, Score, Store, Target
-from compare.judge.exact_match import ExactMatch
+from compare.judge.exact_match import ExactMatch, model_bounds
 from compare.judge.images import F32, Image
 
 
@@ -32,6 +34,7 @@ class Trials:
         self.turns, self.grows = list(turns), list(grows)
         # One thread for the work a claim needs later (FLIP, exact matches), begun early.
         self.background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose")
+        self.store = store
         self.flips = Flips(store, self.background)
         self.scores: dict[Candidate, Score] = {}
         self.kept: dict[Candidate, Image] = {}
@@ -119,8 +122,20 @@ class Trials:
             self.exact_memo[c] = self.background.submit(self._exact, c, self.centre_once(c))
 
     def _exact(self, c: Candidate, centre: Image) -> ExactMatch:
+        """c's exact match from its bounds: kept in the store, or computed from its renders."""
+        encoding = self.target.image.encoding
         perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
-        return self.target.exact(c, [centre, *self.render_all(perturbed)])
+        name = None
+        if self.store is not None:
+            name = bounds_name(self.store.identity, c, (self.turns, self.grows), encoding)
+            pair = diagnose_bounds.load(self.store, name, centre.rgb.shape)
+            if pair is not None:
+                return self.target.exact(c, pair, 1 + len(perturbed))
+        renders = [centre.rgb, *(im.rgb for im in self.render_all(perturbed))]
+        pair = model_bounds(renders, encoding)
+        if name is not None:
+            diagnose_bounds.keep(self.store, name, pair)
+        return self.target.exact(c, pair, len(renders))
 
     def close(self) -> None:
         """Waits for the background work still running (a start the search left behind)."""

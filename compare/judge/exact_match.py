@@ -246,7 +246,22 @@ def exact_match(
         raise ValueError("exact_match needs at least the model's pixel-centre render")
     if cache is not None and encoding not in cache:
         cache[encoding] = model_bounds(renders, encoding)
-    centre_b, spread_b = cache[encoding] if cache is not None else model_bounds(renders, encoding)
+    pair = cache[encoding] if cache is not None else model_bounds(renders, encoding)
+    return match_bounds(pair, len(renders), test, encoding, model=model, masks=masks, region=region)
+
+
+def match_bounds(
+    pair: tuple[Bounds, Bounds],
+    renders: int,
+    test: F32,
+    encoding: str,
+    *,
+    model: str,
+    masks: dict[str, BOOL] | None = None,
+    region: BOOL | None = None,
+) -> ExactMatch:
+    """exact_match from the model's bounds (model_bounds of its `renders` renders)."""
+    centre_b, spread_b = pair
     t = _stored(test, encoding)
     centre = _within(centre_b, t, encoding, None)
     matches = centre.copy()
@@ -266,4 +281,4 @@ def exact_match(
             int((unstable & pixels).sum()),
             allowed_differing(n),
         )
-    return ExactMatch(model, encoding, matches, unstable, len(renders), per_effect, region)
+    return ExactMatch(model, encoding, matches, unstable, renders, per_effect, region)

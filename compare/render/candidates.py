@@ -135,6 +135,15 @@ class DerivedStore:
     def put(self, name: str, text: str) -> None:
         write_atomic(self.cache.derived(name), text)
 
+    def get_bytes(self, name: str, max_bytes: int) -> bytes | None:
+        try:
+            return read_bounded(self.cache.derived(name), max_bytes)
+        except OSError:
+            return None
+
+    def put_bytes(self, name: str, data: bytes) -> None:
+        write_atomic(self.cache.derived(name), data)
+
 
 class CandidateRenderer:
     """`with CandidateRenderer(scene_file, w, h) as render: render(candidate) -> Image`.
