@@ -302,8 +302,9 @@ class Target:
         """Judge against `rgb` from now on (the un-mirrored image)."""
         self._set(rgb)
 
-    def check(self, c: Candidate, im: Image) -> None:
-        """A render of the image's size; the first one's AOVs give the effect regions."""
+    def check(self, c: Candidate, im: Image, masks: dict[str, BOOL] | None = None) -> None:
+        """A render of the image's size; the first one's AOVs give the effect regions (or
+        `masks`, the ones they gave before)."""
         if im.rgb.shape != self.image.rgb.shape:
             h, w = self.image.shape
             raise DiagnoseError(
@@ -311,10 +312,12 @@ class Target:
             )
         if self.regions is not None:
             return
-        if "id" not in im.aovs or "depth" not in im.aovs:
-            raise DiagnoseError(f"render of {c.name} has no id/depth AOVs")
-        found = effect_masks(self.scene, im.aovs["id"], im.aovs["depth"])
-        self.masks.update({k: v for k, v in found.items() if v.any()})
+        if masks is None:
+            if "id" not in im.aovs or "depth" not in im.aovs:
+                raise DiagnoseError(f"render of {c.name} has no id/depth AOVs")
+            found = effect_masks(self.scene, im.aovs["id"], im.aovs["depth"])
+            masks = {k: v for k, v in found.items() if v.any()}
+        self.masks.update(masks)
         self.regions = Regions(self.masks)
         self._set(self.test)
         self.allowance = {k: allowed_differing(int(m.sum())) for k, m in self.masks.items()}

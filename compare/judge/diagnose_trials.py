@@ -8,9 +8,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 
-from compare.judge import diagnose_bounds
+from compare.judge import diagnose_kept
 from compare.judge.candidate import Candidate
-from compare.judge.diagnose_bounds import bounds_name
 from compare.judge.diagnose_flip import Flips, Means
 from compare.judge.diagnose_score import Renderer, Score, Store, Target
 from compare.judge.exact_match import ExactMatch, model_bounds
@@ -78,8 +77,20 @@ class Trials:
     def _judged(self, c: Candidate) -> tuple[Image | None, Score]:
         """c's score, and its render when it is to be kept."""
         im = self.render(c)
-        self.target.check(c, im)
+        if self.target.regions is None:
+            self._first_check(c, im)
+        else:
+            self.target.check(c, im)
         return (im if c in self.keep else None), self.target.score(im.rgb)
+
+    def _first_check(self, c: Candidate, im: Image) -> None:
+        """The first render sets the effect masks: the ones kept for it, or found (and kept)."""
+        name, shape = self._kept_name("masks", c), im.rgb.shape[:2]
+        data = diagnose_kept.read(self.store, name, diagnose_kept.masks_size(shape))
+        masks = diagnose_kept.unpack_masks(data, shape)
+        self.target.check(c, im, masks)
+        if masks is None:
+            diagnose_kept.write(self.store, name, diagnose_kept.pack_masks(self.target.masks))
 
     def _keep(self, c: Candidate, im: Image | None, score: Score) -> None:
         self.scores[c] = score
@@ -125,17 +136,18 @@ class Trials:
         """c's exact match from its bounds: kept in the store, or computed from its renders."""
         encoding = self.target.image.encoding
         perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
-        name = None
-        if self.store is not None:
-            name = bounds_name(self.store.identity, c, (self.turns, self.grows), encoding)
-            pair = diagnose_bounds.load(self.store, name, centre.rgb.shape)
-            if pair is not None:
-                return self.target.exact(c, pair, 1 + len(perturbed))
-        renders = [centre.rgb, *(im.rgb for im in self.render_all(perturbed))]
-        pair = model_bounds(renders, encoding)
-        if name is not None:
-            diagnose_bounds.keep(self.store, name, pair)
-        return self.target.exact(c, pair, len(renders))
+        name = self._kept_name("bounds", c, self.turns, self.grows, encoding)
+        shape = centre.rgb.shape
+        data = diagnose_kept.read(self.store, name, diagnose_kept.bounds_size(shape))
+        pair = diagnose_kept.unpack_bounds(data, shape)
+        if pair is None:
+            renders = [centre.rgb, *(im.rgb for im in self.render_all(perturbed))]
+            pair = model_bounds(renders, encoding)
+            diagnose_kept.write(self.store, name, diagnose_kept.pack_bounds(pair))
+        return self.target.exact(c, pair, 1 + len(perturbed))
+
+    def _kept_name(self, kind: str, c: Candidate, *more: object) -> str:
+        return diagnose_kept.kept_name(kind, self.store.identity if self.store else "", c, *more)
 
     def close(self) -> None:
         """Waits for the background work still running (a start the search left behind)."""

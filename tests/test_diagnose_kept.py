@@ -1,4 +1,4 @@
-"""A candidate's exact-match bounds are kept between diagnoses (compare/judge/diagnose_bounds.py):
+"""A candidate's exact-match bounds are kept between diagnoses (compare/judge/diagnose_kept.py):
 read back they are the bounds computed, a damaged or foreign file is computed again, and a second
 image judged against the same candidates renders none of its perturbed renders."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.judge import diagnose_bounds, diagnose_trials
+from compare.judge import diagnose_kept, diagnose_score, diagnose_trials
 from compare.judge.diagnose import diagnose
 from compare.judge.exact_match import Bounds, model_bounds
 from compare.render.cache import RenderCache
@@ -37,28 +37,40 @@ def _equal(a: tuple[Bounds, Bounds], b: tuple[Bounds, Bounds]) -> bool:
 def test_packed_bounds_read_back_as_computed() -> None:
     shape = (5, 7, 3)
     pair = _pair(np.random.default_rng(3), shape)
-    data = diagnose_bounds.pack(pair)
-    assert data is not None and len(data) <= diagnose_bounds.packed_size(shape)
-    back = diagnose_bounds.unpack(data, shape)
+    data = diagnose_kept.pack_bounds(pair)
+    assert data is not None and len(data) <= diagnose_kept.bounds_size(shape)
+    back = diagnose_kept.unpack_bounds(data, shape)
     assert back is not None and _equal(back, pair)
     assert back[1].nan[0, 0, 0] and back[0].lo.dtype == np.float32
 
 
 def test_damaged_or_foreign_bounds_are_not_used() -> None:
     shape = (5, 7, 3)
-    data = diagnose_bounds.pack(_pair(np.random.default_rng(4), shape))
+    data = diagnose_kept.pack_bounds(_pair(np.random.default_rng(4), shape))
     assert data is not None
     flipped = bytearray(data)
     flipped[-3] ^= 1
-    assert diagnose_bounds.unpack(bytes(flipped), shape) is None
-    assert diagnose_bounds.unpack(data[:-1], shape) is None
-    assert diagnose_bounds.unpack(data, (7, 5, 3)) is None
-    assert diagnose_bounds.unpack(b"not bounds", shape) is None
+    assert diagnose_kept.unpack_bounds(bytes(flipped), shape) is None
+    assert diagnose_kept.unpack_bounds(data[:-1], shape) is None
+    assert diagnose_kept.unpack_bounds(data, (7, 5, 3)) is None
+    assert diagnose_kept.unpack_bounds(b"not bounds", shape) is None
+
+
+def test_packed_masks_read_back_as_found() -> None:
+    rng = np.random.default_rng(5)
+    masks = {"direct": rng.random((5, 7)) < 0.5, "edges": rng.random((5, 7)) < 0.2}
+    data = diagnose_kept.pack_masks(masks)
+    back = diagnose_kept.unpack_masks(data, (5, 7))
+    assert back is not None and list(back) == ["direct", "edges"]
+    assert all(np.array_equal(back[k], masks[k]) for k in masks)
+    assert diagnose_kept.unpack_masks(data, (7, 5)) is None
+    assert diagnose_kept.unpack_masks(data[:-1], (5, 7)) is None
+    assert diagnose_kept.unpack_bounds(data, (5, 7)) is None  # masks are not bounds
 
 
 def test_float_bounds_are_not_kept() -> None:
     renders = [np.full((2, 2, 3), 0.3, np.float32), np.full((2, 2, 3), 0.31, np.float32)]
-    assert diagnose_bounds.pack(model_bounds(renders, "float")) is None
+    assert diagnose_kept.pack_bounds(model_bounds(renders, "float")) is None
 
 
 def test_a_second_image_reads_the_candidates_bounds(
@@ -81,9 +93,15 @@ def test_a_second_image_reads_the_candidates_bounds(
     for kept in cache.derived_dir.glob("diagnosis-*.json"):
         kept.unlink()  # searched again
 
-    def no_bounds(*_a: object) -> None:
-        raise AssertionError("bounds computed again")
+    assert list(cache.derived_dir.glob("diagnose-masks-*.bin"))
 
-    monkeypatch.setattr(diagnose_trials, "model_bounds", no_bounds)
+    def again_(what: str) -> object:
+        def fail(*_a: object) -> None:
+            raise AssertionError(f"{what} computed again")
+
+        return fail
+
+    monkeypatch.setattr(diagnose_trials, "model_bounds", again_("bounds"))
+    monkeypatch.setattr(diagnose_score, "effect_masks", again_("effect masks"))
     again, perturbed_again = once()
     assert again == first and perturbed_again == []

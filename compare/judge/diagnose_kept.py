@@ -1,0 +1,153 @@
+"""What a diagnosis computes from candidate renders alone, never from the image, kept in the
+diagnosis's store between runs: a candidate's exact-match bounds (exact_match.model_bounds of
+its pixel-centre render and its perturbed ones) and the effect masks of the first render.
+
+The next image diagnosed against the same candidates (a class's students, the same program run
+again) reads them instead of computing them again: the bounds cost ten perturbed renders read
+and about 0.2 s a candidate at 640x480, the masks 0.12 s before anything else can start. For
+the 8-bit encodings every bound is a whole code in [0, 255], so bounds are kept as bytes; a
+float image's bounds are not kept. Each file carries its payload's sha1 and what it holds; the
+candidate, the renderer and the code that computes them are in its name: anything else read
+back is computed again.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.judge import effects, exact_match
+from compare.judge.candidate import Candidate
+from compare.judge.diagnose_score import Store
+from compare.judge.effects import BOOL
+from compare.judge.exact_match import Bounds
+
+KEPT_FORMAT = "rtval-diagnose-kept/1"
+HEAD_MAX = 4096
+Pair = tuple[Bounds, Bounds]
+
+
+@cache
+def _code() -> bytes:
+    h = hashlib.sha256()
+    for module in (exact_match, effects):
+        h.update(Path(module.__file__ or "").read_bytes())
+    h.update(Path(__file__).read_bytes())
+    return h.digest()
+
+
+def kept_name(kind: str, identity: str, c: Candidate, *more: object) -> str:
+    """The store name of `kind` ("bounds", "masks") computed from c's renders."""
+    h = hashlib.sha256(_code())
+    h.update(json.dumps([kind, identity, repr(c), repr(more)]).encode())
+    return f"diagnose-{kind}-{h.hexdigest()[:32]}.bin"
+
+
+def _framed(head: dict[str, Any], payload: bytes) -> bytes:
+    head = {"format": KEPT_FORMAT, **head}
+    head["sha1"] = hashlib.sha1(payload, usedforsecurity=False).hexdigest()
+    return json.dumps(head).encode() + b"\n" + payload
+
+
+def _unframed(data: bytes | None, kind: str) -> tuple[dict[str, Any], bytes] | None:
+    """The head and payload of a file _framed wrote for `kind`, or None."""
+    if data is None or b"\n" not in data[:HEAD_MAX]:
+        return None
+    head_bytes, payload = data.split(b"\n", 1)
+    try:
+        head = json.loads(head_bytes)
+        ok = head["format"] == KEPT_FORMAT and head["kind"] == kind
+        ok = ok and hashlib.sha1(payload, usedforsecurity=False).hexdigest() == head["sha1"]
+    except (ValueError, KeyError, TypeError):
+        return None
+    return (head, payload) if ok else None
+
+
+def _bits(n: int) -> int:
+    return (n + 7) // 8
+
+
+def _unpacked(buf: np.ndarray, at: int, n: int, shape: tuple[int, ...]) -> BOOL:
+    out: BOOL = np.unpackbits(buf[at : at + _bits(n)], count=n).reshape(shape).astype(bool)
+    return out
+
+
+# --- exact-match bounds ----------------------------------------------------------------------
+
+
+def pack_bounds(pair: Pair) -> bytes | None:
+    """The bounds as bytes, or None where some bound is not a whole code (a float image)."""
+    codes = []
+    for plane in (p for b in pair for p in (b.lo, b.hi)):
+        u8 = np.clip(plane, 0, 255).astype(np.uint8)
+        if not np.array_equal(u8, plane):
+            return None
+        codes.append(u8.tobytes())
+    nans = [np.packbits(b.nan).tobytes() for b in pair]
+    return _framed({"kind": "bounds", "shape": list(pair[0].lo.shape)}, b"".join(codes + nans))
+
+
+def bounds_size(shape: tuple[int, ...]) -> int:
+    """At most how many bytes pack_bounds writes for bounds of this shape."""
+    n = int(np.prod(shape))
+    return 4 * n + 2 * _bits(n) + HEAD_MAX
+
+
+def unpack_bounds(data: bytes | None, shape: tuple[int, ...]) -> Pair | None:
+    """The bounds pack_bounds wrote for this shape, or None (absent, another shape, damaged)."""
+    framed = _unframed(data, "bounds")
+    n = int(np.prod(shape))
+    if framed is None or tuple(framed[0].get("shape", ())) != tuple(shape):
+        return None
+    payload = framed[1]
+    if len(payload) != 4 * n + 2 * _bits(n):
+        return None
+    buf = np.frombuffer(payload, np.uint8)
+    lo0, hi0, lo1, hi1 = (
+        buf[i * n : (i + 1) * n].reshape(shape).astype(np.float32) for i in range(4)
+    )
+    nan0, nan1 = (_unpacked(buf, 4 * n + i * _bits(n), n, shape) for i in range(2))
+    return Bounds(lo0, hi0, nan0), Bounds(lo1, hi1, nan1)
+
+
+# --- effect masks ----------------------------------------------------------------------------
+
+
+def pack_masks(masks: dict[str, BOOL]) -> bytes:
+    shape = next(iter(masks.values())).shape
+    payload = b"".join(np.packbits(m).tobytes() for m in masks.values())
+    return _framed({"kind": "masks", "shape": list(shape), "names": list(masks)}, payload)
+
+
+def masks_size(shape: tuple[int, ...]) -> int:
+    return len(effects.EFFECTS) * _bits(int(np.prod(shape))) + HEAD_MAX
+
+
+def unpack_masks(data: bytes | None, shape: tuple[int, ...]) -> dict[str, BOOL] | None:
+    """The masks pack_masks wrote for renders of this shape, or None."""
+    framed = _unframed(data, "masks")
+    n = int(np.prod(shape))
+    if framed is None or tuple(framed[0].get("shape", ())) != tuple(shape):
+        return None
+    head, payload = framed
+    names = head.get("names")
+    if not isinstance(names, list) or not set(names) <= set(effects.EFFECTS) or not names:
+        return None
+    if len(payload) != len(names) * _bits(n):
+        return None
+    buf = np.frombuffer(payload, np.uint8)
+    return {k: _unpacked(buf, i * _bits(n), n, shape) for i, k in enumerate(names)}
+
+
+def read(store: Store | None, name: str, max_bytes: int) -> bytes | None:
+    return None if store is None else store.get_bytes(name, max_bytes)
+
+
+def write(store: Store | None, name: str, data: bytes | None) -> None:
+    if store is not None and data is not None:
+        store.put_bytes(name, data)
