@@ -203,6 +203,9 @@ class Search:
         """The search, then the result without what explains nothing, retold from the mode it
         differs least from in the quirks the scene shows."""
         current = self.shallowest(self.greedy(begin))
+        # Most often the result: its FLIP and exact match while the steps are retold.
+        self.trials.flip_soon(current)
+        self.trials.exact_soon(current)
         # Switches that explain nothing go first, so that they cannot decide the mode below.
         current, _, _ = self.justified(begin, current, False)
         invisible = self.invisible(current)
