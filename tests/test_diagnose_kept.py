@@ -73,7 +73,7 @@ def test_float_bounds_are_not_kept() -> None:
     assert diagnose_kept.pack_bounds(model_bounds(renders, "float")) is None
 
 
-def test_a_second_image_reads_the_candidates_bounds(
+def test_a_second_image_reads_what_the_candidates_gave(
     tmp_path: Path, rtdemo: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     image = render_demo(rtdemo, CLASSIC, tmp_path / "q2.ppm", "-q", "--mode", "classic",
@@ -86,14 +86,17 @@ def test_a_second_image_reads_the_candidates_bounds(
         with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
             d = diagnose(image, scene, render).as_dict()
         d.pop("seconds")
-        return d, [name for name in render.seen if "camera turned" in name or " ulps]" in name]
+        return d, list(render.seen)
 
-    first, perturbed = once()
-    assert perturbed and list(cache.derived_dir.glob("diagnose-bounds-*.bin"))
+    def perturbed(names: list[str]) -> list[str]:
+        return [n for n in names if "camera turned" in n or " ulps]" in n]
+
+    first, seen = once()
+    assert perturbed(seen)
+    for kind in ("bounds", "masks", "codes"):
+        assert list(cache.derived_dir.glob(f"diagnose-{kind}-*.bin")), kind
     for kept in cache.derived_dir.glob("diagnosis-*.json"):
         kept.unlink()  # searched again
-
-    assert list(cache.derived_dir.glob("diagnose-masks-*.bin"))
 
     def again_(what: str) -> object:
         def fail(*_a: object) -> None:
@@ -103,5 +106,19 @@ def test_a_second_image_reads_the_candidates_bounds(
 
     monkeypatch.setattr(diagnose_trials, "model_bounds", again_("bounds"))
     monkeypatch.setattr(diagnose_score, "effect_masks", again_("effect masks"))
-    again, perturbed_again = once()
-    assert again == first and perturbed_again == []
+    again, seen_again = once()
+    assert again == first and perturbed(seen_again) == []
+    # Only the renders the search keeps (the modes, for the mirror test and FLIP) are read.
+    assert len(seen_again) <= 8 < int(str(first["renders"]))
+
+
+def test_codes_read_back_as_made() -> None:
+    rng = np.random.default_rng(6)
+    rgb = rng.random((40, 3), np.float32) * 1.4 - 0.2
+    rgb[::7] = np.float32(0.5) / np.float32(255.0)  # exactly half a level
+    for kind in ("linear", "srgb"):
+        codes = diagnose_score.Codes.of(rgb, kind, values=False)
+        back = diagnose_kept.unpack_codes(diagnose_kept.pack_codes(codes), len(rgb))
+        assert back is not None and back.rgb is None and back.digest == codes.digest
+        assert np.array_equal(back.enc, codes.enc) and np.array_equal(back.halves, codes.halves)
+        assert diagnose_kept.unpack_codes(diagnose_kept.pack_codes(codes), len(rgb) + 1) is None

@@ -1,12 +1,14 @@
 """What a diagnosis computes from candidate renders alone, never from the image, kept in the
 diagnosis's store between runs: a candidate's exact-match bounds (exact_match.model_bounds of
-its pixel-centre render and its perturbed ones) and the effect masks of the first render.
+its pixel-centre render and its perturbed ones), its 8-bit codes as the score sees them
+(diagnose_score.Codes) and the effect masks of the first render.
 
 The next image diagnosed against the same candidates (a class's students, the same program run
 again) reads them instead of computing them again: the bounds cost ten perturbed renders read
-and about 0.2 s a candidate at 640x480, the masks 0.12 s before anything else can start. For
-the 8-bit encodings every bound is a whole code in [0, 255], so bounds are kept as bytes; a
-float image's bounds are not kept. Each file carries its payload's sha1 and what it holds; the
+and about 0.2 s a candidate at 640x480, a candidate's codes its render read and converted
+(about 15 ms), the masks 0.12 s before anything else can start. For the 8-bit encodings every
+bound and code is a whole number in [0, 255], so they are kept as bytes; a float image's are
+not kept. Each file carries its payload's sha1 and what it holds; the
 candidate, the renderer and the code that computes them are in its name: anything else read
 back is computed again.
 """
@@ -23,7 +25,7 @@ import numpy as np
 
 from compare.judge import effects, exact_match
 from compare.judge.candidate import Candidate
-from compare.judge.diagnose_score import Store
+from compare.judge.diagnose_score import Codes, Store
 from compare.judge.effects import BOOL
 from compare.judge.exact_match import Bounds
 
@@ -142,6 +144,39 @@ def unpack_masks(data: bytes | None, shape: tuple[int, ...]) -> dict[str, BOOL] 
         return None
     buf = np.frombuffer(payload, np.uint8)
     return {k: _unpacked(buf, i * _bits(n), n, shape) for i, k in enumerate(names)}
+
+
+# --- a render's codes ----------------------------------------------------------------------
+
+
+def pack_codes(codes: Codes) -> bytes | None:
+    """The codes (0..255) and each half-level as its offset from twice the code (-1, 0, 1);
+    None for codes outside those ranges (none that diagnose_score makes)."""
+    offset = codes.halves - np.int16(2) * codes.enc
+    if codes.enc.min() < 0 or codes.enc.max() > 255 or np.abs(offset).max() > 1:
+        return None
+    enc, offset = codes.enc.astype(np.uint8), offset.astype(np.int8)
+    head = {"kind": "codes", "pixels": len(codes.enc), "digest": codes.digest.hex()}
+    return _framed(head, enc.tobytes() + offset.tobytes())
+
+
+def codes_size(pixels: int) -> int:
+    return 6 * pixels + HEAD_MAX
+
+
+def unpack_codes(data: bytes | None, pixels: int) -> Codes | None:
+    """The codes pack_codes wrote for a render of this many pixels, or None."""
+    framed = _unframed(data, "codes")
+    if framed is None or framed[0].get("pixels") != pixels or len(framed[1]) != 6 * pixels:
+        return None
+    try:
+        digest = bytes.fromhex(framed[0]["digest"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    buf = np.frombuffer(framed[1], np.uint8)
+    enc = buf[: 3 * pixels].astype(np.int16).reshape(pixels, 3)
+    offset = buf[3 * pixels :].view(np.int8).astype(np.int16).reshape(pixels, 3)
+    return Codes(None, enc, enc * np.int16(2) + offset, digest)
 
 
 def read(store: Store | None, name: str, max_bytes: int) -> bytes | None:

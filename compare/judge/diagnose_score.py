@@ -104,14 +104,15 @@ def encoded(rgb: F32, codes: str) -> I16:
     return out
 
 
-def _quick_differing(halves: I16, doubled: I16, rgb: F32, test: F32, encoding: str) -> BOOL:
+def _quick_differing(halves: I16, doubled: I16, rgb: F32 | None, test: F32, encoding: str) -> BOOL:
     """H x W: pixels the search counts as not matching the candidate: an 8-bit code that
     neither a truncating nor a rounding writer of the candidate's value stores (a float image:
     off by more than half-float precision). exact_match's rule without its slack of 2^-16 in
     the value; the search's count only, every claim is exact_match's. With h the candidate's
-    half-levels (_Codes) and c the code, floor(levels) <= c <= floor(levels + 0.5) is
+    half-levels (Codes) and c the code, floor(levels) <= c <= floor(levels + 0.5) is
     h >> 1 <= c <= (h + 1) >> 1, that is |h - 2c| <= 1 (`doubled` holds 2c)."""
     if encoding == "float":
+        assert rgb is not None
         with np.errstate(invalid="ignore"):
             ok = np.abs(test - rgb) <= HALF_FLOAT * np.maximum(np.abs(rgb), HALF_FLOAT_FLOOR)
         ok |= np.isnan(test) & np.isnan(rgb)
@@ -170,6 +171,7 @@ class Regions:
         # Where each region's run starts (every region has pixels: masks are never empty),
         # and the pixels in none after the last.
         self.starts = np.flatnonzero(np.r_[True, self.sorted_labels[1:] != self.sorted_labels[:-1]])
+        self.digest = hashlib.sha1(self.order.astype(np.int64).data.cast("B")).digest()
 
     def in_order(self, pixels: NDArray[Px]) -> NDArray[Px]:
         """N x 3: the pixels of an H x W x 3 image (values or codes) in region order."""
@@ -195,26 +197,34 @@ class Regions:
 
 
 @dataclass
-class _Codes:
+class Codes:
     """A render's pixels (N x 3) as the score sees them: their whole codes (rounded levels,
     _levels) and half-levels floor(2 x levels). A pixel's terms depend on its value only
     through its code and half-levels: the floors that _quick_differing compares are
     floor(levels) = halves >> 1 and floor(levels + 0.5) = (halves + 1) >> 1 (levels lie in
-    [0, 255], where levels + 0.5 rounds to no other integer part)."""
+    [0, 255], where levels + 0.5 rounds to no other integer part). `rgb`, the values, only
+    where the image is a float one (its terms compare values); `digest` is the codes' sha1."""
 
-    rgb: F32
+    rgb: F32 | None
     enc: I16
     halves: I16
+    digest: bytes
 
     @classmethod
-    def of(cls, rgb: F32, codes: str) -> _Codes:
+    def of(cls, rgb: F32, codes: str, *, values: bool = True) -> Codes:
         levels = _levels(rgb, codes)
         enc: I16 = np.rint(levels).astype(np.int16)
         halves: I16 = np.floor(levels * np.float32(2.0)).astype(np.int16)
-        return cls(rgb, enc, halves)
+        return cls(rgb if values else None, enc, halves, codes_digest(enc))
 
-    def at(self, idx: NDArray[np.intp]) -> _Codes:
-        return _Codes(self.rgb[idx], self.enc[idx], self.halves[idx])
+    def at(self, idx: NDArray[np.intp]) -> Codes:
+        rgb = None if self.rgb is None else self.rgb[idx]
+        return Codes(rgb, self.enc[idx], self.halves[idx], b"")
+
+
+def codes_digest(enc: I16) -> bytes:
+    """Equal digests, equal codes: how the search tells renders that change no pixel."""
+    return hashlib.sha1(np.ascontiguousarray(enc).data.cast("B"), usedforsecurity=False).digest()
 
 
 @dataclass
@@ -222,7 +232,7 @@ class _Terms:
     """Per-pixel terms of one render against the target (pixels flattened): its codes,
     whether each pixel differs, its excess levels; and their per-region sums."""
 
-    codes: _Codes
+    codes: Codes
     off: BOOL  # N
     excess: I16  # N
     sums: NDArray[np.float64]  # regions x 5: off, excess, then colour (r, g, b)
@@ -322,7 +332,7 @@ class Target:
         self._set(self.test)
         self.allowance = {k: allowed_differing(int(m.sum())) for k, m in self.masks.items()}
 
-    def _terms(self, c: _Codes, idx: NDArray[np.intp] | None) -> tuple[BOOL, I16]:
+    def _terms(self, c: Codes, idx: NDArray[np.intp] | None) -> tuple[BOOL, I16]:
         """(differs, excess) of the pixels idx (None: all) of a render in region order."""
         target = self._target_flat if idx is None else self._target_flat[idx]
         doubled = self._doubled_flat if idx is None else self._doubled_flat[idx]
@@ -330,7 +340,7 @@ class Target:
         off = _quick_differing(c.halves, doubled, c.rgb, test, self.image.encoding)
         return off, _excess(c.enc, target)
 
-    def _full(self, c: _Codes) -> _Terms:
+    def _full(self, c: Codes) -> _Terms:
         assert self.regions is not None
         off, excess = self._terms(c, None)
         sums = [self.regions.run_sums(v) for v in (off, excess, *c.enc.T)]
@@ -339,19 +349,19 @@ class Target:
     def use_reference(self, rgb: F32) -> None:
         """Count the next scores against this render (a neighbour of what comes next)."""
         assert self.regions is not None
-        self.reference = self._full(_Codes.of(self.regions.in_order(rgb), self.codes))
+        self.reference = self._full(self.codes_of(rgb))
 
-    def _changed(self, c: _Codes, ref: _Terms) -> NDArray[np.intp]:
+    def _changed(self, c: Codes, ref: _Terms) -> NDArray[np.intp]:
         """The pixels whose terms can differ from the reference's. Against 8-bit codes a
-        pixel's terms are its code and its half-levels (_Codes), so a pixel whose value
+        pixel's terms are its code and its half-levels (Codes), so a pixel whose value
         moved by float noise and kept both is not judged again; against floats, every pixel
         whose value changed bit for bit."""
-        if self.image.encoding == "float":
+        if c.rgb is not None and ref.codes.rgb is not None:  # a float image
             return _bits_changed(c.rgb, ref.codes.rgb)
         ne = (c.enc != ref.codes.enc) | (c.halves != ref.codes.halves)
         return np.flatnonzero(ne[:, 0] | ne[:, 1] | ne[:, 2])
 
-    def _sums(self, codes: _Codes) -> NDArray[np.float64]:
+    def _sums(self, codes: Codes) -> NDArray[np.float64]:
         """The region sums of a render, judged again only where its terms can differ from
         the reference's (_changed); judged whole when most pixels do. Without a reference
         the render becomes it: the sums are the same against any reference, so threads
@@ -362,7 +372,7 @@ class Target:
             self.reference = self._full(codes)
             return self.reference.sums
         idx = self._changed(codes, ref)
-        if idx.size > WHOLE_SHARE * len(codes.rgb):
+        if idx.size > WHOLE_SHARE * len(codes.enc):
             return self._full(codes).sums
         off_i, excess_i = self._terms(codes.at(idx), idx)
         labels = self.regions.sorted_labels[idx]
@@ -374,11 +384,35 @@ class Target:
         delta = np.stack([self.regions.sums(labels, v) for v in changes], axis=1)
         return ref.sums + delta
 
+    @property
+    def values_judged(self) -> bool:
+        """Whether scores compare values, not only codes (a float image)."""
+        return self.image.encoding == "float"
+
+    def codes_of(self, rgb: F32) -> Codes:
+        """A render's pixels as the score sees them, in region order."""
+        assert self.regions is not None
+        return Codes.of(self.regions.in_order(rgb), self.codes, values=self.values_judged)
+
+    def total_pixels_ordered(self) -> int:
+        """Pixels of a render in region order (every pixel of the image)."""
+        assert self.regions is not None
+        return len(self.regions.order)
+
+    def codes_kind(self) -> tuple[str, bytes]:
+        """What a render's Codes depend on besides the render: the codes and the region
+        order (a digest of it)."""
+        assert self.regions is not None
+        return self.codes, self.regions.digest
+
     def score(self, rgb: F32) -> Score:
         """The render against the image, per region (thread-safe once `check` has set the
         regions: nothing else is written)."""
+        return self.score_codes(self.codes_of(rgb))
+
+    def score_codes(self, codes: Codes) -> Score:
+        """score() of the render with these codes (codes_of)."""
         assert self.regions is not None and self.target_colour is not None
-        codes = _Codes.of(self.regions.in_order(rgb), self.codes)
         sums = self._sums(codes)
         counts = self.regions.counts
         share = sums[:, 0] / counts
@@ -391,7 +425,7 @@ class Target:
             dict(zip(names, share.tolist(), strict=True)),
             dict(zip(names, excess.tolist(), strict=True)),
             dict(zip(names, tone.tolist(), strict=True)),
-            hashlib.sha1(codes.enc.data.cast("B"), usedforsecurity=False).digest(),
+            codes.digest,
         )
 
     def exact(self, c: Candidate, pair: tuple[Bounds, Bounds], renders: int) -> ExactMatch:

@@ -75,13 +75,27 @@ class Trials:
                 self._keep(c, *judged)
 
     def _judged(self, c: Candidate) -> tuple[Image | None, Score]:
-        """c's score, and its render when it is to be kept."""
+        """c's score (from its codes where the store kept them), and its render when it is
+        to be kept."""
+        t = self.target
+        name = codes = None
+        if t.regions is not None and not t.values_judged and self.store is not None:
+            name = self._kept_name("codes", c, *t.codes_kind())
+            pixels = t.total_pixels_ordered()
+            data = diagnose_kept.read(self.store, name, diagnose_kept.codes_size(pixels))
+            codes = diagnose_kept.unpack_codes(data, pixels)
+            if codes is not None and c not in self.keep:
+                return None, t.score_codes(codes)
         im = self.render(c)
-        if self.target.regions is None:
+        if t.regions is None:
             self._first_check(c, im)
         else:
-            self.target.check(c, im)
-        return (im if c in self.keep else None), self.target.score(im.rgb)
+            t.check(c, im)
+        if codes is None:
+            codes = t.codes_of(im.rgb)
+            if name is not None:
+                diagnose_kept.write(self.store, name, diagnose_kept.pack_codes(codes))
+        return (im if c in self.keep else None), t.score_codes(codes)
 
     def _first_check(self, c: Candidate, im: Image) -> None:
         """The first render sets the effect masks: the ones kept for it, or found (and kept)."""
