@@ -166,15 +166,17 @@ def write_text_checked(path: Path, text: str) -> None:
     write_atomic(path, data)
 
 
-def write_atomic(path: str | Path, data: str | bytes) -> None:
+def write_atomic(path: str | Path, data: str | bytes, *, durable: bool = True) -> None:
     """Writes to a temporary sibling, then renames: readers never see half a file. The
     sibling's name is unique (mkstemp), so two processes writing one path never share it;
-    only a regular file is replaced, and the temporary file goes on every error."""
+    only a regular file is replaced, and the temporary file goes on every error. `durable`:
+    on disk before the rename (not needed where a reader checks what it reads)."""
     raw = data.encode("utf-8") if isinstance(data, str) else data
     with atomic_output(path) as tmp, open(tmp, "wb") as f:
         f.write(raw)
         f.flush()
-        os.fsync(f.fileno())  # a full disk shows here, before the rename
+        if durable:
+            os.fsync(f.fileno())  # a full disk shows here, before the rename
 
 
 def require_folder(path: str | Path, *, missing_ok: bool = False) -> None:

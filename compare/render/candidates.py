@@ -142,7 +142,8 @@ class DerivedStore:
             return None
 
     def put_bytes(self, name: str, data: bytes) -> None:
-        write_atomic(self.cache.derived(name), data)
+        # Not synced: what a crash tears fails the sha1 its reader checks (diagnose_kept).
+        write_atomic(self.cache.derived(name), data, durable=False)
 
 
 class CandidateRenderer:
