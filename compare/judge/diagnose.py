@@ -204,7 +204,7 @@ class Search:
         differs least from in the quirks the scene shows."""
         current = self.shallowest(self.greedy(begin))
         # Most often the result: its FLIP and exact match while the steps are retold.
-        self.trials.flip_soon(current)
+        self.trials.flip_guess(current)
         self.trials.exact_soon(current)
         # Switches that explain nothing go first, so that they cannot decide the mode below.
         current, _, _ = self.justified(begin, current, False)
@@ -252,6 +252,7 @@ class Search:
                 f"{objective(t.per(current)):.3f} -> {objective(t.per(cands[best])):.3f}"
             )
             current = cands[best]
+            self.trials.flip_guess(current)  # while the search goes on: often the result
         return current
 
     def _round(

@@ -71,11 +71,19 @@ class Flips:
         # The first map computed here, with the display values of its render and of the
         # image: later maps of that image are evaluated again only where renders differ.
         self.known: tuple[F32, F32, F32] | None = None
+        self.guessed: Candidate | None = None  # the search's likely result (guess)
 
     def start(self, c: Candidate, rgb: F32, test: F32, masks: dict[str, BOOL]) -> None:
         """Begin c's means (its render `rgb` against the image `test`), unless begun."""
         if c not in self.jobs:
             self.jobs[c] = self.pool.submit(self._means, rgb, test, dict(masks))
+
+    def guess(self, c: Candidate, rgb: F32, test: F32, masks: dict[str, BOOL]) -> None:
+        """Begin c's means as the likely result's: the last guess goes unless begun."""
+        last, self.guessed = self.guessed, c
+        if last is not None and last != c and self.jobs[last].cancel():
+            del self.jobs[last]
+        self.start(c, rgb, test, masks)
 
     def means(self, c: Candidate, rgb: F32, test: F32, masks: dict[str, BOOL]) -> Means:
         self.start(c, rgb, test, masks)

@@ -126,6 +126,12 @@ class Trials:
         t = self.target
         self.flips.start(c, self.centre(c).rgb, t.test, t.masks)
 
+    def flip_guess(self, c: Candidate) -> None:
+        """Start c's FLIP means as the likely result's (a later guess replaces it unless
+        it has begun)."""
+        t = self.target
+        self.flips.guess(c, self.centre(c).rgb, t.test, t.masks)
+
     def flip_means(self, c: Candidate) -> Means:
         """Mean FLIP of the image against c's centre render, per effect region."""
         t = self.target
