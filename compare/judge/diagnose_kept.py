@@ -138,7 +138,9 @@ def unpack_masks(data: bytes | None, shape: tuple[int, ...]) -> dict[str, BOOL] 
         return None
     head, payload = framed
     names = head.get("names")
-    if not isinstance(names, list) or not set(names) <= set(effects.EFFECTS) or not names:
+    if not isinstance(names, list) or not names or len(set(names)) != len(names):
+        return None
+    if not set(names) <= set(effects.EFFECTS):
         return None
     if len(payload) != len(names) * _bits(n):
         return None
