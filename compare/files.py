@@ -7,12 +7,20 @@ import math
 import os
 import uuid
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 # The atomic writers live beside the path checks they rely on (mitsuba_ref writes with them too).
 from scene_model.safe_paths import atomic_output, write_atomic
 
-__all__ = ["atomic_output", "json_safe", "sha256_file", "unique_sibling", "write_atomic"]
+__all__ = [
+    "atomic_output",
+    "json_safe",
+    "sha256_file",
+    "sources_digest",
+    "unique_sibling",
+    "write_atomic",
+]
 
 
 def unique_sibling(path: Path) -> Path:
@@ -27,6 +35,14 @@ def sha256_file(path: str | Path) -> str:
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
+
+
+def sources_digest(*modules: ModuleType) -> bytes:
+    """sha256 of the modules' source files: what a result kept between runs was computed by."""
+    h = hashlib.sha256()
+    for module in modules:
+        h.update(Path(module.__file__ or "").read_bytes())
+    return h.digest()
 
 
 def json_safe(x: Any) -> Any:

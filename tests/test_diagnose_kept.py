@@ -4,15 +4,26 @@ image judged against the same candidates renders none of its perturbed renders."
 
 from __future__ import annotations
 
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import threading
+import types
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.judge import diagnose_kept, diagnose_score, diagnose_trials
+from compare.files import sources_digest
+from compare.judge import diagnose_flip, diagnose_kept, diagnose_score, diagnose_trials
+from compare.judge.candidate import Candidate
 from compare.judge.diagnose import diagnose
 from compare.judge.exact_match import Bounds, model_bounds
+from compare.judge.images import Image
 from compare.render.cache import RenderCache
 from compare.render.candidates import CandidateRenderer, forget_recent
 from scene_model.scene import load_scene
@@ -122,3 +133,112 @@ def test_codes_read_back_as_made() -> None:
         assert back is not None and back.rgb is None and back.digest == codes.digest
         assert np.array_equal(back.enc, codes.enc) and np.array_equal(back.halves, codes.halves)
         assert diagnose_kept.unpack_codes(diagnose_kept.pack_codes(codes), len(rgb) + 1) is None
+
+
+def _file(head: object, payload: bytes) -> bytes:
+    """A kept file with a valid sha1 around any head: what a planted file can look like."""
+    body = (head if isinstance(head, bytes) else json.dumps(head).encode()) + b"\n" + payload
+    return hashlib.sha1(body).hexdigest().encode() + b"\n" + body
+
+
+@pytest.mark.parametrize(
+    "head",
+    [
+        b"[" * 3000,  # nested past the recursion limit
+        {"format": diagnose_kept.KEPT_FORMAT, "kind": "masks", "shape": 5, "names": ["direct"]},
+        {"format": diagnose_kept.KEPT_FORMAT, "kind": "masks", "shape": [5, 7], "names": [[1]]},
+        {"format": diagnose_kept.KEPT_FORMAT, "kind": "masks", "shape": None, "names": None},
+        {"format": diagnose_kept.KEPT_FORMAT, "kind": "masks", "shape": [5, 7], "names": ["x"]},
+    ],
+)
+def test_planted_mask_files_are_not_used(head: object) -> None:
+    assert diagnose_kept.unpack_masks(_file(head, bytes(5)), (5, 7)) is None
+
+
+def test_masks_with_an_empty_region_or_a_name_twice_are_not_used() -> None:
+    full = np.ones((5, 7), bool)
+    empty = diagnose_kept.pack_masks({"direct": full, "edges": np.zeros((5, 7), bool)})
+    assert diagnose_kept.unpack_masks(empty, (5, 7)) is None
+    head = {"format": diagnose_kept.KEPT_FORMAT, "kind": "masks", "shape": [5, 7]}
+    twice = _file({**head, "names": ["direct", "direct"]}, 2 * np.packbits(full).tobytes())
+    assert diagnose_kept.unpack_masks(twice, (5, 7)) is None
+
+
+def test_planted_codes_out_of_range_are_not_used() -> None:
+    head = {"format": diagnose_kept.KEPT_FORMAT, "kind": "codes", "pixels": 2, "digest": "0" * 40}
+    assert diagnose_kept.unpack_codes(_file(head, bytes(6) + b"\x02"), 2) is None  # length
+    payload = bytes(6) + bytes([0, 0, 2, 0, 0, 0])  # a half-level offset of 2
+    assert diagnose_kept.unpack_codes(_file(head, payload), 2) is None
+    assert diagnose_kept.unpack_codes(_file(head, bytes(12)), 2) is not None
+    assert diagnose_kept.unpack_codes(_file({**head, "digest": 7}, bytes(12)), 2) is None
+
+
+def test_names_are_the_same_in_every_process() -> None:
+    """A candidate's set fields are named in one order whatever the hash seed."""
+    code = (
+        "from compare.judge.candidate import Candidate\n"
+        "from compare.judge.diagnose_kept import kept_name\n"
+        "c = Candidate.of_mode('classic').with_mistake('no_offset', True)"
+        ".with_mistake('double_gamma', True).with_effect('shadows', False)"
+        ".with_effect('refraction', False)\n"
+        "print(kept_name('codes', 'id', c, 'linear'))\n"
+    )
+    names = {
+        subprocess.run(
+            [sys.executable, "-c", code],
+            env={**os.environ, "PYTHONHASHSEED": seed},
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
+        for seed in ("1", "2", "3", "4")
+    }
+    assert len(names) == 1
+
+
+def test_a_module_source_change_changes_the_digest(tmp_path: Path) -> None:
+    source = tmp_path / "m.py"
+    source.write_text("X = 1\n")
+    module = types.ModuleType("m")
+    module.__file__ = str(source)
+    before = sources_digest(module)
+    source.write_text("X = 2\n")
+    assert sources_digest(module) != before
+
+
+def test_a_png_after_a_ppm_of_the_same_program_is_diagnosed_as_in_a_fresh_cache(
+    tmp_path: Path, rtdemo: str
+) -> None:
+    """The two encodings share the renders but never each other's codes or bounds."""
+    args = ("-q", "--mode", "classic", "--quirk", "Q2")
+    ppm = render_demo(rtdemo, CLASSIC, tmp_path / "q2.ppm", *args, size=(W, H))
+    png = render_demo(rtdemo, CLASSIC, tmp_path / "q2.png", *args, size=(W, H))
+    scene = load_scene(CLASSIC)
+
+    def diagnosed(image: Image, cache: Path) -> dict[str, object]:
+        forget_recent()
+        with CandidateRenderer(CLASSIC, W, H, cache=RenderCache(cache)) as render:
+            d = diagnose(image, scene, render).as_dict()
+        d.pop("seconds")
+        return d
+
+    shared = tmp_path / "shared"
+    diagnosed(ppm, shared)
+    assert diagnosed(png, shared) == diagnosed(png, tmp_path / "fresh")
+
+
+def test_a_newer_guess_replaces_a_flip_not_begun() -> None:
+    pool = ThreadPoolExecutor(max_workers=1)
+    gate = threading.Event()
+    pool.submit(gate.wait)  # the background thread is busy
+    flips = diagnose_flip.Flips(None, pool)
+    a, b = Candidate.of_mode("classic"), Candidate.of_mode("paper")
+    rgb = np.full((8, 8, 3), 0.5, np.float32)
+    masks = {"direct": np.ones((8, 8), bool)}
+    flips.guess(a, rgb, rgb, masks)
+    flips.guess(b, rgb * 0.5, rgb, masks)
+    assert a not in flips.jobs and b in flips.jobs
+    gate.set()
+    assert flips.means(b, rgb * 0.5, rgb, masks)["direct"] > 0
+    assert flips.means(a, rgb, rgb, masks)["direct"] == 0  # asked again: computed then
+    pool.shutdown()

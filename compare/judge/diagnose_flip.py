@@ -16,10 +16,10 @@ import importlib.metadata
 import json
 from concurrent.futures import Executor, Future
 from functools import cache
-from pathlib import Path
 
 import numpy as np
 
+from compare.files import sources_digest
 from compare.judge import flip_crops, images, metrics
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose_score import Store
@@ -33,10 +33,8 @@ Means = dict[str, float]
 @cache
 def _flip_code() -> bytes:
     """What the FLIP numbers are computed by: the judge's FLIP code and flip-evaluator."""
-    h = hashlib.sha256(importlib.metadata.version("flip-evaluator").encode())
-    for module in (flip_crops, metrics, images):
-        h.update(Path(module.__file__ or "").read_bytes())
-    return h.digest()
+    version = importlib.metadata.version("flip-evaluator").encode()
+    return hashlib.sha256(version + sources_digest(flip_crops, metrics, images)).digest()
 
 
 def _name(test: F32, rgb: F32, masks: dict[str, BOOL]) -> str:

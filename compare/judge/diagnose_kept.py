@@ -17,13 +17,14 @@ from __future__ import annotations
 
 import hashlib
 import json
+import sys
 from functools import cache
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from compare.judge import effects, exact_match
+from compare.files import sources_digest
+from compare.judge import candidate, diagnose_score, effects, exact_match, images
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose_score import Codes, Store
 from compare.judge.effects import BOOL
@@ -36,38 +37,47 @@ Pair = tuple[Bounds, Bounds]
 
 @cache
 def _code() -> bytes:
-    h = hashlib.sha256()
-    for module in (exact_match, effects):
-        h.update(Path(module.__file__ or "").read_bytes())
-    h.update(Path(__file__).read_bytes())
-    return h.digest()
+    return sources_digest(
+        candidate, diagnose_score, effects, exact_match, images, sys.modules[__name__]
+    )
 
 
 def kept_name(kind: str, identity: str, c: Candidate, *more: object) -> str:
-    """The store name of `kind` ("bounds", "masks") computed from c's renders."""
+    """The store name of `kind` ("bounds", "codes", "masks") computed from c's renders (c by
+    its name: its every field, in one order)."""
     h = hashlib.sha256(_code())
-    h.update(json.dumps([kind, identity, repr(c), repr(more)]).encode())
+    h.update(json.dumps([kind, identity, c.name, repr(more)]).encode())
     return f"diagnose-{kind}-{h.hexdigest()[:32]}.bin"
 
 
 def _framed(head: dict[str, Any], payload: bytes) -> bytes:
-    head = {"format": KEPT_FORMAT, **head}
-    head["sha1"] = hashlib.sha1(payload, usedforsecurity=False).hexdigest()
-    return json.dumps(head).encode() + b"\n" + payload
+    """The sha1 of what follows, a line of JSON (the head) and the payload."""
+    body = json.dumps({"format": KEPT_FORMAT, **head}).encode() + b"\n" + payload
+    return hashlib.sha1(body, usedforsecurity=False).hexdigest().encode() + b"\n" + body
 
 
 def _unframed(data: bytes | None, kind: str) -> tuple[dict[str, Any], bytes] | None:
-    """The head and payload of a file _framed wrote for `kind`, or None."""
-    if data is None or b"\n" not in data[:HEAD_MAX]:
+    """The head and payload of a file _framed wrote for `kind`, or None (damaged, another
+    kind or format: anything but what _framed writes)."""
+    if data is None or len(data) < 41 or data[40:41] != b"\n":
         return None
-    head_bytes, payload = data.split(b"\n", 1)
+    body = data[41:]
+    if hashlib.sha1(body, usedforsecurity=False).hexdigest().encode() != data[:40]:
+        return None
+    head_bytes, sep, _ = body[:HEAD_MAX].partition(b"\n")
     try:
-        head = json.loads(head_bytes)
-        ok = head["format"] == KEPT_FORMAT and head["kind"] == kind
-        ok = ok and hashlib.sha1(payload, usedforsecurity=False).hexdigest() == head["sha1"]
-    except (ValueError, KeyError, TypeError):
+        head = json.loads(head_bytes) if sep else None
+    except (ValueError, RecursionError):
         return None
-    return (head, payload) if ok else None
+    if not isinstance(head, dict) or head.get("format") != KEPT_FORMAT or head.get("kind") != kind:
+        return None
+    return head, body[len(head_bytes) + 1 :]
+
+
+def _shape(head: dict[str, Any], want: tuple[int, ...]) -> bool:
+    """Whether the head's shape is `want`."""
+    got = head.get("shape")
+    return isinstance(got, list) and all(type(v) is int for v in got) and tuple(got) == want
 
 
 def _bits(n: int) -> int:
@@ -104,7 +114,7 @@ def unpack_bounds(data: bytes | None, shape: tuple[int, ...]) -> Pair | None:
     """The bounds pack_bounds wrote for this shape, or None (absent, another shape, damaged)."""
     framed = _unframed(data, "bounds")
     n = int(np.prod(shape))
-    if framed is None or tuple(framed[0].get("shape", ())) != tuple(shape):
+    if framed is None or not _shape(framed[0], tuple(shape)):
         return None
     payload = framed[1]
     if len(payload) != 4 * n + 2 * _bits(n):
@@ -134,18 +144,18 @@ def unpack_masks(data: bytes | None, shape: tuple[int, ...]) -> dict[str, BOOL] 
     """The masks pack_masks wrote for renders of this shape, or None."""
     framed = _unframed(data, "masks")
     n = int(np.prod(shape))
-    if framed is None or tuple(framed[0].get("shape", ())) != tuple(shape):
+    if framed is None or not _shape(framed[0], tuple(shape)):
         return None
     head, payload = framed
     names = head.get("names")
-    if not isinstance(names, list) or not names or len(set(names)) != len(names):
+    if not isinstance(names, list) or not names or len(payload) != len(names) * _bits(n):
         return None
-    if not set(names) <= set(effects.EFFECTS):
-        return None
-    if len(payload) != len(names) * _bits(n):
+    if not all(isinstance(k, str) and k in effects.EFFECTS for k in names):
         return None
     buf = np.frombuffer(payload, np.uint8)
-    return {k: _unpacked(buf, i * _bits(n), n, shape) for i, k in enumerate(names)}
+    masks = {k: _unpacked(buf, i * _bits(n), n, shape) for i, k in enumerate(names)}
+    # Every region has pixels (Regions relies on it), no name twice.
+    return masks if len(masks) == len(names) and all(m.any() for m in masks.values()) else None
 
 
 # --- a render's codes ----------------------------------------------------------------------
@@ -155,7 +165,9 @@ def pack_codes(codes: Codes) -> bytes | None:
     """The codes (0..255) and each half-level as its offset from twice the code (-1, 0, 1);
     None for codes outside those ranges (none that diagnose_score makes)."""
     offset = codes.halves - np.int16(2) * codes.enc
-    if codes.enc.min() < 0 or codes.enc.max() > 255 or np.abs(offset).max() > 1:
+    if not len(offset) or codes.enc.min() < 0 or codes.enc.max() > 255:
+        return None
+    if np.abs(offset).max() > 1:
         return None
     enc, offset = codes.enc.astype(np.uint8), offset.astype(np.int8)
     head = {"kind": "codes", "pixels": len(codes.enc), "digest": codes.digest.hex()}
@@ -171,14 +183,20 @@ def unpack_codes(data: bytes | None, pixels: int) -> Codes | None:
     framed = _unframed(data, "codes")
     if framed is None or framed[0].get("pixels") != pixels or len(framed[1]) != 6 * pixels:
         return None
+    digest = framed[0].get("digest")
+    if not isinstance(digest, str) or len(digest) != 40:
+        return None
     try:
-        digest = bytes.fromhex(framed[0]["digest"])
-    except (KeyError, TypeError, ValueError):
+        digest_bytes = bytes.fromhex(digest)
+    except ValueError:
         return None
     buf = np.frombuffer(framed[1], np.uint8)
+    offset = buf[3 * pixels :].view(np.int8)
+    if offset.min() < -1 or offset.max() > 1:
+        return None
     enc = buf[: 3 * pixels].astype(np.int16).reshape(pixels, 3)
-    offset = buf[3 * pixels :].view(np.int8).astype(np.int16).reshape(pixels, 3)
-    return Codes(None, enc, enc * np.int16(2) + offset, digest)
+    halves = enc * np.int16(2) + offset.astype(np.int16).reshape(pixels, 3)
+    return Codes(None, enc, halves, digest_bytes)
 
 
 def read(store: Store | None, name: str, max_bytes: int) -> bytes | None:

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from compare.files import sources_digest
 from compare.judge import (
     candidate,
     diagnose_report,
@@ -50,9 +51,7 @@ _JUDGE = (candidate, diagnose_report, diagnose_score, diagnose_switches, diagnos
 @cache
 def _judge_code(search_file: str) -> bytes:
     """The search's own source and every judge module it decides with (and mistakes.json)."""
-    h = hashlib.sha256(Path(search_file).read_bytes())
-    for module in _JUDGE:
-        h.update(Path(module.__file__ or "").read_bytes())
+    h = hashlib.sha256(Path(search_file).read_bytes() + sources_digest(*_JUDGE))
     h.update(resources.files("compare.judge").joinpath("mistakes.json").read_bytes())
     return h.digest()
 

@@ -171,7 +171,9 @@ class Regions:
         # Where each region's run starts (every region has pixels: masks are never empty),
         # and the pixels in none after the last.
         self.starts = np.flatnonzero(np.r_[True, self.sorted_labels[1:] != self.sorted_labels[:-1]])
-        self.digest = hashlib.sha1(self.order.astype(np.int64).data.cast("B")).digest()
+        self.digest = hashlib.sha1(
+            self.order.astype(np.int64).data.cast("B"), usedforsecurity=False
+        ).digest()
 
     def in_order(self, pixels: NDArray[Px]) -> NDArray[Px]:
         """N x 3: the pixels of an H x W x 3 image (values or codes) in region order."""
