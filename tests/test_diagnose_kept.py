@@ -19,7 +19,13 @@ import pytest
 from helpers import SCENES, render_demo
 
 from compare.files import sources_digest
-from compare.judge import diagnose_flip, diagnose_kept, diagnose_score, diagnose_trials
+from compare.judge import (
+    diagnose_flip,
+    diagnose_kept,
+    diagnose_memo,
+    diagnose_score,
+    diagnose_trials,
+)
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose import diagnose
 from compare.judge.exact_match import Bounds, model_bounds
@@ -242,3 +248,19 @@ def test_a_newer_guess_replaces_a_flip_not_begun() -> None:
     assert flips.means(b, rgb * 0.5, rgb, masks)["direct"] > 0
     assert flips.means(a, rgb, rgb, masks)["direct"] == 0  # asked again: computed then
     pool.shutdown()
+
+
+def test_deeply_nested_stored_texts_are_searched_again() -> None:
+    """The diagnosis and FLIP records beside the kept files: a planted one is ignored."""
+
+    class Planted:
+        identity = "x"
+
+        def get(self, name: str) -> str:
+            return "[" * 5000
+
+    image = Image(np.zeros((2, 2, 3), np.float32), "x.ppm")
+    assert diagnose_memo.load(Planted(), "n", image, 0.0) is None  # type: ignore[arg-type]
+    assert (
+        diagnose_flip._stored_means(Planted().get("n"), {"direct": np.ones((2, 2), bool)}) is None
+    )

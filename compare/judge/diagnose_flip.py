@@ -54,7 +54,7 @@ def _stored_means(text: str | None, masks: dict[str, BOOL]) -> Means | None:
     try:
         raw = json.loads(text)
         means = {k: float(raw["means"][k]) for k in masks}
-    except (ValueError, KeyError, TypeError):
+    except (ValueError, KeyError, TypeError, RecursionError):
         return None
     return means if raw.get("format") == FLIP_FORMAT else None
 

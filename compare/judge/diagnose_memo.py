@@ -85,7 +85,7 @@ def load(store: Store, name: str, image: Image, t0: float) -> Diagnosis | None:
         if raw.get("format") != RECORD_FORMAT:
             return None
         d = Diagnosis.from_record(raw["diagnosis"])
-    except (ValueError, KeyError, TypeError, AttributeError):
+    except (ValueError, KeyError, TypeError, AttributeError, RecursionError):
         return None  # not a record of this format: searched again, and kept anew
     return dataclasses.replace(d, image=image.path, seconds=time.perf_counter() - t0)
 
