@@ -4,15 +4,19 @@ whole image, and two fixed pairs against the values the whole-image implementati
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import flip_evaluator
 import numpy as np
 import pytest
 
-from compare.judge import flip_crops
+from compare.judge import diagnose_flip, flip_crops, metrics
+from compare.judge.evaluate import Evaluation
+from compare.judge.exact_match import exact_match
 from compare.judge.images import linear_to_srgb
 from compare.judge.metrics import compute_maps, compute_metrics
+from compare.judge.tolerances import Tolerances
 
 PPD = {"ppd": 67.0}
 F32 = np.float32
@@ -232,3 +236,36 @@ def test_the_crops_dilation_is_a_square_maximum_filter(
     mask = np.random.default_rng(reach).random(shape) < density
     want = maximum_filter(mask, size=2 * reach + 1, mode="constant").astype(bool)
     np.testing.assert_array_equal(flip_crops._dilate(mask, reach), want)
+
+
+def test_the_verdicts_flip_seeds_the_diagnosis_map_bit_for_bit(monkeypatch: Any) -> None:
+    """Grading hands the verdict's FLIP (over the failing effects' crop) to the diagnosis
+    (diagnose_flip.Flips.seed): the start's map made from it is the whole image's, and fewer
+    pixels are evaluated. The image is an 8-bit copy of the render (it differs everywhere by
+    less than a level: exact) with the right side redrawn (that effect fails)."""
+    yy, xx = np.mgrid[0:120, 0:200]
+    ref = np.stack([xx / 200, yy / 120, (xx + yy) / 320], axis=-1).astype(np.float32)
+    test = np.floor(ref * 255) / np.float32(255)
+    test[30:90, 130:190] = (0.9, 0.1, 0.3)
+    masks = {"left": xx < 100, "right": xx >= 100}
+    exact = exact_match([ref], test, "linear", model="m", masks=masks)
+    assert exact.per_effect["left"].passed and not exact.per_effect["right"].passed
+    ev = Evaluation(ref, test, Tolerances(), masks=masks, exact=exact)
+    ev.effect_flip("right")
+    known = ev.known_flip()
+    assert known is not None and 0.3 < known[1].mean() < 0.6
+    evaluated: list[int] = []
+    real = flip_crops._ldr_flip
+
+    def counted(a: np.ndarray, b: np.ndarray, srgb: bool) -> np.ndarray:
+        evaluated.append(a.shape[0] * a.shape[1])
+        return real(a, b, srgb)
+
+    monkeypatch.setattr(flip_crops, "_ldr_flip", counted)
+    flips = diagnose_flip.Flips(None, ThreadPoolExecutor(max_workers=1))
+    flips.seed(ref, test, *known)
+    seeded = flips._map(metrics.display(ref), metrics.display(test))
+    seeded_pixels = sum(evaluated)
+    evaluated.clear()
+    assert np.array_equal(seeded, metrics.flip_ldr_map(ref, test))
+    assert seeded_pixels < 0.8 * sum(evaluated)

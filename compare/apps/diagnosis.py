@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from compare.files import json_safe
-from compare.judge.diagnose import Diagnosis, diagnose, unmirror
+from compare.judge.diagnose import Diagnosis, FlipSeed, diagnose, unmirror
 from compare.judge.images import Image, linear_to_srgb
 from compare.judge.mistakes import catalogue
 from compare.judge.png import FAST, write_display_png
@@ -184,12 +184,14 @@ def diagnose_image(
     assigned: str | None = None,
     parallel: int = 1,
     progress: Callable[[str], None] | None = None,
+    flip_seed: FlipSeed | None = None,
 ) -> dict[str, Any]:
     """The diagnosis of `image` (a render of `scene_file`) as a JSON-ready dict: Diagnosis
     .as_dict() plus `short` (the gradebook cell), `evidence` (pictures per explaining change,
     written to evidence_dir as PREFIX-*.png, named href + file in the dict) and the cache's
     renders and hits. `cache`: the render cache the candidates are rendered through (or its
-    folder). Raises DiagnoseError or ToolError when the image cannot be diagnosed."""
+    folder); `flip_seed`: diagnose's. Raises DiagnoseError or ToolError when the image cannot
+    be diagnosed."""
     scene = load_scene(scene_file)
     h, w = image.shape
     folder = Path(evidence_dir)
@@ -197,7 +199,9 @@ def diagnose_image(
     with CandidateRenderer(
         scene_file, w, h, threads=1 if parallel > 1 else 0, cache=cache
     ) as render:
-        d = diagnose(image, scene, render, progress=progress, parallel=parallel)
+        d = diagnose(
+            image, scene, render, progress=progress, parallel=parallel, flip_seed=flip_seed
+        )
         evidence = _Evidence(image, d, render, folder, prefix).entries(href)
         out = d.as_dict()
         out |= {

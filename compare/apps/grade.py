@@ -55,6 +55,7 @@ from scene_model.safe_paths import own_folder
 if TYPE_CHECKING:
     from compare.apps.against import LoadedModel
     from compare.apps.programs import ProgramResult
+    from compare.judge.diagnose import FlipSeed
     from compare.judge.evaluate import Evaluation
     from compare.judge.images import Image
     from compare.judge.metrics import F32
@@ -160,7 +161,9 @@ def _judge_scene(
     )
     diagnosis = None
     if verdict["status"] != "pass" and task.diagnose and model.target.is_demo:
-        diagnosis = _diagnose_scene(img, scene_name, task.models[scene_name], task, page_dir)
+        known = ev.known_flip()  # the verdict's FLIP: the diagnosis' starts from it
+        seed = None if known is None else (model.reference.rgb, *known)
+        diagnosis = _diagnose_scene(img, scene_name, task.models[scene_name], task, page_dir, seed)
         diagnosis["short"] = _beside_verdict(diagnosis, model.renders.model, verdict)
         reasons.append(diagnosis["short"])
     _write_scene_pictures(page_dir, scene_name, model.reference.rgb, img.rgb)
@@ -216,7 +219,12 @@ def _beside_verdict(diagnosis: dict[str, Any], model: str, verdict: dict[str, An
 
 
 def _diagnose_scene(
-    img: Any, scene_name: str, renders: ModelRenders, task: GradeTask, page_dir: Path
+    img: Any,
+    scene_name: str,
+    renders: ModelRenders,
+    task: GradeTask,
+    page_dir: Path,
+    flip_seed: FlipSeed | None,
 ) -> dict[str, Any]:
     """What a failing submission looks like; a diagnosis that cannot run says why in the
     cell instead of failing the student's grading."""
@@ -233,6 +241,7 @@ def _diagnose_scene(
             prefix=f"{scene_name}-diagnosis",
             assigned=renders.model,
             parallel=task.diagnose,
+            flip_seed=flip_seed,
         )
     except (DiagnoseError, ToolError, OSError) as e:
         return {"short": f"no diagnosis: {e}", "sentences": [], "evidence": []}

@@ -59,8 +59,8 @@ from compare.judge.diagnose_switches import (
     undone,
 )
 from compare.judge.diagnose_trials import Trials
-from compare.judge.effects import EFFECTS
-from compare.judge.images import Image
+from compare.judge.effects import BOOL, EFFECTS
+from compare.judge.images import F32, Image
 from compare.judge.target_model import QUIRK_COUNT, TargetModel
 from scene_model.scene import Scene
 
@@ -74,6 +74,7 @@ __all__ = [
     "DiagnoseError",
     "Diagnosis",
     "EffectFinding",
+    "FlipSeed",
     "NoFinitePixels",
     "Renderer",
     "Step",
@@ -100,6 +101,7 @@ MODE_MATCH_MIN = 0.05
 MIRROR_RATIO = 0.5
 MIRROR_MIN = 0.02
 MODES = ("classic", "paper", "physical")
+FlipSeed = tuple[F32, F32, BOOL]  # a render, its LDR-FLIP map against the image, where it holds
 
 
 class Search:
@@ -428,6 +430,7 @@ def diagnose(
     max_renders: int = MAX_RENDERS,
     turns: Sequence[tuple[float, float]] | None = None,
     search_quirks: Sequence[int] | None = None,
+    flip_seed: FlipSeed | None = None,
 ) -> Diagnosis:
     """The nearest demo candidate to `image` (linear RGB as read by images.read_image) and
     the evidence per effect. `render` must return the candidate at the image's size with the
@@ -441,7 +444,9 @@ def diagnose(
     diagnosis of an image, are kept; an image diagnosed before is not searched again,
     diagnose_memo.py). When the switches that helped stop helping and some effect is still not
     reproduced, every switch is tried once more (while fewer than `max_renders` renders were
-    made). Nothing depends on time, so a loaded machine gives the same diagnosis, later.
+    made). `flip_seed`: a FLIP map of the image already computed (the verdict's: a render,
+    the map against the image, where it holds), which the FLIP numbers start from. Nothing
+    depends on time, so a loaded machine gives the same diagnosis, later.
     An image without one finite pixel raises NoFinitePixels before any candidate is
     rendered."""
     t0 = time.perf_counter()
@@ -467,6 +472,8 @@ def diagnose(
             say(f"diagnose: {known.result}, as an earlier search of {known.renders} renders found")
             return known
     trials = Trials(Target(image, scene), render, parallel, turns, grows, store)
+    if flip_seed is not None:
+        trials.flips.seed(flip_seed[0], image.rgb, flip_seed[1], flip_seed[2])
     try:
         found = Search(image, scene, trials, quirks, max_renders, say).run(starts)
     finally:

@@ -69,6 +69,7 @@ class Flips:
         # The first map computed here, with the display values of its render and of the
         # image: later maps of that image are evaluated again only where renders differ.
         self.known: tuple[F32, F32, F32] | None = None
+        self.stale: BOOL | None = None  # where a seeded map holds no values (seed)
         self.guessed: Candidate | None = None  # the search's likely result (guess)
 
     def start(self, c: Candidate, rgb: F32, test: F32, masks: dict[str, BOOL]) -> None:
@@ -98,11 +99,23 @@ class Flips:
             self.store.put(name, json.dumps({"format": FLIP_FORMAT, "means": out}))
         return out
 
+    def seed(self, ref: F32, test: F32, flip: F32, valid: BOOL) -> None:
+        """A map computed elsewhere (the verdict's, metrics.flip_ldr_map of the linear `ref`
+        and `test`), whose values hold where `valid`: the first map here is made from it.
+        Call before any map is begun."""
+        self.known = (metrics.display(ref), flip, metrics.display(test))
+        self.stale = ~valid
+
     def _map(self, ref: F32, test: F32) -> F32:
         """metrics.flip_ldr_map of the display values, from the first map where one is
         known (runs on the one background thread: `known` is never written at once)."""
         if self.known is not None and np.array_equal(self.known[2], test):
-            return flip_crops.updated_ldr_flip(ref, test, self.known[0], self.known[1])
+            flip = flip_crops.updated_ldr_flip(
+                ref, test, self.known[0], self.known[1], stale=self.stale
+            )
+            if self.stale is not None:  # a seed: this whole map is the one to start from
+                self.known, self.stale = (ref, flip, test), None
+            return flip
         flip = flip_crops.cropped_ldr_flip(ref, test)
-        self.known = (ref, flip, test)
+        self.known, self.stale = (ref, flip, test), None
         return flip

@@ -144,6 +144,23 @@ class Evaluation:
         x0, x1 = max(0, int(xs.min()) - FLIP_MARGIN), min(w, int(xs.max()) + 1 + FLIP_MARGIN)
         return (y0, x0), flip_ldr_map(self.ref[y0:y1, x0:x1], self.test[y0:y1, x0:x1])
 
+    def known_flip(self) -> tuple[F32, BOOL] | None:
+        """The whole image's LDR-FLIP values computed so far (metrics.flip_ldr_map of ref
+        and test; 0 outside the failing effects' crop) and where they hold: inside that crop
+        less its margin (FLIP_MARGIN, twice the filters' reach, on the sides inside the
+        image), as flip_crops.updated_ldr_flip takes them. None before any is computed."""
+        if "_failing_flip" not in self.__dict__:
+            return None
+        (y0, x0), crop = self._failing_flip
+        h, w = self.ref.shape[:2]
+        y1, x1 = y0 + crop.shape[0], x0 + crop.shape[1]
+        flip = np.zeros((h, w), np.float32)
+        flip[y0:y1, x0:x1] = crop
+        valid = np.zeros((h, w), bool)
+        m = FLIP_MARGIN
+        valid[y0 + m * (y0 > 0) : y1 - m * (y1 < h), x0 + m * (x0 > 0) : x1 - m * (x1 < w)] = True
+        return flip, valid
+
     def effect_metrics(self) -> dict[str, Metrics]:
         return {k: v.metrics for k, v in self.per_effect.items()}
 

@@ -118,14 +118,28 @@ def cropped_ldr_flip(ref: F32, test: F32, *, srgb: bool = True) -> F32:
     return updated_ldr_flip(ref, test, test, np.zeros(ref.shape[:2], np.float32), srgb=srgb)
 
 
-def updated_ldr_flip(ref: F32, test: F32, known_ref: F32, known: F32, *, srgb: bool = True) -> F32:
+def updated_ldr_flip(
+    ref: F32,
+    test: F32,
+    known_ref: F32,
+    known: F32,
+    *,
+    srgb: bool = True,
+    stale: BOOL | None = None,
+) -> F32:
     """The LDR-FLIP map of (ref, test) from `known`, the map of (known_ref, test): a pixel
     whose neighbourhood (FLIP_REACH) is the same in ref as in known_ref keeps its value
-    there, the crops around where they differ are evaluated again."""
+    there, the crops around where they differ are evaluated again. `stale`: where `known`
+    was not computed (it holds 0 there, and the values next to it are a crop's at least
+    2 x FLIP_REACH inside that crop's edge): the crops around the stale pixels where ref and
+    test differ are evaluated too (where they agree over a neighbourhood, FLIP is 0)."""
     h, w = ref.shape[:2]
     out = known.copy()
     r = FLIP_REACH
-    for y0, y1, x0, x1 in crops(np.asarray((ref != known_ref).any(axis=-1), bool)):
+    changed = np.asarray((ref != known_ref).any(axis=-1), bool)
+    if stale is not None:
+        changed |= stale & (ref != test).any(axis=-1)
+    for y0, y1, x0, x1 in crops(changed):
         cy0, cy1, cx0, cx1 = max(0, y0 - r), min(h, y1 + r), max(0, x0 - r), min(w, x1 + r)
         part = _ldr_flip(ref[cy0:cy1, cx0:cx1], test[cy0:cy1, cx0:cx1], srgb)
         out[y0:y1, x0:x1] = part[y0 - cy0 : y1 - cy0, x0 - cx0 : x1 - cx0]
