@@ -419,6 +419,13 @@ class Search:
         return findings, summary(found, findings, exact[begin])
 
 
+def _starts(start: TargetModel | Candidate | None) -> list[Candidate]:
+    """Where the search may begin: `start`, or the three modes."""
+    if start is None:
+        return [Candidate.of_mode(m) for m in MODES]
+    return [start if isinstance(start, Candidate) else Candidate.from_model(start)]
+
+
 def diagnose(
     image: Image,
     scene: Scene,
@@ -459,10 +466,7 @@ def diagnose(
     )
     grows, store = list(getattr(render, "grows", ())), getattr(render, "store", None)
     say = progress or (lambda _m: None)
-    if start is not None:
-        starts = [start if isinstance(start, Candidate) else Candidate.from_model(start)]
-    else:
-        starts = [Candidate.of_mode(m) for m in MODES]
+    starts = _starts(start)
     name = None
     if store is not None:
         tries = {"quirks": quirks, "turns": turns, "grows": grows, "max_renders": max_renders}
