@@ -7,6 +7,7 @@ import subprocess
 from pathlib import Path
 
 from compare.judge.images import Image, read_image
+from compare.render.cache import RenderCache
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
@@ -36,3 +37,20 @@ def render_demo(
     proc = run([rtdemo, "render", str(scene), flag, str(out), *sized, *options], **kw)
     assert proc.returncode == 0, proc.stderr
     return read_image(out)
+
+
+def diagnosed(
+    image: Image, scene_file: Path, size: tuple[int, int], cache: RenderCache | Path
+) -> tuple[dict[str, object], list[str]]:
+    """`image` diagnosed against `scene_file` through a CandidateRenderer on `cache` (every
+    render read from the cache, none from this process's memory): the diagnosis without its
+    seconds, and the names of the candidates it asked for."""
+    from compare.judge.diagnose import diagnose
+    from compare.render.candidates import CandidateRenderer, forget_recent
+    from scene_model.scene import load_scene
+
+    forget_recent()
+    with CandidateRenderer(scene_file, *size, cache=cache) as render:
+        d = diagnose(image, load_scene(scene_file), render).as_dict()
+    d.pop("seconds")
+    return d, list(render.seen)

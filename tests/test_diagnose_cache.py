@@ -9,18 +9,16 @@ import sys
 from pathlib import Path
 
 import pytest
-from helpers import SCENES, render_demo, run
+from helpers import SCENES, diagnosed, render_demo, run
 
 from compare.judge import diagnose_flip
 from compare.judge.candidate import Candidate
-from compare.judge.diagnose import diagnose
 from compare.judge.images import Image
 from compare.judge.target_model import parse_model
 from compare.render.cache import RenderCache
 from compare.render.candidates import CandidateRenderer, forget_recent
 from compare.render.jobs import set_key
 from compare.render.models import model_job
-from scene_model.scene import load_scene
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
 CLASSIC = SCENES / "classic.json"
@@ -74,10 +72,7 @@ def test_a_second_diagnosis_of_an_image_reads_its_flip_numbers(
     cache = RenderCache(tmp_path / "c")
 
     def once() -> dict[str, object]:
-        with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
-            d = diagnose(image, load_scene(CLASSIC), render).as_dict()
-        d.pop("seconds")
-        return d
+        return diagnosed(image, CLASSIC, (W, H), cache)[0]
 
     first = once()
     assert list(cache.derived_dir.glob("diagnose-flip-*.json"))
@@ -95,14 +90,10 @@ def test_an_image_diagnosed_before_is_not_searched_again(tmp_path: Path, rtdemo:
     image = render_demo(rtdemo, CLASSIC, tmp_path / "nb.exr", "-q", "--mode", "classic",
                         "--mistake", "black_background", size=(W, H))  # fmt: skip
     cache = RenderCache(tmp_path / "c")
-    scene = load_scene(CLASSIC)
 
     def once(im: Image) -> tuple[dict[str, object], int]:
-        with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
-            d = diagnose(im, scene, render)
-        out = d.as_dict()
-        out.pop("seconds")
-        return out, len(render.seen)
+        d, seen = diagnosed(im, CLASSIC, (W, H), cache)
+        return d, len(seen)
 
     first, asked = once(image)
     assert asked > 10 and list(cache.derived_dir.glob("diagnosis-*.json"))

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, render_demo
+from helpers import SCENES, diagnosed, render_demo
 
 from compare.files import sources_digest
 from compare.judge import (
@@ -27,12 +27,9 @@ from compare.judge import (
     diagnose_trials,
 )
 from compare.judge.candidate import Candidate
-from compare.judge.diagnose import diagnose
 from compare.judge.exact_match import Bounds, model_bounds
 from compare.judge.images import Image
 from compare.render.cache import RenderCache
-from compare.render.candidates import CandidateRenderer, forget_recent
-from scene_model.scene import load_scene
 
 CLASSIC = SCENES / "classic.json"
 W, H = 16, 12
@@ -96,14 +93,9 @@ def test_a_second_image_reads_what_the_candidates_gave(
     image = render_demo(rtdemo, CLASSIC, tmp_path / "q2.ppm", "-q", "--mode", "classic",
                         "--quirk", "Q2", size=(W, H))  # fmt: skip
     cache = RenderCache(tmp_path / "c")
-    scene = load_scene(CLASSIC)
 
     def once() -> tuple[dict[str, object], list[str]]:
-        forget_recent()
-        with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
-            d = diagnose(image, scene, render).as_dict()
-        d.pop("seconds")
-        return d, list(render.seen)
+        return diagnosed(image, CLASSIC, (W, H), cache)
 
     def perturbed(names: list[str]) -> list[str]:
         return [n for n in names if "camera turned" in n or " ulps]" in n]
@@ -219,18 +211,11 @@ def test_a_png_after_a_ppm_of_the_same_program_is_diagnosed_as_in_a_fresh_cache(
     args = ("-q", "--mode", "classic", "--quirk", "Q2")
     ppm = render_demo(rtdemo, CLASSIC, tmp_path / "q2.ppm", *args, size=(W, H))
     png = render_demo(rtdemo, CLASSIC, tmp_path / "q2.png", *args, size=(W, H))
-    scene = load_scene(CLASSIC)
-
-    def diagnosed(image: Image, cache: Path) -> dict[str, object]:
-        forget_recent()
-        with CandidateRenderer(CLASSIC, W, H, cache=RenderCache(cache)) as render:
-            d = diagnose(image, scene, render).as_dict()
-        d.pop("seconds")
-        return d
 
     shared = tmp_path / "shared"
-    diagnosed(ppm, shared)
-    assert diagnosed(png, shared) == diagnosed(png, tmp_path / "fresh")
+    diagnosed(ppm, CLASSIC, (W, H), shared)
+    in_shared = diagnosed(png, CLASSIC, (W, H), shared)[0]
+    assert in_shared == diagnosed(png, CLASSIC, (W, H), tmp_path / "fresh")[0]
 
 
 def test_a_newer_guess_replaces_a_flip_not_begun() -> None:

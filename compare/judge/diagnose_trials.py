@@ -143,25 +143,26 @@ class Trials:
         by each growth: the perturbed renders the verdict judges with."""
         if c not in self.exact_memo:
             done: Future[ExactMatch] = Future()
-            done.set_result(self._exact(c, self.centre_once(c)))
+            done.set_result(self._exact(c))
             self.exact_memo[c] = done
         return self.exact_memo[c].result()
 
     def exact_soon(self, c: Candidate) -> None:
         """Begin c's exact match in the background (the search goes on meanwhile)."""
         if c not in self.exact_memo:
-            self.exact_memo[c] = self.background.submit(self._exact, c, self.centre_once(c))
+            self.exact_memo[c] = self.background.submit(self._exact, c)
 
-    def _exact(self, c: Candidate, centre: Image) -> ExactMatch:
-        """c's exact match from its bounds: kept in the store, or computed from its renders."""
+    def _exact(self, c: Candidate) -> ExactMatch:
+        """c's exact match from its bounds: kept in the store, or computed from its renders
+        (only then read)."""
         encoding = self.target.image.encoding
         perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
         name = self._kept_name("bounds", c, self.turns, self.grows, encoding)
-        shape = centre.rgb.shape
+        shape = self.target.image.rgb.shape
         data = diagnose_kept.read(self.store, name, diagnose_kept.bounds_size(shape))
         pair = diagnose_kept.unpack_bounds(data, shape)
         if pair is None:
-            renders = [centre.rgb, *(im.rgb for im in self.render_all(perturbed))]
+            renders = [im.rgb for im in self.render_all([c, *perturbed])]
             pair = model_bounds(renders, encoding)
             diagnose_kept.write(self.store, name, diagnose_kept.pack_bounds(pair))
         return self.target.exact(c, pair, 1 + len(perturbed))
