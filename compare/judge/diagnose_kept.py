@@ -8,7 +8,7 @@ again) reads them instead of computing them again: the bounds cost ten perturbed
 and about 0.2 s a candidate at 640x480, a candidate's codes its render read and converted
 (about 15 ms), the masks 0.12 s before anything else can start. For the 8-bit encodings every
 bound and code is a whole number in [0, 255], so they are kept as bytes; a float image's are
-not kept. Each file carries its payload's sha1 and what it holds; the
+not kept. Each file carries its payload's CRC-32 and what it holds; the
 candidate, the renderer and the code that computes them are in its name: anything else read
 back is computed again.
 """
@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import sys
+import zlib
 from functools import cache
 from typing import Any
 
@@ -30,8 +31,9 @@ from compare.judge.diagnose_score import Codes, Store
 from compare.judge.effects import BOOL
 from compare.judge.exact_match import Bounds
 
-KEPT_FORMAT = "rtval-diagnose-kept/1"
+KEPT_FORMAT = "rtval-diagnose-kept/2"
 HEAD_MAX = 4096
+CHECK = 8  # hex digits of the check line
 Pair = tuple[Bounds, Bounds]
 
 
@@ -50,21 +52,27 @@ def kept_name(kind: str, identity: str, c: Candidate, *more: object) -> str:
     return f"diagnose-{kind}-{h.hexdigest()[:32]}.bin"
 
 
+def _check(body: bytes | memoryview) -> bytes:
+    """The check line of a body: its CRC-32 (8 hex digits). It finds a torn or damaged file;
+    it is no defence against a planted one, which no checksum kept beside it could be."""
+    return b"%08x" % zlib.crc32(body)
+
+
 def _framed(head: dict[str, Any], payload: bytes) -> bytes:
-    """The sha1 of what follows, a line of JSON (the head) and the payload."""
+    """The check of what follows, a line of JSON (the head) and the payload."""
     body = json.dumps({"format": KEPT_FORMAT, **head}).encode() + b"\n" + payload
-    return hashlib.sha1(body, usedforsecurity=False).hexdigest().encode() + b"\n" + body
+    return _check(body) + b"\n" + body
 
 
-def _unframed(data: bytes | None, kind: str) -> tuple[dict[str, Any], bytes] | None:
-    """The head and payload of a file _framed wrote for `kind`, or None (damaged, another
-    kind or format: anything but what _framed writes)."""
-    if data is None or len(data) < 41 or data[40:41] != b"\n":
+def _unframed(data: bytes | None, kind: str) -> tuple[dict[str, Any], memoryview] | None:
+    """The head and payload (a view of `data`) of a file _framed wrote for `kind`, or None
+    (damaged, another kind or format: anything but what _framed writes)."""
+    if data is None or len(data) < CHECK + 1 or data[CHECK : CHECK + 1] != b"\n":
         return None
-    body = data[41:]
-    if hashlib.sha1(body, usedforsecurity=False).hexdigest().encode() != data[:40]:
+    body = memoryview(data)[CHECK + 1 :]
+    if _check(body) != data[:CHECK]:
         return None
-    head_bytes, sep, _ = body[:HEAD_MAX].partition(b"\n")
+    head_bytes, sep, _ = bytes(body[:HEAD_MAX]).partition(b"\n")
     try:
         head = json.loads(head_bytes) if sep else None
     except (ValueError, RecursionError):
@@ -191,11 +199,13 @@ def unpack_codes(data: bytes | None, pixels: int) -> Codes | None:
     except ValueError:
         return None
     buf = np.frombuffer(framed[1], np.uint8)
-    offset = buf[3 * pixels :].view(np.int8)
-    if offset.min() < -1 or offset.max() > 1:
+    offset = buf[3 * pixels :].view(np.int8).reshape(pixels, 3)
+    # -1, 0, 1 as unsigned bytes are 255, 0, 1: one bound checks both ends.
+    if (buf[3 * pixels :] + np.uint8(1)).max(initial=0) > 2:
         return None
-    enc = buf[: 3 * pixels].astype(np.int16).reshape(pixels, 3)
-    halves = enc * np.int16(2) + offset.astype(np.int16).reshape(pixels, 3)
+    enc = buf[: 3 * pixels].reshape(pixels, 3).astype(np.int16)
+    halves = np.left_shift(enc, 1)
+    halves += offset
     return Codes(None, enc, halves, digest_bytes)
 
 

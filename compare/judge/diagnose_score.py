@@ -37,7 +37,7 @@ LEVELS_PER_UNIT = 4.0
 EXPLAINS = 2e-3
 # A render differing from the reference in more than this share of its pixels is judged
 # whole (gathering the pixels would cost more).
-WHOLE_SHARE = 0.25
+WHOLE_SHARE = 0.15
 HALF_FLOAT, HALF_FLOAT_FLOOR = 2.0**-11, 2.0**-14  # the search's float tolerance
 MIRRORS = {"lr": "left-right", "ud": "upside down", "lrud": "left-right and upside down"}
 
@@ -171,6 +171,8 @@ class Regions:
         # Where each region's run starts (every region has pixels: masks are never empty),
         # and the pixels in none after the last.
         self.starts = np.flatnonzero(np.r_[True, self.sorted_labels[1:] != self.sorted_labels[:-1]])
+        # Region i's pixels lie in [bounds[i], bounds[i + 1]) of the region order.
+        self.bounds = np.r_[self.starts[:n], np.r_[self.starts, labels.size][n]]
         self.digest = hashlib.sha1(
             self.order.astype(np.int64).data.cast("B"), usedforsecurity=False
         ).digest()
@@ -185,6 +187,15 @@ class Regions:
         sums is a whole number, so sums are exact in any order."""
         n = len(self.names)
         return np.asarray(np.bincount(labels, weights=values, minlength=n + 1)[:n], np.float64)
+
+    def changed_sums(self, idx: NDArray[np.intp], values: NDArray[Any]) -> NDArray[np.float64]:
+        """Per region (rows), the column sums of `values`, whose rows are the pixels `idx`
+        (ascending, in region order): each region's rows are one run of them, summed from
+        one cumulative sum instead of a weighted count per column."""
+        cuts: NDArray[np.intp] = np.asarray(np.searchsorted(idx, self.bounds), np.intp)
+        cum = np.zeros((len(idx) + 1, values.shape[1]), np.int64)
+        np.cumsum(values, axis=0, out=cum[1:])
+        return np.asarray(cum[cuts[1:]] - cum[cuts[:-1]], np.float64)
 
     def run_sums(self, values: NDArray[Any]) -> NDArray[np.float64]:
         """Per region, the sum of `values` given for every pixel in region order."""
@@ -220,8 +231,14 @@ class Codes:
         return cls(rgb if values else None, enc, halves, codes_digest(enc))
 
     def at(self, idx: NDArray[np.intp]) -> Codes:
-        rgb = None if self.rgb is None else self.rgb[idx]
-        return Codes(rgb, self.enc[idx], self.halves[idx], b"")
+        rgb = None if self.rgb is None else _rows(self.rgb, idx)
+        return Codes(rgb, _rows(self.enc, idx), _rows(self.halves, idx), b"")
+
+
+def _rows(a: NDArray[Px], idx: NDArray[np.intp]) -> NDArray[Px]:
+    """a[idx] (np.take along the rows gathers several times faster than indexing)."""
+    out: NDArray[Px] = np.take(a, idx, axis=0)
+    return out
 
 
 def codes_digest(enc: I16) -> bytes:
@@ -336,9 +353,9 @@ class Target:
 
     def _terms(self, c: Codes, idx: NDArray[np.intp] | None) -> tuple[BOOL, I16]:
         """(differs, excess) of the pixels idx (None: all) of a render in region order."""
-        target = self._target_flat if idx is None else self._target_flat[idx]
-        doubled = self._doubled_flat if idx is None else self._doubled_flat[idx]
-        test = self._test_flat if idx is None else self._test_flat[idx]
+        target = self._target_flat if idx is None else _rows(self._target_flat, idx)
+        doubled = self._doubled_flat if idx is None else _rows(self._doubled_flat, idx)
+        test = self._test_flat if idx is None or c.rgb is None else _rows(self._test_flat, idx)
         off = _quick_differing(c.halves, doubled, c.rgb, test, self.image.encoding)
         return off, _excess(c.enc, target)
 
@@ -350,8 +367,12 @@ class Target:
 
     def use_reference(self, rgb: F32) -> None:
         """Count the next scores against this render (a neighbour of what comes next)."""
+        self.use_reference_codes(self.codes_of(rgb))
+
+    def use_reference_codes(self, codes: Codes) -> None:
+        """use_reference of the render with these codes (codes_of)."""
         assert self.regions is not None
-        self.reference = self._full(self.codes_of(rgb))
+        self.reference = self._full(codes)
 
     def _changed(self, c: Codes, ref: _Terms) -> NDArray[np.intp]:
         """The pixels whose terms can differ from the reference's. Against 8-bit codes a
@@ -376,15 +397,13 @@ class Target:
         idx = self._changed(codes, ref)
         if idx.size > WHOLE_SHARE * len(codes.enc):
             return self._full(codes).sums
-        off_i, excess_i = self._terms(codes.at(idx), idx)
-        labels = self.regions.sorted_labels[idx]
-        changes = (
-            off_i.astype(np.int16) - ref.off[idx],
-            excess_i - ref.excess[idx],
-            *(codes.enc[idx] - ref.codes.enc[idx]).T,
-        )
-        delta = np.stack([self.regions.sums(labels, v) for v in changes], axis=1)
-        return ref.sums + delta
+        at = codes.at(idx)
+        off_i, excess_i = self._terms(at, idx)
+        changes = np.empty((len(idx), 5), np.int32)
+        np.subtract(off_i, np.take(ref.off, idx), out=changes[:, 0], dtype=np.int32)
+        np.subtract(excess_i, np.take(ref.excess, idx), out=changes[:, 1], dtype=np.int32)
+        np.subtract(at.enc, _rows(ref.codes.enc, idx), out=changes[:, 2:], dtype=np.int32)
+        return ref.sums + self.regions.changed_sums(idx, changes)
 
     @property
     def values_judged(self) -> bool:

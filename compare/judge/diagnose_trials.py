@@ -11,7 +11,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from compare.judge import diagnose_kept
 from compare.judge.candidate import Candidate
 from compare.judge.diagnose_flip import Flips, Means
-from compare.judge.diagnose_score import Renderer, Score, Store, Target
+from compare.judge.diagnose_score import Codes, Renderer, Score, Store, Target
 from compare.judge.exact_match import ExactMatch, model_bounds
 from compare.judge.images import F32, Image
 
@@ -52,8 +52,12 @@ class Trials:
 
     def near(self, c: Candidate) -> None:
         """The candidates scored next are c's neighbours: count them against c's render
-        (read again from the renderer's cache unless kept)."""
-        self.target.use_reference(self.centre_once(c).rgb)
+        (its codes where the store kept them, else its render, read again unless kept)."""
+        codes = None if c in self.kept else self._kept_codes(c)[1]
+        if codes is not None:
+            self.target.use_reference_codes(codes)
+        else:
+            self.target.use_reference(self.centre_once(c).rgb)
 
     def centre_once(self, c: Candidate) -> Image:
         """c's render at pixel centres, kept or rendered (not kept for later)."""
@@ -78,14 +82,9 @@ class Trials:
         """c's score (from its codes where the store kept them), and its render when it is
         to be kept."""
         t = self.target
-        name = codes = None
-        if t.regions is not None and not t.values_judged and self.store is not None:
-            name = self._kept_name("codes", c, *t.codes_kind())
-            pixels = t.total_pixels_ordered()
-            data = diagnose_kept.read(self.store, name, diagnose_kept.codes_size(pixels))
-            codes = diagnose_kept.unpack_codes(data, pixels)
-            if codes is not None and c not in self.keep:
-                return None, t.score_codes(codes)
+        name, codes = self._kept_codes(c)
+        if codes is not None and c not in self.keep:
+            return None, t.score_codes(codes)
         im = self.render(c)
         if t.regions is None:
             self._first_check(c, im)
@@ -96,6 +95,17 @@ class Trials:
             if name is not None:
                 diagnose_kept.write(self.store, name, diagnose_kept.pack_codes(codes))
         return (im if c in self.keep else None), t.score_codes(codes)
+
+    def _kept_codes(self, c: Candidate) -> tuple[str | None, Codes | None]:
+        """Where c's codes are kept (None: they are not, for a float image or no store) and
+        the codes read back from there (None: absent or damaged)."""
+        t = self.target
+        if t.regions is None or t.values_judged or self.store is None:
+            return None, None
+        name = self._kept_name("codes", c, *t.codes_kind())
+        pixels = t.total_pixels_ordered()
+        data = diagnose_kept.read(self.store, name, diagnose_kept.codes_size(pixels))
+        return name, diagnose_kept.unpack_codes(data, pixels)
 
     def _first_check(self, c: Candidate, im: Image) -> None:
         """The first render sets the effect masks: the ones kept for it, or found (and kept)."""
