@@ -13,12 +13,14 @@ from helpers import SCENES, diagnosed, render_demo, run
 
 from compare.judge import diagnose_flip
 from compare.judge.candidate import Candidate
+from compare.judge.diagnose import diagnose
 from compare.judge.images import Image
 from compare.judge.target_model import parse_model
 from compare.render.cache import RenderCache
 from compare.render.candidates import CandidateRenderer, forget_recent
 from compare.render.jobs import set_key
 from compare.render.models import model_job
+from scene_model.scene import load_scene
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
 CLASSIC = SCENES / "classic.json"
@@ -48,6 +50,32 @@ def test_candidates_are_entries_of_the_render_cache(tmp_path: Path) -> None:
     assert not list(cache.tmp_dir.iterdir())  # nothing half-made left behind
     stats = cache.stats()
     assert stats["misses"] >= 3 and stats["hits"] >= 3
+
+
+def test_only_plain_models_keep_their_aovs_and_a_switched_start_is_rendered_with_them(
+    tmp_path: Path,
+) -> None:
+    """A switched candidate's entry holds R, G, B alone (the search judges the colour); a
+    search begun from one renders it again with the AOVs its effect masks come from, and
+    finds what a search from the plain mode finds."""
+    cache = RenderCache(tmp_path / "c")
+    forget_recent()
+    classic = Candidate.of_mode("classic")
+    shadowless = classic.with_effect("shadows", False)
+    with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
+        for plain in (classic, classic.with_quirk(2, True)):  # classic+Q2 is a model too
+            assert sorted(render(plain).aovs) == ["depth", "id"]
+        assert render(shadowless).aovs == {} and render(classic.turned((1e-4, 0.0))).aovs == {}
+        assert sorted(render.with_aovs(shadowless).aovs) == ["depth", "id"]
+        assert (render.with_aovs(shadowless).rgb == render(shadowless).rgb).all()
+        image = Image(rgb=render(shadowless).rgb, encoding="float")
+    scene = load_scene(CLASSIC)
+    forget_recent()
+    with CandidateRenderer(CLASSIC, W, H, cache=tmp_path / "d") as render:
+        switched = diagnose(image, scene, render, start=shadowless)
+    assert switched.result == "classic --no-shadows"
+    with CandidateRenderer(CLASSIC, W, H, cache=tmp_path / "e") as render:
+        assert diagnose(image, scene, render, start=classic).result == switched.result
 
 
 def test_rtval_diagnose_renders_nothing_the_cache_has(tmp_path: Path, rtdemo: str) -> None:

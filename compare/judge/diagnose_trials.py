@@ -107,12 +107,21 @@ class Trials:
         data = diagnose_kept.read(self.store, name, diagnose_kept.codes_size(pixels))
         return name, diagnose_kept.unpack_codes(data, pixels)
 
+    def _with_aovs(self, c: Candidate, im: Image) -> Image:
+        """c's render with the AOVs the first check needs: `im`, or rendered again with them
+        by a renderer that leaves them out of some renders (CandidateRenderer.with_aovs)."""
+        again = getattr(self.render, "with_aovs", None)
+        if again is None or ("id" in im.aovs and "depth" in im.aovs):
+            return im
+        with_aovs: Image = again(c)
+        return with_aovs
+
     def _first_check(self, c: Candidate, im: Image) -> None:
         """The first render sets the effect masks: the ones kept for it, or found (and kept)."""
         name, shape = self._kept_name("masks", c), im.rgb.shape[:2]
         data = diagnose_kept.read(self.store, name, diagnose_kept.masks_size(shape))
         masks = diagnose_kept.unpack_masks(data, shape)
-        self.target.check(c, im, masks)
+        self.target.check(c, im if masks is not None else self._with_aovs(c, im), masks)
         if masks is None:
             diagnose_kept.write(self.store, name, diagnose_kept.pack_masks(self.target.masks))
 

@@ -43,15 +43,26 @@ def exact_turns() -> list[tuple[float, float]]:
     return [(dx * m, dy * m) for m in OFFSET_PIXELS for dx, dy in OFFSETS]
 
 
-def candidate_job(c: Candidate, scene_file: str | Path, width: int, height: int) -> RenderJob:
+def is_plain_model(c: Candidate) -> bool:
+    """Whether c is a demo model as it is (no switch, scene change, turn or growth): rendered
+    by models.model_job's command."""
+    return c == Candidate.from_model(c.model)
+
+
+def candidate_job(
+    c: Candidate, scene_file: str | Path, width: int, height: int, *, aovs: bool = False
+) -> RenderJob:
     """The render command of `c` on `scene_file` (the scene, or its copy with c's changes);
-    for a plain demo model it is models.model_job's command, so both share one cache entry."""
+    for a plain demo model it is models.model_job's command, so both share one cache entry.
+    Any other candidate is rendered without AOVs unless asked (`aovs`): the search judges
+    its colour alone, and the EXR is then 3 channels of 8."""
     size = ["--width", str(width), "--height", str(height)]
+    channels = [] if aovs or is_plain_model(c) else ["--exr-channels", "rgb"]
     return RenderJob(
         "candidate",
         c.name,
         "rtdemo",
-        ["render", "{scene}", "-o", "{out}", "-q", *c.rtdemo_args(), *size],
+        ["render", "{scene}", "-o", "{out}", "-q", *c.rtdemo_args(), *size, *channels],
         "diagnose candidate",
         scene=str(scene_file),
     )
@@ -233,17 +244,22 @@ class CandidateRenderer:
         digest = hashlib.sha256(text.encode()).hexdigest()[:24]
         return str(self.cache.derived_text(f"scene-{digest}-candidate.json", text))
 
-    def job(self, what: TargetModel | Candidate) -> RenderJob:
+    def job(self, what: TargetModel | Candidate, *, aovs: bool = False) -> RenderJob:
         c = what if isinstance(what, Candidate) else Candidate.from_model(what)
-        return candidate_job(c, self._scene_for(c), self.width, self.height)
+        return candidate_job(c, self._scene_for(c), self.width, self.height, aovs=aovs)
 
-    def __call__(self, what: TargetModel | Candidate) -> Image:
+    def with_aovs(self, what: TargetModel | Candidate) -> Image:
+        """The render with its id and depth AOVs (read by diagnose for the effect masks)."""
+        return self(what, aovs=True)
+
+    def __call__(self, what: TargetModel | Candidate, *, aovs: bool = False) -> Image:
+        """The candidate's render; its AOVs only where it is a plain model or `aovs`."""
         if not self._open:
             raise RuntimeError("CandidateRenderer used outside its `with` block")
         c = what if isinstance(what, Candidate) else Candidate.from_model(what)
         with self._lock:
             self.seen[c.name] = c
-        job = self.job(c)
+        job = self.job(c, aovs=aovs)
         recent = _RECENT.get(set_key(job))
         if recent is not None:  # read already by this process: the cache is not asked
             with self._lock:

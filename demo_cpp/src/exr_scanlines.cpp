@@ -112,18 +112,28 @@ struct Channel {
     const float* data;
     int stride;
 };
-constexpr int kChannels = 8;
-using Channels = std::array<Channel, kChannels>;
+constexpr int kMaxChannels = 8;
+struct Channels {
+    std::array<Channel, kMaxChannels> list;
+    int count;
+    const Channel* begin() const { return list.data(); }
+    const Channel* end() const { return list.data() + count; }
+};
 
-Channels channels_of(const BandPixels& p) {
-    return {{{"B", p.b, p.step},
-             {"G", p.g, p.step},
-             {"N.X", p.nx, p.step},
-             {"N.Y", p.ny, p.step},
-             {"N.Z", p.nz, p.step},
-             {"R", p.r, p.step},
-             {"depth", p.depth, 1},
-             {"id", p.id, 1}}};
+int channel_count(ExrChannels set) { return set == ExrChannels::rgb ? 3 : kMaxChannels; }
+
+Channels channels_of(const BandPixels& p, ExrChannels set) {
+    if (set == ExrChannels::rgb)
+        return {{{{"B", p.b, p.step}, {"G", p.g, p.step}, {"R", p.r, p.step}}}, 3};
+    return {{{{"B", p.b, p.step},
+              {"G", p.g, p.step},
+              {"N.X", p.nx, p.step},
+              {"N.Y", p.ny, p.step},
+              {"N.Z", p.nz, p.step},
+              {"R", p.r, p.step},
+              {"depth", p.depth, 1},
+              {"id", p.id, 1}}},
+            kMaxChannels};
 }
 
 // The uncompressed bytes of lines [y0, y1): for each line, each channel's row of floats.
@@ -204,14 +214,14 @@ std::size_t rle_encode(const unsigned char* in, std::size_t n, unsigned char* ou
 }  // namespace
 
 std::vector<char> exr_header(int w, int h, const std::map<std::string, std::string>& attributes,
-                             ExrCompression compression) {
+                             ExrCompression compression, ExrChannels channels) {
     std::vector<char> head = {0x76, 0x2f, 0x31, 0x01};  // magic number
     bool long_names = false;
     for (const auto& [key, value] : attributes) long_names |= key.size() > 31;
     put_i32(head, 2 | (long_names ? 0x400 : 0));  // version 2, single-part scanline
 
     std::vector<char> v;
-    for (const Channel& c : channels_of(BandPixels{})) {
+    for (const Channel& c : channels_of(BandPixels{}, channels)) {
         put_str0(v, c.name);
         put_i32(v, 2);                // FLOAT
         put_bytes(v, "\0\0\0\0", 4);  // pLinear, reserved
@@ -247,11 +257,14 @@ std::vector<char> exr_header(int w, int h, const std::map<std::string, std::stri
     return head;
 }
 
-std::size_t exr_line_block_bytes(int w) { return 8 + static_cast<std::size_t>(w) * 4 * kChannels; }
+std::size_t exr_line_block_bytes(int w, ExrChannels channels) {
+    return 8 + static_cast<std::size_t>(w) * 4 * channel_count(channels);
+}
 
-char* exr_line_blocks(char* out, int y0, int rows, int w, const BandPixels& pixels) {
-    const Channels channels = channels_of(pixels);
-    const std::int32_t row_bytes = static_cast<std::int32_t>(exr_line_block_bytes(w) - 8);
+char* exr_line_blocks(char* out, int y0, int rows, int w, const BandPixels& pixels,
+                      ExrChannels set) {
+    const Channels channels = channels_of(pixels, set);
+    const std::int32_t row_bytes = static_cast<std::int32_t>(exr_line_block_bytes(w, set) - 8);
     for (int r = 0; r < rows; ++r) {
         const std::int32_t header_words[2] = {y0 + r, row_bytes};
         std::memcpy(out, header_words, 8);
@@ -262,20 +275,31 @@ char* exr_line_blocks(char* out, int y0, int rows, int w, const BandPixels& pixe
 
 namespace {
 
-void check_has_aovs(const std::string& path, const RenderedImage& image) {
+// The frame's planes from pixel `first` on; an AOV the frame has not is null.
+BandPixels frame_pixels(const RenderedImage& image, std::size_t first) {
+    auto at = [first](const auto& plane, std::size_t per_pixel) {
+        return plane.empty() ? nullptr : plane.data() + per_pixel * first;
+    };
+    return interleaved_pixels(at(image.rgb, 3), at(image.id, 1), at(image.depth, 1),
+                              at(image.normal, 3));
+}
+
+void check_has_planes(const std::string& path, const RenderedImage& image, ExrChannels set) {
     const std::size_t pixels =
         static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height);
-    if (image.rgb.size() != 3 * pixels || image.normal.size() != 3 * pixels ||
-        image.id.size() != pixels || image.depth.size() != pixels)
+    if (image.rgb.size() != 3 * pixels) throw std::runtime_error(path + ": the frame has no RGB");
+    if (set == ExrChannels::all && (image.normal.size() != 3 * pixels ||
+                                    image.id.size() != pixels || image.depth.size() != pixels))
         throw std::runtime_error(path +
                                  ": the frame has no AOV planes to write (rendered "
                                  "with RenderSettings::aovs off)");
 }
 
 // The line offset table, then one block per line: y, byte count, each channel's row.
-void write_uncompressed(File& file, std::vector<char>& head, const RenderedImage& image) {
+void write_uncompressed(File& file, std::vector<char>& head, const RenderedImage& image,
+                        ExrChannels set) {
     const int w = image.width, h = image.height;
-    const std::size_t row_bytes = static_cast<std::size_t>(w) * 4 * kChannels;
+    const std::size_t row_bytes = exr_line_block_bytes(w, set) - 8;
     const std::uint64_t first = head.size() + static_cast<std::size_t>(h) * 8;
     for (int y = 0; y < h; ++y) {
         const std::uint64_t offset = first + static_cast<std::uint64_t>(y) * (8 + row_bytes);
@@ -289,10 +313,8 @@ void write_uncompressed(File& file, std::vector<char>& head, const RenderedImage
     std::vector<char> buf(static_cast<std::size_t>(lines) * (8 + row_bytes));
     for (int y0 = 0; y0 < h; y0 += lines) {
         const std::size_t first = static_cast<std::size_t>(y0) * w;
-        const char* end = exr_line_blocks(
-            buf.data(), y0, std::min(h, y0 + lines) - y0, w,
-            interleaved_pixels(image.rgb.data() + 3 * first, image.id.data() + first,
-                               image.depth.data() + first, image.normal.data() + 3 * first));
+        const char* end = exr_line_blocks(buf.data(), y0, std::min(h, y0 + lines) - y0, w,
+                                          frame_pixels(image, first), set);
         file.write(buf.data(), static_cast<std::size_t>(end - buf.data()));
     }
 }
@@ -307,7 +329,7 @@ public:
           w_(w),
           h_(h),
           compression_(compression),
-          row_bytes_(static_cast<std::size_t>(w) * 4 * kChannels),
+          row_bytes_(static_cast<std::size_t>(w) * 4 * channels.count),
           block_lines_(compression == ExrCompression::zip ? 16 : 1),
           blocks_((h + block_lines_ - 1) / block_lines_),
           slot_(8 + row_bytes_ * block_lines_),
@@ -398,18 +420,17 @@ void compress_on_threads(CompressedBlocks& blocks, int threads, const std::strin
 
 void write_exr_scanlines(const std::string& path, const RenderedImage& image,
                          const std::map<std::string, std::string>& attributes,
-                         ExrCompression compression, int threads) {
-    check_has_aovs(path, image);
-    std::vector<char> head = exr_header(image.width, image.height, attributes, compression);
+                         ExrCompression compression, int threads, ExrChannels channels) {
+    check_has_planes(path, image, channels);
+    std::vector<char> head =
+        exr_header(image.width, image.height, attributes, compression, channels);
     File file(path);
     if (compression == ExrCompression::none) {
-        write_uncompressed(file, head, image);
+        write_uncompressed(file, head, image, channels);
     } else {
         // The sizes of the compressed blocks give the line offset table.
-        CompressedBlocks blocks(
-            channels_of(interleaved_pixels(image.rgb.data(), image.id.data(), image.depth.data(),
-                                           image.normal.data())),
-            image.width, image.height, compression);
+        CompressedBlocks blocks(channels_of(frame_pixels(image, 0), channels), image.width,
+                                image.height, compression);
         compress_on_threads(blocks, threads, path);
         blocks.write(file, head);
     }

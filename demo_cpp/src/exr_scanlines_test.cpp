@@ -130,6 +130,26 @@ TEST_P(ExrScanlinesCompression, OpenExrReadsBackEveryChannelBitForBitAndTheAttri
     fs::remove(path);
 }
 
+// --exr-channels rgb: B, G, R alone, from a frame without AOV planes, read back bit for bit;
+// a frame without them cannot be written with every channel.
+TEST_P(ExrScanlinesCompression, TheColourAloneIsThreeChannelsReadBackBitForBit) {
+    const CompressionCase& param = GetParam();
+    const RenderedImage img = test::without_aovs(mixed_image(37, 21));
+    const fs::path path =
+        fs::temp_directory_path() / (std::string("rtdemo_exr_rgb_") + param.label + ".exr");
+    write_exr_scanlines(path.string(), img, {{"rtval.scene", "classic"}}, param.compression, 0,
+                        ExrChannels::rgb);
+    {
+        Imf::InputFile in(path.c_str());
+        EXPECT_EQ(in.header().compression(), param.openexr);
+        EXPECT_EQ(test::channel_names(in), (std::vector<std::string>{"B", "G", "R"}));
+        expect_pixels(in, img, false);
+    }
+    EXPECT_THROW(write_exr_scanlines(path.string(), img, {}, param.compression),
+                 std::runtime_error);
+    fs::remove(path);
+}
+
 // Random bits do not shrink: every block is stored raw, so the file is exactly the header, the
 // offset table and per block y, byte count and the raw lines, and OpenEXR still reads it.
 TEST_P(ExrScanlinesCompression, BlocksThatDoNotShrinkAreStoredRaw) {

@@ -2,12 +2,15 @@
 // every channel, and a file's channels read back by OpenEXR and compared bit for bit.
 #pragma once
 
+#include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <gtest/gtest.h>
 
 #include <cstring>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "image.h"
@@ -42,8 +45,9 @@ inline std::vector<float> read_channel(Imf::InputFile& in, const char* name, int
     return out;
 }
 
-// Every channel of the file read back by OpenEXR, compared with the image bit for bit.
-inline void expect_pixels(Imf::InputFile& in, const RenderedImage& img) {
+// Every channel of the file read back by OpenEXR (R, G, B alone without `aovs`), compared
+// with the image bit for bit.
+inline void expect_pixels(Imf::InputFile& in, const RenderedImage& img, bool aovs = true) {
     struct Expect {
         const char* name;
         const Plane* plane;
@@ -54,6 +58,7 @@ inline void expect_pixels(Imf::InputFile& in, const RenderedImage& img) {
                                {"N.Y", &img.normal, 3, 1}, {"N.Z", &img.normal, 3, 2},
                                {"id", &img.id, 1, 0},      {"depth", &img.depth, 1, 0}};
     for (const Expect& e : expected) {
+        if (!aovs && e.plane != &img.rgb) continue;
         const std::vector<float> got = read_channel(in, e.name, img.width, img.height);
         for (std::size_t i = 0; i < got.size(); ++i) {
             const float want = (*e.plane)[e.stride * i + e.offset];
@@ -61,6 +66,22 @@ inline void expect_pixels(Imf::InputFile& in, const RenderedImage& img) {
                 << e.name << "[" << i << "]: " << got[i] << " != " << want;
         }
     }
+}
+
+// The file's channel names, in the order OpenEXR lists them (name order).
+inline std::vector<std::string> channel_names(Imf::InputFile& in) {
+    std::vector<std::string> out;
+    const Imf::ChannelList& channels = in.header().channels();
+    for (auto it = channels.begin(); it != channels.end(); ++it) out.emplace_back(it.name());
+    return out;
+}
+
+// The image without its AOV planes, as a frame rendered for an RGB-only EXR has none.
+inline RenderedImage without_aovs(RenderedImage img) {
+    img.id = Plane();
+    img.depth = Plane();
+    img.normal = Plane();
+    return img;
 }
 
 }  // namespace rt::test

@@ -53,6 +53,8 @@ outputs (at least one):
                          paper's program family writes it) or round (nearest level); both
                          clamp to [0,1] first and write NaN as 0
   --exr-compression C    none (default: fastest, ~10 MB at 640x480), rle or zip (~4 MB)
+  --exr-channels C       all (default) or rgb: R, G, B alone, no AOVs (3.7 MB at 640x480;
+                         what rtval diagnose renders its candidates with)
   With one output, a PPM or an uncompressed EXR, the CPU tracer writes each band of rows to
   the file as soon as it is traced (no frame is kept; --keep-frame turns this off). The
   frame's time (header, summary line) then leaves out the writing: its time on the render

@@ -112,13 +112,19 @@ ExrCompression parse_exr_compression(const std::string& text) {
     throw std::invalid_argument("expected none, rle or zip, got '" + text + "'");
 }
 
+ExrChannels parse_exr_channels(const std::string& text) {
+    if (text == "all") return ExrChannels::all;
+    if (text == "rgb") return ExrChannels::rgb;
+    throw std::invalid_argument("expected all or rgb, got '" + text + "'");
+}
+
 void write_exr(const std::string& path, const RenderedImage& image,
                const std::map<std::string, std::string>& attributes, ExrCompression compression,
-               int threads) {
+               int threads, ExrChannels channels) {
     check_writable(path);
     AtomicFile file(path);
     try {  // written directly, compressed or not (issue 20; no OpenEXR at start-up)
-        write_exr_scanlines(file.temp(), image, attributes, compression, threads);
+        write_exr_scanlines(file.temp(), image, attributes, compression, threads, channels);
     } catch (const std::exception& e) {
         throw OutputError(path + ": cannot write EXR: " + e.what());
     }

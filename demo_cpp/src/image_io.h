@@ -24,14 +24,18 @@ void check_writable(const std::string& path);
 
 // "none" | "rle" | "zip"; throws std::invalid_argument naming the bad value.
 ExrCompression parse_exr_compression(const std::string& text);
+// "all" or "rgb" (--exr-channels); throws std::invalid_argument naming what it got.
+ExrChannels parse_exr_channels(const std::string& text);
 
-// Float32 EXR: R, G, B (linear, unclamped), id, depth, N.X, N.Y, N.Z; `attributes`
+// Float32 EXR: R, G, B (linear, unclamped), id, depth, N.X, N.Y, N.Z (or the colour alone,
+// ExrChannels::rgb); `attributes`
 // become string attributes of the header (written by exr_scanlines.h). Uncompressed by
 // default: ZIP made writing the file cost more than rendering it (bench/NOTES.md). Compressed
 // on `threads` threads (0: every core).
 void write_exr(const std::string& path, const RenderedImage& image,
                const std::map<std::string, std::string>& attributes,
-               ExrCompression compression = ExrCompression::none, int threads = 0);
+               ExrCompression compression = ExrCompression::none, int threads = 0,
+               ExrChannels channels = ExrChannels::all);
 // 8-bit PNG for people: clamped to [0, 1], sRGB-encoded. NaN is written as 0.
 void write_png(const std::string& path, const RenderedImage& image);
 // 8-bit RGB bytes (row-major, y down) that are already display-encoded, as a PNG.

@@ -45,6 +45,8 @@ const std::map<std::string, ValuedOption>& valued_options() {
          [](RenderArgs& r, S o, S v) {
              r.compression = parse_option(o, v, parse_exr_compression);
          }},
+        {"--exr-channels",
+         [](RenderArgs& r, S o, S v) { r.exr_channels = parse_option(o, v, parse_exr_channels); }},
         {"--ppm-rounding",
          [](RenderArgs& r, S o, S v) { r.ppm_rounding = parse_option(o, v, parse_ppm_rounding); }},
         {"--mode", [](RenderArgs& r, S o, S v) { r.mode = parse_option(o, v, parse_mode); }},
@@ -152,7 +154,7 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
                          std::to_string(kMaxPixels) + " pixels)");
     settings.spp = a.spp;
     settings.engine = a.engine;
-    settings.aovs = !a.exr.empty();  // only the EXR carries them
+    settings.aovs = !a.exr.empty() && a.exr_channels == ExrChannels::all;  // only in the EXR
     settings.threads =
         a.threads > 0 ? a.threads : std::max(1u, std::thread::hardware_concurrency());
     return settings;

@@ -24,6 +24,7 @@ struct RenderArgs {
     std::string scene_path;
     std::string exr, png, ppm;
     ExrCompression compression = ExrCompression::none;
+    ExrChannels exr_channels = ExrChannels::all;
     PpmRounding ppm_rounding = PpmRounding::truncate;
     Mode mode = Mode::paper;
     std::vector<std::pair<Quirk, bool>> quirk_changes;  // (quirk, present) in command order

@@ -99,9 +99,9 @@ Rendered render_streamed(const RenderArgs& a, const Scene& scene, const RenderSe
             std::make_unique<PpmStream>(a.ppm, settings.width, settings.height, a.ppm_rounding);
         sink = r.ppm_stream.get();
     } else {
-        r.exr_stream =
-            std::make_unique<ExrStream>(a.exr, settings.width, settings.height,
-                                        render_attributes(a, scene, settings, 0.0, RayCounts{}));
+        r.exr_stream = std::make_unique<ExrStream>(
+            a.exr, settings.width, settings.height,
+            render_attributes(a, scene, settings, 0.0, RayCounts{}), a.exr_channels);
         sink = r.exr_stream.get();
     }
     const auto start = std::chrono::steady_clock::now();
@@ -159,7 +159,8 @@ double write_outputs(const RenderArgs& a, const Scene& scene, const RenderSettin
     } else if (r.ppm_stream) {
         r.ppm_stream->finish();
     } else {
-        if (!a.exr.empty()) write_exr(a.exr, r.image, attributes, a.compression, settings.threads);
+        if (!a.exr.empty())
+            write_exr(a.exr, r.image, attributes, a.compression, settings.threads, a.exr_channels);
         if (!a.png.empty()) write_png(a.png, r.image);
         if (!a.ppm.empty()) write_ppm(a.ppm, r.image, a.ppm_rounding);
     }

@@ -128,21 +128,26 @@ std::map<std::string, std::string> padded(std::map<std::string, std::string> att
 }  // namespace
 
 ExrStream::ExrStream(const std::string& path, int width, int height,
-                     const std::map<std::string, std::string>& provisional)
-    : file_(path), width_(width), height_(height) {
-    header_room_ =
-        exr_header(width, height, padded(provisional, 0), ExrCompression::none).size() + kSlack;
+                     const std::map<std::string, std::string>& provisional, ExrChannels channels)
+    : file_(path), width_(width), height_(height), channels_(channels) {
+    header_room_ = header(provisional, 0).size() + kSlack;
     file_.allocate(header_room_ +
-                   (8 + exr_line_block_bytes(width)) * static_cast<std::size_t>(height));
+                   (8 + exr_line_block_bytes(width, channels)) * static_cast<std::size_t>(height));
+}
+
+std::vector<char> ExrStream::header(const std::map<std::string, std::string>& attributes,
+                                    std::size_t padding) const {
+    return exr_header(width_, height_, padded(attributes, padding), ExrCompression::none,
+                      channels_);
 }
 
 void ExrStream::band(int y0, int rows, int width, const BandPixels& pixels) noexcept {
     const BandFile::Busy busy(file_);
-    const std::size_t block = exr_line_block_bytes(width);
+    const std::size_t block = exr_line_block_bytes(width, channels_);
     const std::size_t first = header_room_ + 8 * static_cast<std::size_t>(height_);
     try {
         std::vector<char>& bytes = thread_scratch(block * static_cast<std::size_t>(rows));
-        const char* end = exr_line_blocks(bytes.data(), y0, rows, width, pixels);
+        const char* end = exr_line_blocks(bytes.data(), y0, rows, width, pixels, channels_);
         file_.write_at(bytes.data(), static_cast<std::size_t>(end - bytes.data()),
                        first + block * static_cast<std::size_t>(y0));
     } catch (...) {
@@ -151,15 +156,13 @@ void ExrStream::band(int y0, int rows, int width, const BandPixels& pixels) noex
 }
 
 void ExrStream::finish(const std::map<std::string, std::string>& attributes) {
-    const std::size_t bare =
-        exr_header(width_, height_, padded(attributes, 0), ExrCompression::none).size();
+    const std::size_t bare = header(attributes, 0).size();
     if (bare > header_room_)
         throw OutputError(file_.path() + ": the EXR header's final attributes need " +
                           std::to_string(bare) + " bytes, " + std::to_string(header_room_) +
                           " were kept");
-    std::vector<char> head =
-        exr_header(width_, height_, padded(attributes, header_room_ - bare), ExrCompression::none);
-    const std::size_t block = exr_line_block_bytes(width_);
+    std::vector<char> head = header(attributes, header_room_ - bare);
+    const std::size_t block = exr_line_block_bytes(width_, channels_);
     const std::uint64_t first = header_room_ + 8 * static_cast<std::uint64_t>(height_);
     for (int y = 0; y < height_; ++y) {
         const std::uint64_t offset = first + static_cast<std::uint64_t>(y) * block;

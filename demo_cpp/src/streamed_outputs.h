@@ -83,7 +83,8 @@ class ExrStream final : public BandSink {
 public:
     static constexpr std::size_t kSlack = 256;
     ExrStream(const std::string& path, int width, int height,
-              const std::map<std::string, std::string>& provisional);
+              const std::map<std::string, std::string>& provisional,
+              ExrChannels channels = ExrChannels::all);
     // Planes: each line's block is then each channel's row, copied whole.
     int step() const override { return 1; }
     void band(int y0, int rows, int width, const BandPixels& pixels) noexcept override;
@@ -92,8 +93,12 @@ public:
     double write_seconds() const { return file_.busy_seconds(); }  // summed over the threads
 
 private:
+    // The header with `attributes` and `padding` spaces of rtval.padding.
+    std::vector<char> header(const std::map<std::string, std::string>& attributes,
+                             std::size_t padding) const;
     BandFile file_;
     int width_, height_;
+    ExrChannels channels_;
     std::size_t header_room_ = 0;
 };
 

@@ -120,6 +120,32 @@ TEST(StreamedOutputs, ExrReadsBackBitForBitWithTheFinalAttributes) {
     fs::remove(path);
 }
 
+// --exr-channels rgb streamed (the bands' AOVs left out): the bytes write_exr writes for the
+// frame without them and the same header.
+TEST(StreamedOutputs, TheColourAloneStreamsAsWrittenWhole) {
+    const RenderedImage full = sample_image(37, 21);
+    const RenderedImage img = test::without_aovs(full);
+    const fs::path streamed = temp_path("rtdemo_stream_rgb.exr");
+    const fs::path whole = temp_path("rtdemo_whole_rgb.exr");
+    const std::map<std::string, std::string> attributes = {{"rtval.scene", "s"}};
+    ExrStream stream(streamed.string(), img.width, img.height, attributes, ExrChannels::rgb);
+    feed(full, 5, stream);
+    stream.finish(attributes);
+    {
+        Imf::InputFile in(streamed.c_str());
+        EXPECT_EQ(test::channel_names(in), (std::vector<std::string>{"B", "G", "R"}));
+        expect_pixels(in, img, false);
+        const std::size_t padding =
+            in.header().typedAttribute<Imf::StringAttribute>("rtval.padding").value().size();
+        write_exr(whole.string(), img,
+                  {{"rtval.scene", "s"}, {"rtval.padding", std::string(padding, ' ')}},
+                  ExrCompression::none, 1, ExrChannels::rgb);
+    }
+    EXPECT_EQ(bytes_of(streamed), bytes_of(whole));
+    fs::remove(streamed);
+    fs::remove(whole);
+}
+
 // The engine hands each sink the layout it asks for (BandSink::step); both take either.
 TEST(StreamedOutputs, PlanarAndInterleavedBandsWriteTheSameFiles) {
     const RenderedImage img = sample_image(37, 21);
