@@ -237,6 +237,7 @@ def _integrator(mi: Any, scene: Scene, settings: ReferenceSettings) -> Any:
                 "shadows": settings.shadows,
                 "reflection": settings.reflection,
                 "refraction": settings.refraction,
+                **whitted.pruning(scene),
             }
         )
     if not (settings.shadows and settings.reflection and settings.refraction):

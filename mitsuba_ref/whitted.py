@@ -13,6 +13,9 @@ physical mode, noise-free with point lights and centre rays.
   float32 rounding at large coordinates cannot self-intersect (docs/mitsuba-notes.md).
 
 Switches shadows / reflection / refraction drop one effect for per-effect ablation.
+Given `prune_below` and `bounce_gain` (pruning(): a scene without lights), a child ray is
+not traced when all the light it could bring back is under 2^-24 of the background: below
+float32's resolution of a pixel near the background's value.
 Works in JIT variants (one compacted wavefront per depth, each front traced once, light summed
 back up the tree in a fixed order) and scalar variants (one ray, depth-first).
 """
@@ -20,15 +23,19 @@ back up the tree in a fixed order) and scalar variants (one ray, depth-first).
 from __future__ import annotations
 
 import functools
+import math
 from typing import Any
 
 import drjit as dr
 import mitsuba as mi
 
 from mitsuba_ref.whitted_wavefront import trace_wavefront
+from scene_model.scene import Scene
 
 NAME = "rtval_whitted"
 DEFAULT_BIAS = 1e-4  # the scene format's default
+# The light a ray may leave out, relative to the background: half a float32 ulp at 1.0.
+PRUNE_TOLERANCE = 2.0**-24
 
 
 def _jit() -> bool:
@@ -59,7 +66,15 @@ class WhittedTransport:
         self.reflection = bool(props.get("reflection", True))
         self.refraction = bool(props.get("refraction", True))
         self.light_samples = int(props.get("light_samples", 1))
+        # 0 (not given, as for a scene with lights): every ray is traced to max_depth.
+        self.prune_below = float(props.get("prune_below", 0.0))
+        self.bounce_gain = float(props.get("bounce_gain", 1.0))
         self._prepared_for: Any = None
+
+    def min_weight(self, depth: int) -> float:
+        """The smallest weight (largest channel) worth tracing for a ray at `depth`: each
+        bounce left may multiply its light by up to bounce_gain. 0: trace every ray."""
+        return self.prune_below / self.bounce_gain ** max(self.max_depth - depth, 0)
 
     # -- scene analysis -------------------------------------------------------------
     def _prepare(self, scene: Any) -> None:
@@ -177,12 +192,15 @@ class WhittedTransport:
             children.append((mask, mi.Ray3f(_offset_origin(si.p, si.n, wo, self.bias), wo), w))
         return result, children
 
-    def _trace_recursive(self, scene: Any, sampler: Any, ray: Any, depth: int, active: Any) -> Any:
-        """Scalar variants: one ray, depth-first."""
+    def _trace_recursive(
+        self, scene: Any, sampler: Any, ray: Any, depth: int, active: Any, weight: Any = 1.0
+    ) -> Any:
+        """Scalar variants: one ray (of path weight `weight`), depth-first."""
         result, children = self.shade(scene, sampler.next_2d, ray, depth, active)
         for mask, child, w in children:
-            if mask:
-                result += w * self._trace_recursive(scene, sampler, child, depth + 1, mask)
+            if mask and dr.max(weight * w) >= self.min_weight(depth + 1):
+                light = self._trace_recursive(scene, sampler, child, depth + 1, mask, weight * w)
+                result += w * light
         return result
 
     def sample(
@@ -198,6 +216,31 @@ class WhittedTransport:
 
     def to_string(self) -> str:
         return f"WhittedIntegrator[max_depth={self.max_depth}]"
+
+
+def pruning(scene: Scene) -> dict[str, float]:
+    """The integrator's pruning properties for a scene lit by its background alone, where
+    the light along any ray is bounded: at most the background's brightest channel, times
+    ior^2 of the glass it is inside (radiance scales with eta^2 across a boundary), times
+    the brightest specular colour over 1 for each bounce. With lights (no bound), none."""
+    if scene.lights or max(scene.background) <= 0.0:
+        return {}
+    specular = [s for s in scene.spheres if s.kind in ("glass", "mirror")]
+    gain = max([1.0, *(c for s in specular for c in s.color)])
+    return {"prune_below": PRUNE_TOLERANCE / _deepest_inside(scene), "bounce_gain": gain}
+
+
+def _deepest_inside(scene: Scene) -> float:
+    """The largest ior^2 product of the glass a ray can be inside at once: one sphere's,
+    unless glass spheres overlap (then, to be safe, all of them together)."""
+    glass = [s for s in scene.spheres if s.kind == "glass"]
+    squares = [s.ior**2 for s in glass]
+    overlap = any(
+        math.dist(a.center, b.center) < a.radius + b.radius
+        for i, a in enumerate(glass)
+        for b in glass[i + 1 :]
+    )
+    return math.prod(squares) if overlap else max(squares, default=1.0)
 
 
 _NOT_COPIED = ("__dict__", "__weakref__")
