@@ -15,6 +15,9 @@ against its model, then write the page, the PDF and report.json, last.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -131,19 +134,26 @@ def finish(ctx: ReportContext, judged: Judged) -> None:
 
 def copy_images(ctx: ReportContext) -> None:
     """Every render the page shows, as PNG; the EXRs that matter for re-analysis (reference
-    and image under test), ZIP-compressed; the rest regenerable."""
+    and image under test), ZIP-compressed; the rest regenerable. On every core: reading,
+    encoding and compressing let go of the GIL."""
     cache, imgs, hashes, images = ctx.cache, ctx.imgs, ctx.hashes, ctx.images_dir
-    for j in ctx.plan.shown():
-        derived_png(cache, hashes[j.key], imgs.loader(j.key), images / f"{j.key}.png")
     ref = ctx.plan.reference.key
-    derived_exr(cache, hashes[ref], imgs.loader(ref), ctx.out / exr_path(ref))
+    writes = [partial(derived_exr, cache, hashes[ref], imgs.loader(ref), ctx.out / exr_path(ref))]
     key, given = ctx.subject.key, ctx.subject.given
-    if given is not None:
-        derived_png(cache, hashes[key], imgs.loader(key), images / "test-image.png")
     if given is None or ctx.subject.copy.endswith(".exr"):
-        derived_exr(cache, hashes[key], imgs.loader(key), ctx.out / ctx.subject.copy)
+        target = ctx.out / ctx.subject.copy
+        writes.append(partial(derived_exr, cache, hashes[key], imgs.loader(key), target))
     else:
         write_atomic(ctx.out / ctx.subject.copy, given.data)
+    if given is not None:
+        target = images / "test-image.png"
+        writes.append(partial(derived_png, cache, hashes[key], imgs.loader(key), target))
+    for j in ctx.plan.shown():
+        target = images / f"{j.key}.png"
+        writes.append(partial(derived_png, cache, hashes[j.key], imgs.loader(j.key), target))
+    with ThreadPoolExecutor(max_workers=len(os.sched_getaffinity(0))) as pool:
+        for done in [pool.submit(w) for w in writes]:
+            done.result()
 
 
 def judge_given(
