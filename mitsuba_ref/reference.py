@@ -46,6 +46,9 @@ class ReferenceSettings:
     shadows: bool = True
     reflection: bool = True
     refraction: bool = True
+    # The camera rays' id, depth and N AOVs: one Python loop over the pixels in scalar
+    # variants (4 s at 1200x800), so a render wanted for its colour and time alone skips them.
+    aovs: bool = True
     time_budget: float | None = None
     target_stderr: float | None = None
     size: tuple[int, int] | None = None
@@ -129,11 +132,11 @@ def render_reference(
 
     def image(stopped_by: str, seconds: float, at: ReferenceSettings) -> ReferenceImage:
         aovs_key = (id(mscene), width, height)
-        if aovs_key not in _AOVS:  # the camera rays' hits: the same for every render here
+        if at.aovs and aovs_key not in _AOVS:  # the camera rays' hits: the same for every render
             _AOVS[aovs_key] = _primary_aovs(
                 mi, dr, mscene, sensor, exported.shape_index, width, height
             )
-        aovs = {k: v.copy() for k, v in _AOVS[aovs_key].items()}
+        aovs = {k: v.copy() for k, v in _AOVS[aovs_key].items()} if at.aovs else {}
         return _image(mi, scene, at, sums, aovs, exported, stopped_by, seconds)
 
     def at_snapshot(seconds: float) -> None:

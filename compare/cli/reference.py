@@ -73,6 +73,7 @@ def _settings(args: argparse.Namespace) -> ReferenceSettings:
         target_stderr=args.target_stderr,
         size=args.size,
         snapshots=tuple(spp for spp, _ in args.snapshot),
+        aovs=not args.no_aovs,
     )
 
 
@@ -137,6 +138,12 @@ def _add_stopping_and_effects(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-shadows", action="store_true", help="whitted: no shadow rays")
     p.add_argument("--no-reflection", action="store_true", help="whitted: no reflection lobes")
     p.add_argument("--no-refraction", action="store_true", help="whitted: no transmission lobes")
+    p.add_argument(
+        "--no-aovs",
+        action="store_true",
+        help="write colour (and variance) alone, without the id, depth and N.* AOVs: for a "
+        "render wanted for its image and time (scalar variants trace them one ray at a time)",
+    )
 
 
 def _write(out: Path, image: ReferenceImage) -> None:

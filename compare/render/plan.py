@@ -289,7 +289,8 @@ def _mitsuba_jobs(t: _Jobs) -> dict[str, dict[int, RenderJob]]:
         "mitsuba-path-scalar-1spp",
         "Mitsuba path scalar_rgb, 1 spp",
         "mitsuba path scalar",
-        *("--integrator", "path", "--light", "point", "--variant", "scalar_rgb"),
+        # Charted for its image and time alone: no AOVs (a Python loop per pixel in scalar).
+        *("--integrator", "path", "--light", "point", "--variant", "scalar_rgb", "--no-aovs"),
     )
     return {"whitted": whitted, "path": path}
 
