@@ -74,7 +74,10 @@ class WhittedTransport:
     def min_weight(self, depth: int) -> float:
         """The smallest weight (largest channel) worth tracing for a ray at `depth`: each
         bounce left may multiply its light by up to bounce_gain. 0: trace every ray."""
-        return self.prune_below / self.bounce_gain ** max(self.max_depth - depth, 0)
+        try:
+            return self.prune_below / self.bounce_gain ** max(self.max_depth - depth, 0)
+        except OverflowError:  # colours so bright that no ray is negligible
+            return 0.0
 
     # -- scene analysis -------------------------------------------------------------
     def _prepare(self, scene: Any) -> None:
@@ -198,7 +201,7 @@ class WhittedTransport:
         """Scalar variants: one ray (of path weight `weight`), depth-first."""
         result, children = self.shade(scene, sampler.next_2d, ray, depth, active)
         for mask, child, w in children:
-            if mask and dr.max(weight * w) >= self.min_weight(depth + 1):
+            if mask and not dr.max(weight * w) < self.min_weight(depth + 1):  # NaN is kept
                 light = self._trace_recursive(scene, sampler, child, depth + 1, mask, weight * w)
                 result += w * light
         return result

@@ -77,8 +77,8 @@ def _trace_fronts(integrator: Any, scene: Any, sampler: Any, ray: Any, root: Any
         weights = [weight * w for _, _, w in children]
         least = integrator.min_weight(depth + 1)
         if least > 0.0:  # rays whose light is below float32's resolution are not traced
-            children = [
-                (mask & (dr.max(wc) >= least), c, w)
+            children = [  # (a NaN weight is kept: the image must show it)
+                (mask & ~(dr.max(wc) < least), c, w)
                 for (mask, c, w), wc in zip(children, weights, strict=True)
             ]
         # One kernel shades the front (direct light, shadow rays) and stores its light and
