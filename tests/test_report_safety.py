@@ -237,3 +237,33 @@ def test_kill_9_of_the_report_takes_chromium_with_it(
         proc.kill()
         proc.communicate(timeout=60)
     assert _ended([browser]), "Chromium outlived a kill -9 of the report"
+
+
+# The images step writes on every core: the third PNG fails as a full disk would.
+FAIL_THIRD_PNG = """
+import sys, threading
+import compare.apps.report as report
+from compare.cli.main import main
+real, calls, lock = report.derived_png, [], threading.Lock()
+def derived_png(cache, sha, img, target):
+    with lock:
+        calls.append(target)
+        third = len(calls) == 3
+    if third:
+        raise OSError(28, "No space left on device", str(target))
+    real(cache, sha, img, target)
+report.derived_png = derived_png
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_picture_that_cannot_be_written_fails_the_report_and_names_it(
+    tmp_path: Path, render_cache: Path
+) -> None:
+    args = ["report", str(SCENES / "classic.json"), "--reports-dir", str(tmp_path), *SIZE]
+    proc = run([sys.executable, "-c", FAIL_THIRD_PNG, *args, "--no-pdf"], timeout=600)
+    assert proc.returncode != 0 and "No space left on device" in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr and ".png" in proc.stderr, proc.stderr
+    folder = tmp_path / "classic"
+    assert not [n for n in FINISHED if (folder / n).exists()]
+    assert not _leftovers(folder)

@@ -151,9 +151,12 @@ def copy_images(ctx: ReportContext) -> None:
     for j in ctx.plan.shown():
         target = images / f"{j.key}.png"
         writes.append(partial(derived_png, cache, hashes[j.key], imgs.loader(j.key), target))
-    with ThreadPoolExecutor(max_workers=len(os.sched_getaffinity(0))) as pool:
+    pool = ThreadPoolExecutor(max_workers=len(os.sched_getaffinity(0)))
+    try:
         for done in [pool.submit(w) for w in writes]:
             done.result()
+    finally:  # a failure or an interrupt: the writes not begun are dropped, not waited for
+        pool.shutdown(cancel_futures=True)
 
 
 def judge_given(
