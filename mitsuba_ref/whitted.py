@@ -1,5 +1,6 @@
-"""rtval_whitted: a Mitsuba integrator computing exactly the light transport of the demo's
-physical mode, noise-free with point lights and centre rays.
+"""rtval_whitted: a Mitsuba integrator computing the light transport of the demo's
+physical mode (to a few float32 ulps where it prunes, below), noise-free with point lights and
+centre rays.
 
 - camera and specular rays see the background (the `constant` emitter) and emitters;
 - diffuse surfaces get direct light from the sphere lights only (point emitters `light_i`,
