@@ -82,6 +82,12 @@ class WhittedTransport:
         except OverflowError:  # colours so bright that no ray is negligible
             return 0.0
 
+    def worth_tracing(self, weight: Any, depth: int) -> Any:
+        """Whether a ray of path weight `weight` at `depth` is traced (a mask in JIT
+        variants): every ray but those under min_weight; a NaN weight is traced, so that the
+        image shows it."""
+        return _not(dr.max(weight) < self.min_weight(depth))
+
     # -- scene analysis -------------------------------------------------------------
     def _prepare(self, scene: Any) -> None:
         if self._prepared_for is scene:
@@ -204,7 +210,7 @@ class WhittedTransport:
         """Scalar variants: one ray (of path weight `weight`), depth-first."""
         result, children = self.shade(scene, sampler.next_2d, ray, depth, active)
         for mask, child, w in children:
-            if mask and not dr.max(weight * w) < self.min_weight(depth + 1):  # NaN is kept
+            if mask and self.worth_tracing(weight * w, depth + 1):
                 light = self._trace_recursive(scene, sampler, child, depth + 1, mask, weight * w)
                 result += w * light
         return result

@@ -75,10 +75,9 @@ def _trace_fronts(integrator: Any, scene: Any, sampler: Any, ray: Any, root: Any
             fronts.append((own, []))
             break
         weights = [weight * w for _, _, w in children]
-        least = integrator.min_weight(depth + 1)
-        if least > 0.0:  # rays whose light is below float32's resolution are not traced
-            children = [  # (a NaN weight is kept: the image must show it)
-                (mask & ~(dr.max(wc) < least), c, w)
+        if integrator.min_weight(depth + 1) > 0.0:  # rays below float32's resolution: dropped
+            children = [
+                (mask & integrator.worth_tracing(wc, depth + 1), c, w)
                 for (mask, c, w), wc in zip(children, weights, strict=True)
             ]
         # One kernel shades the front (direct light, shadow rays) and stores its light and
