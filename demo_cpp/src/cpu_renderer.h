@@ -22,6 +22,10 @@ struct RenderSettings {
     // false: the packet engine leaves id, depth and normal empty. A PPM or PNG shows none of
     // them, and filling 6 MB of planes it never writes cost a PPM render ~10 % (bench/NOTES.md).
     bool aovs = true;
+    // The packet engine keeps a tile's whole tree of rays until it sums it back up; past this
+    // many rays it traces the tile again pixel by pixel (same image, same counts). Tests set it
+    // low to take that path on small scenes.
+    long packet_tree_cap = 1L << 16;
 };
 
 // Precondition: settings were validated (sizes >= 1, spp a perfect square). With `rays`,

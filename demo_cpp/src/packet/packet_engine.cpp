@@ -274,13 +274,14 @@ TilePixels rgb8_pixels(unsigned char* rgb8, bool round) {
     return bytes;
 }
 
-// Pixel x of a band's (or a tile's) first row.
-TilePixels at_x(const TilePixels& p, int x) {
-    if (p.rgb8) return rgb8_pixels(p.rgb8 + 3 * static_cast<std::ptrdiff_t>(x), p.round);
-    const std::ptrdiff_t c = static_cast<std::ptrdiff_t>(p.step) * x;
+// The pixel `offset` pixels on from p's first (x, or y * width + x further rows down).
+TilePixels at_pixel(const TilePixels& p, std::ptrdiff_t offset) {
+    if (p.rgb8) return rgb8_pixels(p.rgb8 + 3 * offset, p.round);
+    const std::ptrdiff_t c = static_cast<std::ptrdiff_t>(p.step) * offset;
     if (!p.id)
         return {p.r + c, p.g + c, p.b + c, nullptr, nullptr, nullptr, nullptr, nullptr, p.step};
-    return {p.r + c, p.g + c, p.b + c, p.id + x, p.depth + x, p.nx + c, p.ny + c, p.nz + c, p.step};
+    return {p.r + c,  p.g + c,  p.b + c,  p.id + offset, p.depth + offset,
+            p.nx + c, p.ny + c, p.nz + c, p.step};
 }
 
 packet::Options options_for(const TraceOptions& trace) {
@@ -314,6 +315,7 @@ struct FrameJob {
     bool aovs;
     float centre;       // of a pixel's stratum: 0.5, or 0 with --mistake half_pixel_offset
     bool double_gamma;  // --mistake double_gamma: x^(1/2.2) of the pixel's colour
+    long tree_cap;      // RenderSettings::packet_tree_cap
 };
 
 // The worker's queues and buffers, sized for one tile of the frame.
@@ -325,11 +327,13 @@ void prepare(Worker& wk, const FrameJob& job) {
     for (auto& v : wk.sum) v.assign(static_cast<std::size_t>(tile_cap), 0.0f);
 }
 
-// One sample per pixel of the tile through all bounces; the colours end in level 0.
-void trace_tile(Worker& wk, const FrameJob& job, const packet::Aov* with_aov) {
+// One sample per pixel of the region through all bounces; the colours end in level 0. Gives up
+// (false) once the tree passes the frame's tree_cap rays, when the region may be split.
+bool trace_region(Worker& wk, const FrameJob& job, const packet::Aov* with_aov, bool may_give_up) {
     const Kernels& kern = job.kern;
     const int lanes = kern.lanes;
     int last = 0;
+    long tree = wk.levels[0].view.count;
     for (int d = 0;; ++d) {
         LevelStore& next = wk.levels[static_cast<std::size_t>(d) + 1];
         const int n = wk.levels[d].view.count;
@@ -340,38 +344,45 @@ void trace_tile(Worker& wk, const FrameJob& job, const packet::Aov* with_aov) {
         next.reserve(2 * wk.specular.view.count + lanes);
         kern.spawn(job.s, job.opt, wk.levels[d].view, wk.specular.view, next.view);
         last = d;
+        tree += next.view.count;
+        if (may_give_up && tree > job.tree_cap) return false;
         if (next.view.count == 0) break;
     }
     for (int d = last; d >= 0; --d)
         kern.resolve(job.s, job.opt, wk.levels[d].view, wk.levels[d + 1].view);
+    return true;
 }
 
-// Tile number `tile` traced and stored into `out`, its band's pixels.
-void render_tile(Worker& wk, const FrameJob& job, int tile, const packet::Aov& aov,
-                 const TilePixels& out) {
+// A rectangle of pixels within a tile.
+struct Region {
+    int x0, y0, w, h;
+};
+
+// The region traced and stored into `out`, its first pixel; false (nothing stored) where
+// trace_region gave up.
+bool render_region(Worker& wk, const FrameJob& job, const Region& r, const packet::Aov& aov,
+                   const TilePixels& out) {
     const Kernels& kern = job.kern;
     const float centre = job.centre;
     const int k = job.k;
-    const int x0 = (tile % job.tiles_x) * kTileW, y0 = tile / job.tiles_x * kTileH;
-    const int tw = std::min(kTileW, job.width - x0), th = std::min(kTileH, job.height - y0);
-    const int n = tw * th;
+    const int n = r.w * r.h;
+    const bool may_give_up = n > 1;
     Level& l0 = wk.levels[0].view;
     const float* cr = l0.cr;
     const float* cg = l0.cg;
     const float* cb = l0.cb;
+    kern.camera(job.cam, r.x0, r.y0, r.w, r.h, centre, centre, l0);
     if (k == 1) {
-        kern.camera(job.cam, x0, y0, tw, th, centre, centre, l0);
-        trace_tile(wk, job, job.aovs ? &aov : nullptr);
+        if (!trace_region(wk, job, job.aovs ? &aov : nullptr, may_give_up)) return false;
     } else {
-        kern.camera(job.cam, x0, y0, tw, th, centre, centre, l0);
         kern.primary(job.s, job.opt, l0, aov);
         wk.counts.camera += static_cast<std::uint64_t>(n);
         for (auto& v : wk.sum) std::fill(v.begin(), v.begin() + n, 0.0f);
         for (int sy = 0; sy < k; ++sy)
             for (int sx = 0; sx < k; ++sx) {
                 const float off_x = (sx + centre) / k, off_y = (sy + centre) / k;
-                kern.camera(job.cam, x0, y0, tw, th, off_x, off_y, l0);
-                trace_tile(wk, job, nullptr);
+                kern.camera(job.cam, r.x0, r.y0, r.w, r.h, off_x, off_y, l0);
+                if (!trace_region(wk, job, nullptr, may_give_up)) return false;
                 for (int i = 0; i < n; ++i) {
                     wk.sum[0][i] += l0.cr[i];
                     wk.sum[1][i] += l0.cg[i];
@@ -389,8 +400,27 @@ void render_tile(Worker& wk, const FrameJob& job, int tile, const packet::Aov& a
         cr = wk.sum[0].data(), cg = wk.sum[1].data(), cb = wk.sum[2].data();
         inv_samples = 1.0f;
     }
-    kern.store_tile(cr, cg, cb, inv_samples, job.aovs ? &aov : nullptr, tw, th, job.width,
-                    at_x(out, x0));
+    kern.store_tile(cr, cg, cb, inv_samples, job.aovs ? &aov : nullptr, r.w, r.h, job.width, out);
+    return true;
+}
+
+// Tile number `tile` traced and stored into `out`, its band's pixels: whole, or pixel by
+// pixel where its tree of rays grows past tree_cap (the rays counted once either way). A tree
+// of acne in glass can pass 10^7 rays a tile (about 100 bytes each), and most of its time
+// went to the kernel handing out fresh pages (bench/NOTES.md); each pixel's rays are its own,
+// so the image is the same.
+void render_tile(Worker& wk, const FrameJob& job, int tile, const packet::Aov& aov,
+                 const TilePixels& out) {
+    const int x0 = (tile % job.tiles_x) * kTileW, y0 = tile / job.tiles_x * kTileH;
+    const Region whole{x0, y0, std::min(kTileW, job.width - x0), std::min(kTileH, job.height - y0)};
+    const packet::Counts before = wk.counts;
+    if (render_region(wk, job, whole, aov, at_pixel(out, x0))) return;
+    wk.counts = before;
+    for (int y = 0; y < whole.h; ++y)
+        for (int x = 0; x < whole.w; ++x) {
+            const std::ptrdiff_t at = static_cast<std::ptrdiff_t>(y) * job.width + x0 + x;
+            render_region(wk, job, {x0 + x, y0 + y, 1, 1}, aov, at_pixel(out, at));
+        }
 }
 
 // The frame's tiles handed out dynamically, band after band (a band: kTileH full rows). Before
@@ -418,7 +448,8 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
                        tiles_x * bands,
                        settings.aovs,
                        settings.trace.mistakes.has(Mistake::half_pixel_offset) ? 0.0f : 0.5f,
-                       settings.trace.mistakes.has(Mistake::double_gamma)};
+                       settings.trace.mistakes.has(Mistake::double_gamma),
+                       settings.packet_tree_cap};
     std::unique_ptr<std::atomic<int>[]> tiles_left(new std::atomic<int>[bands]);
     for (int b = 0; b < bands; ++b) tiles_left[b] = tiles_x;
 

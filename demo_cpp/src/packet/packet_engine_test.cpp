@@ -402,6 +402,41 @@ TEST(PacketEngine, BandsWithMistakesAreTheScalarTracersFrame) {
         }
 }
 
+// Tiles traced again pixel by pixel (their tree of rays past packet_tree_cap: with a cap of 0
+// every tile of more than one pixel) give the scalar tracer's frame and ray counts: kept or
+// handed over in bands, with and without AOVs, at spp 1 and 4, acne and deep trees included.
+TEST(PacketEngine, TilesSplitIntoPixelsGiveTheSameFrame) {
+    for (const char* name : kProjectScenes)
+        for (int spp : {1, 4})
+            for (long cap : {0L, 300L}) {
+                const Scene scene = load_scene_file(kScenes + "/" + name);
+                RenderSettings settings = classic_settings(scene, 45, 37);  // cut tiles, bands
+                settings.trace.quirks = quirks_for(spp == 1 ? Mode::classic : Mode::physical);
+                settings.trace.max_depth = 12;
+                settings.trace.mistakes.add(Mistake::no_offset);
+                settings.spp = spp;
+                settings.engine = Engine::scalar;
+                RayCounts ref_rays;
+                const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
+                PlainRender plain = without_setting_mistakes(scene, settings);
+                plain.settings.packet_tree_cap = cap;
+                for (Isa isa : supported_isas()) {
+                    SCOPED_TRACE(std::string(name) + " spp " + std::to_string(spp) + " cap " +
+                                 std::to_string(cap) + " isa " + isa_name(isa));
+                    RayCounts rays, sunk_rays;
+                    expect_same_frame(ref, ref_rays,
+                                      render_packet(plain.scene, plain.settings, isa, &rays), rays);
+                    RenderSettings no_aovs = plain.settings;
+                    no_aovs.aovs = false;
+                    CopyingSink sink(settings.width, settings.height, 1, 48, 0);
+                    render_packet(plain.scene, no_aovs, isa, sink, &sunk_rays);
+                    EXPECT_TRUE(sink.every_row_once());
+                    EXPECT_TRUE(same_bits(ref.rgb, sink.frame().rgb, "rgb"));
+                    EXPECT_EQ(ref_rays.total(), sunk_rays.total());
+                }
+            }
+}
+
 // The floats an 8-bit encoding must get right: specials, the edges of every level (k / 255 and
 // (k + 0.5) / 255, three ulps either side), and every 65 521st float bit pattern (about 65 500
 // values over the whole range). All 2^32 floats were checked once by hand (bench/NOTES.md).
