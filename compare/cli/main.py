@@ -9,6 +9,7 @@ import sys
 
 from compare import interrupts as interrupt
 from compare.cli import (
+    allocator,
     cache,
     check,
     compare,
@@ -57,6 +58,7 @@ def build_parser() -> Parser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    allocator.use_one_arena()  # before any thread of ours starts (allocator.py)
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
