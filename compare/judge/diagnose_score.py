@@ -90,9 +90,14 @@ def _levels(rgb: F32, codes: str) -> F32:
     """255 x the value an 8-bit writer stores, in the image's own encoding: linear for a PPM
     read as linear, display (sRGB) otherwise. NaN counts as 0, as the paper's PPM writer
     stores it."""
-    # fmax/fmin take NaN to 0, +inf to 1, -inf to 0; linear_to_srgb clamps so itself.
-    c = np.fmin(np.fmax(rgb, 0.0), 1.0) if codes == "linear" else linear_to_srgb(rgb)
-    out: F32 = (c * np.float32(255.0)).astype(np.float32, copy=False)
+    # fmax/fmin take NaN to 0, +inf to 1, -inf to 0; linear_to_srgb clamps so itself. One new
+    # array, changed in place: a render's levels are made by the hundred.
+    if codes == "linear":
+        out: F32 = np.fmax(rgb, np.float32(0.0))
+        np.fmin(out, np.float32(1.0), out=out)
+    else:
+        out = linear_to_srgb(rgb).astype(np.float32, copy=False)
+    out *= np.float32(255.0)
     return out
 
 
@@ -225,9 +230,12 @@ class Codes:
 
     @classmethod
     def of(cls, rgb: F32, codes: str, *, values: bool = True) -> Codes:
-        levels = _levels(rgb, codes)
-        enc: I16 = np.rint(levels).astype(np.int16)
-        halves: I16 = np.floor(levels * np.float32(2.0)).astype(np.int16)
+        levels = _levels(rgb, codes)  # its own array: changed in place below
+        enc: I16 = np.empty(levels.shape, np.int16)
+        np.rint(levels, out=enc, casting="unsafe")
+        levels *= np.float32(2.0)  # exact: a power of two
+        halves: I16 = np.empty(levels.shape, np.int16)
+        np.floor(levels, out=halves, casting="unsafe")
         return cls(rgb if values else None, enc, halves, codes_digest(enc))
 
     def at(self, idx: NDArray[np.intp]) -> Codes:
