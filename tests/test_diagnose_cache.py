@@ -16,6 +16,7 @@ from compare.judge.candidate import Candidate
 from compare.judge.diagnose import diagnose
 from compare.judge.images import Image
 from compare.judge.target_model import parse_model
+from compare.render import jobs
 from compare.render.cache import RenderCache
 from compare.render.candidates import CandidateRenderer, forget_recent
 from compare.render.jobs import set_key
@@ -50,6 +51,58 @@ def test_candidates_are_entries_of_the_render_cache(tmp_path: Path) -> None:
     assert not list(cache.tmp_dir.iterdir())  # nothing half-made left behind
     stats = cache.stats()
     assert stats["misses"] >= 3 and stats["hits"] >= 3
+
+
+def test_a_passing_render_is_read_and_dropped_unless_it_was_slow(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """passing(): the render a search scores once is made into the cache's tmp/, read, and
+    removed, with nothing stored; asked for again as a render to keep, it is made again and
+    stored, the same pixels. A passing render that took PASSING_KEEP_SECONDS is stored."""
+    cache = RenderCache(tmp_path / "c")
+    forget_recent()
+    cand = Candidate.of_mode("classic").with_mistake("no_offset", True)
+    with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
+        once = render.passing(cand).rgb
+        key = set_key(render.job(cand))
+        assert cache.info(key) is None and not list(cache.tmp_dir.iterdir())
+        assert (render.rendered, render.cache_hits) == (1, 0)
+        forget_recent()
+        kept = render(cand).rgb  # not stored: made again, and stored this time
+        assert (render.rendered, render.cache_hits) == (2, 0) and cache.info(key) is not None
+        forget_recent()
+        assert (render.passing(cand).rgb == once).all()  # now from the cache
+        assert (render.rendered, render.cache_hits, render.memory_hits) == (2, 1, 0)
+    assert (once == kept).all()
+    slow = RenderCache(tmp_path / "slow")
+    monkeypatch.setattr(jobs, "PASSING_KEEP_SECONDS", 0.0)
+    forget_recent()
+    with CandidateRenderer(CLASSIC, W, H, cache=slow) as render:
+        assert (render.passing(cand).rgb == once).all()
+        assert slow.info(set_key(render.job(cand))) is not None
+        assert not list(slow.tmp_dir.iterdir())
+
+
+def test_a_search_keeps_the_codes_of_the_renders_it_drops(tmp_path: Path, rtdemo: str) -> None:
+    """A diagnosis stores the renders it reads again (its starts, its result, the renders
+    its exact matches are made of) and the codes of the candidates it scores; those only
+    scored leave no render in the cache, and a search of another image of the same program
+    renders nothing."""
+    image = render_demo(rtdemo, CLASSIC, tmp_path / "q2.ppm", "-q", "--mode", "classic",
+                        "--quirk", "Q2", size=(W, H))  # fmt: skip
+    cache = RenderCache(tmp_path / "c")
+    forget_recent()
+    with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
+        first = diagnose(image, load_scene(CLASSIC), render)
+        stored = {n for n, c in render.seen.items() if cache.info(set_key(render.job(c)))}
+    assert first.result == "classic+Q2" and "classic" in stored
+    dropped = set(render.seen) - stored
+    assert len(dropped) > 10 and len(list(cache.derived_dir.glob("diagnose-codes-*"))) > 10
+    twin = dataclasses.replace(image, rgb=image.rgb.copy())
+    twin.rgb[0, 0] = 1.0 - twin.rgb[0, 0]  # another image: searched again, not recalled
+    misses = cache.stats()["misses"]
+    again, _ = diagnosed(twin, CLASSIC, (W, H), cache)
+    assert again["result"] == first.result and cache.stats()["misses"] == misses
 
 
 def test_only_plain_models_keep_their_aovs_and_a_switched_start_is_rendered_with_them(

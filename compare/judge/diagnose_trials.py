@@ -85,7 +85,9 @@ class Trials:
         name, codes = self._kept_codes(c)
         if codes is not None and c not in self.keep:
             return None, t.score_codes(codes)
-        im = self.render(c)
+        # A render only scored, its codes kept: the renderer need not keep it (passing).
+        passing = name is not None and c not in self.keep
+        im = getattr(self.render, "passing", self.render)(c) if passing else self.render(c)
         if t.regions is None:
             self._first_check(c, im)
         else:

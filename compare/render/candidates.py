@@ -29,7 +29,7 @@ from compare.judge.images import Image, ImageError, read_image
 from compare.judge.target_model import TargetModel
 from compare.render import models
 from compare.render.cache import RenderCache, renderer_identity
-from compare.render.jobs import RenderJob, render_one, set_key
+from compare.render.jobs import RenderJob, read_passing, render_one, set_key
 from compare.render.models import OFFSET_PIXELS, OFFSETS, SPHERE_ULPS, grown_scene, offset_scene
 from compare.render.runner import ToolError, rtdemo_path
 from scene_model.safe_paths import read_bounded, write_atomic
@@ -252,19 +252,45 @@ class CandidateRenderer:
         """The render with its id and depth AOVs (read by diagnose for the effect masks)."""
         return self(what, aovs=True)
 
-    def __call__(self, what: TargetModel | Candidate, *, aovs: bool = False) -> Image:
-        """The candidate's render; its AOVs only where it is a plain model or `aovs`."""
+    def passing(self, what: TargetModel | Candidate) -> Image:
+        """The candidate's render for a search that scores it once and keeps its codes: read
+        from memory or the cache where it is there, else made and read without being stored
+        (jobs.read_passing) nor held in memory. Asked for again (a search's result), it is
+        made again and stored: a later search of the program reads it."""
+        c = self._seen(what)
+        job = self.job(c)
+        recent = _RECENT.get(set_key(job))
+        if recent is not None:
+            self._count(hit=True, memory=True)
+            return recent
+        extra = ["--threads", str(self.threads)] if self.threads else []
+        image, hit = read_passing(
+            job, self.cache, lambda p: read_image(p, aovs=KEPT_AOVS), extra_args=extra
+        )
+        self._count(hit=hit)
+        return image
+
+    def _seen(self, what: TargetModel | Candidate) -> Candidate:
         if not self._open:
             raise RuntimeError("CandidateRenderer used outside its `with` block")
         c = what if isinstance(what, Candidate) else Candidate.from_model(what)
         with self._lock:
             self.seen[c.name] = c
+        return c
+
+    def _count(self, *, hit: bool, memory: bool = False) -> None:
+        with self._lock:
+            self.cache_hits += hit
+            self.memory_hits += memory
+            self.rendered += not hit
+
+    def __call__(self, what: TargetModel | Candidate, *, aovs: bool = False) -> Image:
+        """The candidate's render; its AOVs only where it is a plain model or `aovs`."""
+        c = self._seen(what)
         job = self.job(c, aovs=aovs)
         recent = _RECENT.get(set_key(job))
         if recent is not None:  # read already by this process: the cache is not asked
-            with self._lock:
-                self.cache_hits += 1
-                self.memory_hits += 1
+            self._count(hit=True, memory=True)
             return recent
         extra = ["--threads", str(self.threads)] if self.threads else []
         hit = render_one(job, self.cache, extra_args=extra)
@@ -273,7 +299,5 @@ class CandidateRenderer:
         except ImageError:  # whole by its sha256 but unreadable: render it again
             hit = render_one(job, self.cache, extra_args=extra, again=True)
             image = read_image(job.exr(self.cache), aovs=KEPT_AOVS)
-        with self._lock:
-            self.cache_hits += hit
-            self.rendered += not hit
+        self._count(hit=hit)
         return _RECENT.put(job.cache_key, image)

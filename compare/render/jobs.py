@@ -17,15 +17,20 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from compare.render.cache import RenderCache, render_key
 from compare.render.progress import Progress
 from compare.render.runner import ToolError, rtdemo_path
+
+T = TypeVar("T")
+# A passing render (read_passing) made in this long or longer is kept in the cache after all:
+# the deepest candidates of a search take seconds, and a later search asks for them again.
+PASSING_KEEP_SECONDS = 0.5
 
 
 @dataclass
@@ -156,6 +161,34 @@ def render_one(
     return False
 
 
+def read_passing(
+    job: RenderJob,
+    cache: RenderCache,
+    read: Callable[[Path], T],
+    *,
+    extra_args: Sequence[str] = (),
+) -> tuple[T, bool]:
+    """The job's render as `read` makes it of the file, for a render looked at once (a
+    search's candidate, scored and dropped): from the cache where it is there (True); else
+    made into a temporary file, read there and removed, and stored only when it took
+    PASSING_KEEP_SECONDS or more. A quicker one costs more to keep than to make again: its
+    hash, its sidecar and the kernel writing it to disk (11.5 MB at 1200x800; bench/NOTES.md)."""
+    if job.tool != "rtdemo":
+        raise ValueError(f"render job {job.key}: read_passing runs rtdemo jobs only")
+    key = set_key(job)
+    if cache.info(key) is not None:
+        return read(job.exr(cache)), True
+    tmp = cache.tmp_path(job.cache_key)
+    try:
+        _run_into(job, tmp, extra_args)
+        value = read(tmp)
+        if job.seconds >= PASSING_KEEP_SECONDS:
+            job.info = cache.store(job.cache_key, tmp, _facts(job))
+        return value, False
+    finally:  # read, stored, interrupted or failed: leave nothing behind
+        tmp.unlink(missing_ok=True)
+
+
 def _unique(jobs: Iterable[RenderJob]) -> list[RenderJob]:
     out, seen = [], set()
     for j in jobs:
@@ -173,20 +206,25 @@ def _run_demo(job: RenderJob, cache: RenderCache, counter: _Counter) -> None:
 def _make_demo(job: RenderJob, cache: RenderCache, extra_args: Sequence[str] = ()) -> None:
     """Runs an rtdemo job into a temporary file of the cache and stores it under its key."""
     tmp = cache.tmp_path(job.cache_key)
-    cmd = [*job.command(tmp), *extra_args]
-    cmd[0] = _executable(job)
-    start = time.perf_counter()
     try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-        job.seconds = time.perf_counter() - start
-        if proc.returncode != 0:
-            raise ToolError(
-                f"{job.label} failed (exit {proc.returncode}): {job.command_text('OUT.exr')}\n"
-                f"{proc.stderr.strip()[-2000:]}"
-            )
+        _run_into(job, tmp, extra_args)
         job.info = cache.store(job.cache_key, tmp, _facts(job))
     finally:  # interrupted or failed: leave nothing that looks like a result
         tmp.unlink(missing_ok=True)
+
+
+def _run_into(job: RenderJob, out: Path, extra_args: Sequence[str]) -> None:
+    """Runs an rtdemo job writing `out`; its wall time into job.seconds."""
+    cmd = [*job.command(out), *extra_args]
+    cmd[0] = _executable(job)
+    start = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    job.seconds = time.perf_counter() - start
+    if proc.returncode != 0:
+        raise ToolError(
+            f"{job.label} failed (exit {proc.returncode}): {job.command_text('OUT.exr')}\n"
+            f"{proc.stderr.strip()[-2000:]}"
+        )
 
 
 def _facts(job: RenderJob) -> dict[str, Any]:
