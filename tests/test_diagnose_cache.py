@@ -5,6 +5,8 @@ and nothing is left outside the cache (no private temporary folder)."""
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import sys
 from pathlib import Path
 
@@ -81,6 +83,26 @@ def test_a_passing_render_is_read_and_dropped_unless_it_was_slow(
         assert (render.passing(cand).rgb == once).all()
         assert slow.info(set_key(render.job(cand))) is not None
         assert not list(slow.tmp_dir.iterdir())
+
+
+def test_a_passing_render_whose_entry_cannot_be_read_is_made_again(tmp_path: Path) -> None:
+    """An entry whose EXR has the sha256 its sidecar records but is no image: passing()
+    renders the candidate again (and stores it) instead of failing the search."""
+    cache = RenderCache(tmp_path / "c")
+    forget_recent()
+    cand = Candidate.of_mode("classic").with_mistake("no_offset", True)
+    with CandidateRenderer(CLASSIC, W, H, cache=cache) as render:
+        good = render(cand).rgb
+        key = set_key(render.job(cand))
+        exr = cache.exr(key)
+        exr.write_bytes(b"not an EXR")
+        sidecar = exr.with_suffix(".json")
+        facts = json.loads(sidecar.read_text())
+        facts["sha256"] = hashlib.sha256(b"not an EXR").hexdigest()
+        sidecar.write_text(json.dumps(facts))
+        forget_recent()
+        assert (render.passing(cand).rgb == good).all()
+    assert exr.read_bytes() != b"not an EXR" and cache.info(key) is not None
 
 
 def test_a_search_keeps_the_codes_of_the_renders_it_drops(tmp_path: Path, rtdemo: str) -> None:

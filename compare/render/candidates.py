@@ -264,9 +264,12 @@ class CandidateRenderer:
             self._count(hit=True, memory=True)
             return recent
         extra = ["--threads", str(self.threads)] if self.threads else []
-        image, hit = read_passing(
-            job, self.cache, lambda p: read_image(p, aovs=KEPT_AOVS), extra_args=extra
-        )
+        try:
+            image, hit = read_passing(
+                job, self.cache, lambda p: read_image(p, aovs=KEPT_AOVS), extra_args=extra
+            )
+        except ImageError:  # a cached entry whole by its sha256 but unreadable: made again
+            return self(c)
         self._count(hit=hit)
         return image
 
