@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import SCENES, machine, print_table, source_state, tool, write_results
+from common import SCENES, print_table, stamped, tool, write_results
 
 GL_LINE = re.compile(
     r"gl on (?P<renderer>.+?), compile (?P<compile>[\d.]+) s, first frame (?P<first>[\d.]+) s, "
@@ -91,8 +91,7 @@ def main() -> None:
     print_table(keys, [[r[k] for k in keys] for r in results])
     data = {"frames": args.frames, "results": results}
     if args.json:
-        record = {"machine": machine(), "source": source_state(), **data}
-        Path(args.json).write_text(json.dumps(record, indent=2) + "\n")
+        Path(args.json).write_text(json.dumps(stamped(data), indent=2) + "\n")
         print(f"wrote {args.json}")
     else:
         print(f"wrote {write_results('gl_device', data)}")

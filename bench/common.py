@@ -100,11 +100,16 @@ def source_state() -> dict[str, Any]:
     }
 
 
+def stamped(data: dict[str, Any]) -> dict[str, Any]:
+    """`data` with the machine it was measured on and the commit measured."""
+    return {"machine": machine(), "source": source_state(), **data}
+
+
 def write_results(name: str, data: dict[str, Any]) -> Path:
     """bench/results/NAME.json holds the latest run; NAME.history.jsonl keeps every run, one
     JSON object a line, so a slower commit can be found later."""
     RESULTS.mkdir(parents=True, exist_ok=True)
-    record = {"machine": machine(), "source": source_state(), **data}
+    record = stamped(data)
     path = RESULTS / f"{name}.json"
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(json.dumps(record, indent=2) + "\n")

@@ -263,10 +263,9 @@ class CandidateRenderer:
         if recent is not None:
             self._count(hit=True, memory=True)
             return recent
-        extra = ["--threads", str(self.threads)] if self.threads else []
         try:
             image, hit = read_passing(
-                job, self.cache, lambda p: read_image(p, aovs=KEPT_AOVS), extra_args=extra
+                job, self.cache, lambda p: read_image(p, aovs=KEPT_AOVS), extra_args=self._extra()
             )
         except ImageError:  # a cached entry whole by its sha256 but unreadable: made again
             return self(c)
@@ -280,6 +279,10 @@ class CandidateRenderer:
         with self._lock:
             self.seen[c.name] = c
         return c
+
+    def _extra(self) -> list[str]:
+        """rtdemo's arguments that change no pixel (kept out of the cache key)."""
+        return ["--threads", str(self.threads)] if self.threads else []
 
     def _count(self, *, hit: bool, memory: bool = False) -> None:
         with self._lock:
@@ -295,7 +298,7 @@ class CandidateRenderer:
         if recent is not None:  # read already by this process: the cache is not asked
             self._count(hit=True, memory=True)
             return recent
-        extra = ["--threads", str(self.threads)] if self.threads else []
+        extra = self._extra()
         hit = render_one(job, self.cache, extra_args=extra)
         try:
             image = read_image(job.exr(self.cache), aovs=KEPT_AOVS)
