@@ -27,7 +27,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import ROOT, SCENES, print_table, tool, write_results
 
-from compare.apps import check
+from compare.check import run as check
 from compare.render import foreign
 
 SIZE = (640, 480)

@@ -55,7 +55,8 @@ def _ppm(path: Path, codes: np.ndarray) -> None:
 
 def make_classic_class(folder: Path, students: int) -> dict[str, str]:
     """Writes the class; returns id -> expected status."""
-    from compare.judge.images import read_image, write_exr, write_png
+    from compare.judge.images import read_image, write_exr
+    from compare.judge.png import write_png
 
     scene = SCENES / "classic.json"
     rtdemo = tool("rtdemo")
@@ -146,10 +147,10 @@ def grade_timed(cmd: list[str]) -> tuple[float, float, float, str]:
 
 def pair_costs() -> dict[str, float]:
     """One 640x480 pair in-process: exact match only, and the full metrics on top."""
-    from compare.apps.against import judge_against_model, load, prepare
     from compare.judge.images import read_image
     from compare.judge.target_model import parse_model
     from compare.render.cache import RenderCache
+    from compare.verdict.against import judge_against_model, load, prepare
 
     work = ROOT / "build" / "bench-grade"
     loaded = load(

@@ -1,4 +1,4 @@
-"""Grading a class of programs: build and run in the sandbox (compare/sandbox.py).
+"""Grading a class of programs: build and run in the sandbox (compare/sandbox/bwrap.py).
 
 1. The sandbox's cost per run: `true` through run_sandboxed in the sandbox, the same without
    it (--unsandboxed: the launcher and prlimit only), and `true` started bare by subprocess.
@@ -35,7 +35,7 @@ RUN = "./rt {out} {width} {height}"
 
 def overhead(repeats: int) -> dict[str, Any]:
     """Median seconds of `true`: in the sandbox, unsandboxed (same launcher), bare."""
-    from compare.sandbox import Limits, Workspace, run_sandboxed
+    from compare.sandbox.bwrap import Limits, Workspace, run_sandboxed
 
     def timed(fn: Any) -> float:
         times = []

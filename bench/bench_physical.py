@@ -25,12 +25,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from common import ROOT, SCENES, print_table, tool, write_results
 
-from compare.files import sha256_file
 from compare.judge.effects import EFFECTS, effect_masks
 from compare.judge.images import read_image
 from compare.judge.metrics import compute_maps, compute_metrics
 from compare.judge.penumbra import penumbra_numbers
 from compare.render.cache import renderer_identity
+from safe_files.content import sha256_file
 from scene_model.scene import load_scene
 
 CACHE = ROOT / "build" / "bench-cache"

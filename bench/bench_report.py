@@ -130,7 +130,8 @@ def _flip_floor(folder: Path, tmp: Path) -> dict[str, Any]:
 
 def _writing_floor(folder: Path, cache: Path, tmp: Path) -> dict[str, Any]:
     """The report's PNGs (one per shown render) and ZIP EXRs, written from its renders."""
-    from compare.judge.images import read_image, write_exr, write_png
+    from compare.judge.images import read_image, write_exr
+    from compare.judge.png import write_png
 
     record = json.loads((folder / "report.json").read_text())
     by_sha = {}
@@ -156,7 +157,7 @@ def _writing_floor(folder: Path, cache: Path, tmp: Path) -> dict[str, Any]:
 
 
 def _chromium_floor(folder: Path, tmp: Path) -> dict[str, Any]:
-    from compare.apps.report_pdf import write_pdf
+    from compare.report.pdf import write_pdf
 
     pdf = tmp / "report.pdf"
     return {"print_s": _timed(lambda: write_pdf(folder / "index.html", pdf)),

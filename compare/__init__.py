@@ -8,14 +8,15 @@ one module per command).
 The public API below is what another program needs to judge images as rtval does.
 """
 
-from compare.judge.candidate import Candidate
-from compare.judge.diagnose import Diagnosis, diagnose
+from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.mistakes import Mistake, catalogue
+from compare.diagnosis.search import Diagnosis, diagnose
 from compare.judge.effects import EFFECTS, effect_masks
 from compare.judge.evaluate import EffectResult, Evaluation, ExactInputs, evaluate_pair
 from compare.judge.exact_match import ExactMatch, exact_match
-from compare.judge.images import Image, ImageError, read_image, write_exr, write_png
+from compare.judge.images import Image, ImageError, read_image, write_exr
 from compare.judge.metrics import Maps, Metrics, SizeMismatch, compute_maps, compute_metrics
-from compare.judge.mistakes import Mistake, catalogue
+from compare.judge.png import write_png
 from compare.judge.rubric import Rubric, RubricError, load_rubric, parse_rubric
 from compare.judge.scoring import EffectRule, EffectScore, Score, score_effects
 from compare.judge.tolerances import Tolerances, Verdict

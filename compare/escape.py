@@ -1,5 +1,5 @@
 """Escaping user text (student ids, labels, file names, scene names) for the contexts it
-lands in, other than HTML (Jinja's autoescape) and CSV (compare/csv_safe.py)."""
+lands in, other than HTML (Jinja's autoescape) and CSV (compare/grading/csv_safe.py)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import json
 import re
 from typing import Any
 
-from compare.files import json_safe
+from safe_files.content import json_safe
 
 # Inside <script> the HTML parser ends the element at "</script" whatever JSON thinks, and
 # "<!--" changes the parsing state; U+2028/2029 end a line in older JavaScript. Written as

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 if TYPE_CHECKING:
-    from compare.apps.check import CaseResult
+    from compare.check.run import CaseResult
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -57,7 +57,7 @@ def rtval_check(request: pytest.FixtureRequest) -> Callable[..., CaseResult]:
         timeout: float | None = None,
         baseline: str | Path | None = None,
     ) -> CaseResult:
-        from compare.apps import check as app
+        from compare.check import run as app
         from compare.render import foreign
 
         root = Path(config.rootpath)

@@ -28,7 +28,7 @@ from mitsuba_ref.conductor_fit import ConductorFit, fit_paper_conductor
 from mitsuba_ref.light_units import light_values
 from mitsuba_ref.plugin_tree import RGB, Color, LookAt, Plugin, Point, to_dict, to_xml
 from mitsuba_ref.ply import write_ply
-from scene_model.safe_paths import write_atomic
+from safe_files.paths import write_atomic
 from scene_model.scene import Scene, Sphere, Vec3
 
 LIGHTS = ("area", "point")

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from mitsuba_ref.cap_mesh import CapMesh
-from scene_model.safe_paths import write_atomic
+from safe_files.paths import write_atomic
 
 
 def write_ply(path: Path, mesh: CapMesh) -> None:

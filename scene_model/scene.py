@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from scene_model.safe_paths import read_bounded
+from safe_files.paths import read_bounded
 
 Vec3 = tuple[float, float, float]
 

@@ -1,7 +1,11 @@
-"""Holds the tree's shape: which package may import which, and how long a function may be.
+"""Holds the tree's shape: which room may import which, no import circles, and how long a
+function may be and how many parameters it may take.
 
-Run by `make lint`. Layers import downwards only: compare's cli -> apps -> render -> judge, all of
-them -> scene_model; mitsuba_ref (the Mitsuba renderer) -> scene_model; scene_model -> nothing of ours.
+Run by `make lint`. The rooms (docs/architecture.md) import downwards only:
+
+    safe_files  <- scene_model <- mitsuba_ref
+    compare's helpers (escape, errors, sizes, interrupts, student_ids)
+    judge, sandbox, pages  <- render <- diagnosis, verdict <- check, report, grading, stress <- cli
 """
 
 from __future__ import annotations
@@ -13,31 +17,42 @@ from collections.abc import Iterator
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("compare", "mitsuba_ref", "scene_model")
-# What each part may import of ours (a part is a top-level package or one of compare's layers).
-ALLOWED = {
-    "scene_model": set(),
-    "mitsuba_ref": {"scene_model"},
-    "compare.judge": {"scene_model"},
-    "compare.render": {"compare.judge", "scene_model", "mitsuba_ref"},
-    "compare.apps": {"compare.render", "compare.judge", "scene_model", "mitsuba_ref"},
-    "compare.cli": {
-        "compare.apps",
-        "compare.render",
-        "compare.judge",
-        "scene_model",
-        "mitsuba_ref",
-    },
+PACKAGES = ("compare", "mitsuba_ref", "scene_model", "safe_files")
+BASE = {"safe_files", "scene_model", "compare.helpers"}
+# What each room may import of ours besides itself.
+ALLOWED: dict[str, set[str]] = {
+    "safe_files": set(),
+    "scene_model": {"safe_files"},
+    "mitsuba_ref": {"scene_model", "safe_files"},
+    "compare.helpers": {"safe_files"},
+    "compare.judge": BASE,
+    "compare.sandbox": BASE,
+    "compare.pages": BASE,
+    "compare.render": BASE | {"compare.judge", "compare.sandbox", "mitsuba_ref"},
+    "compare.diagnosis": BASE | {"compare.judge", "compare.render"},
+    "compare.verdict": BASE | {"compare.judge", "compare.render"},
 }
-LAYERS = ("cli", "apps", "render", "judge")
+_UPPER = BASE | {"compare.judge", "compare.sandbox", "compare.pages", "compare.render"}
+_UPPER |= {"compare.diagnosis", "compare.verdict", "mitsuba_ref"}
+for _room in ("check", "report", "grading", "stress"):
+    ALLOWED[f"compare.{_room}"] = _UPPER
+ALLOWED["compare.cli"] = _UPPER | {f"compare.{r}" for r in ("check", "report", "grading", "stress")}
+# compare's public API (__init__) and its pytest plugin stand above every room.
+ALLOWED["compare"] = ALLOWED["compare.cli"]
+HELPERS = {"escape", "errors", "sizes", "interrupts", "student_ids"}
+ROOMS = {part.split(".")[1] for part in ALLOWED if part.startswith("compare.")} - {"helpers"}
 MAX_FUNCTION_LINES = 60
+MAX_PARAMETERS = 7  # more travel together in a dataclass
 
 
 def part_of(module: str) -> str:
-    """The part a dotted module name belongs to; compare's own top-level modules are 'compare'."""
+    """The room a dotted module name belongs to."""
     bits = module.split(".")
-    if bits[0] == "compare" and len(bits) > 1 and bits[1] in LAYERS:
-        return f"compare.{bits[1]}"
+    if bits[0] == "compare" and len(bits) > 1:
+        if bits[1] in ROOMS:
+            return f"compare.{bits[1]}"
+        if bits[1] in HELPERS:
+            return "compare.helpers"
     return bits[0]
 
 
@@ -58,9 +73,17 @@ def imports(tree: ast.AST, module: str) -> Iterator[tuple[int, str]]:
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = module.split(".")[: -node.level]
-                yield node.lineno, ".".join([*base, node.module or ""]).rstrip(".")
-            elif node.module:
-                yield node.lineno, node.module
+                source = ".".join([*base, node.module or ""]).rstrip(".")
+            else:
+                source = node.module or ""
+            for alias in node.names:  # `from package import module` imports the module
+                sub = f"{source}.{alias.name}"
+                yield node.lineno, sub if is_module(sub) else source
+
+
+def is_module(dotted: str) -> bool:
+    path = ROOT / Path(*dotted.split("."))
+    return path.with_suffix(".py").is_file() or (path / "__init__.py").is_file()
 
 
 def boundary_errors(path: Path, tree: ast.AST) -> list[str]:
@@ -73,9 +96,6 @@ def boundary_errors(path: Path, tree: ast.AST) -> list[str]:
             continue
         other = part_of(target)
         if other == own:
-            continue
-        # compare's top-level helper modules (escape, files, ...) serve every layer of compare.
-        if other == "compare" and own.startswith("compare"):
             continue
         if allowed is not None and other not in allowed:
             errors.append(f"{path.relative_to(ROOT)}:{line}: {own} must not import {target}")
@@ -95,8 +115,96 @@ def length_errors(path: Path, tree: ast.AST, limit: int) -> list[str]:
     return errors
 
 
+def parameter_errors(path: Path, tree: ast.AST, limit: int) -> list[str]:
+    errors = []
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            a = node.args
+            names = [x.arg for x in (*a.posonlyargs, *a.args, *a.kwonlyargs)]
+            count = len(names) - (names[:1] in (["self"], ["cls"]))
+            count += (a.vararg is not None) + (a.kwarg is not None)
+            if count > limit:
+                errors.append(
+                    f"{path.relative_to(ROOT)}:{node.lineno}: {node.name} takes {count} "
+                    f"parameters (at most {limit}: gather them in a dataclass)"
+                )
+    return errors
+
+
+def local_imports(tree: ast.Module) -> Iterator[ast.Import | ast.ImportFrom]:
+    """Imports inside functions (the others run when the module loads)."""
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            for inner in ast.walk(node):
+                if isinstance(inner, (ast.Import, ast.ImportFrom)):
+                    yield inner
+
+
+def local_import_errors(path: Path, tree: ast.Module) -> list[str]:
+    """Our own modules are imported at the top; only the CLI defers them, for start-up."""
+    module = module_name(path)
+    if part_of(module) == "compare.cli":
+        return []
+    errors = []
+    for node in local_imports(tree):
+        wrapper = ast.Module(body=[node], type_ignores=[])
+        for _, target in imports(wrapper, module):
+            if target.split(".")[0] in PACKAGES:
+                errors.append(
+                    f"{path.relative_to(ROOT)}:{node.lineno}: {target} imported inside a "
+                    "function (import it at the top; a circle means a module is in the wrong room)"
+                )
+    return errors
+
+
+def module_graph() -> dict[str, set[str]]:
+    """Which of our modules imports which, to the module (a package import counts as its __init__)."""
+    known = {module_name(p) for p in sources()}
+    edges: dict[str, set[str]] = {}
+    for path in sources():
+        own = module_name(path)
+        for _, target in imports(ast.parse(path.read_text()), own):
+            while target and target not in known:
+                target = target.rpartition(".")[0]
+            if target and target != own and not own.startswith(target + "."):
+                edges.setdefault(own, set()).add(target)
+    return edges
+
+
+def circles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The import circles: strongly connected groups of two or more modules (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in sorted(edges.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                found.append(sorted(group))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return found
+
+
 def graph() -> dict[str, set[str]]:
-    """Which part imports which: the import graph between the packages and compare's layers."""
+    """Which room imports which: the import graph between the packages and compare's rooms."""
     edges: dict[str, set[str]] = {}
     for path in sources():
         own = part_of(module_name(path))
@@ -123,6 +231,8 @@ def main() -> int:
     for path in sources():
         tree = ast.parse(path.read_text(), filename=str(path))
         errors += boundary_errors(path, tree) + length_errors(path, tree, args.max_lines)
+        errors += parameter_errors(path, tree, MAX_PARAMETERS) + local_import_errors(path, tree)
+    errors += [f"import circle: {' <-> '.join(c)}" for c in circles(module_graph())]
     for e in errors:
         print(e, file=sys.stderr)
     return 1 if errors else 0

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 from helpers import render_demo
 
-from compare.judge.images import read_image, write_exr, write_png
+from compare.judge.images import read_image, write_exr
+from compare.judge.png import write_png
 
 # kind -> expected gradebook status (error/missing rows are "fail" with a reason)
 KINDS = {

@@ -45,8 +45,8 @@ def diagnosed(
     """`image` diagnosed against `scene_file` through a CandidateRenderer on `cache` (every
     render read from the cache, none from this process's memory): the diagnosis without its
     seconds, and the names of the candidates it asked for."""
-    from compare.judge.diagnose import diagnose
-    from compare.render.candidates import CandidateRenderer, forget_recent
+    from compare.diagnosis.renderer import CandidateRenderer, forget_recent
+    from compare.diagnosis.search import diagnose
     from scene_model.scene import load_scene
 
     forget_recent()

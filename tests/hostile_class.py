@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.judge.images import read_image, write_png
+from compare.judge.images import read_image
+from compare.judge.png import write_png
 
 LONG_STEM = "a" * 251  # + ".exr": a 255-byte name, the longest most file systems allow
 NON_UTF8 = b"caf\xe9.exr"  # Latin-1 e-acute: not UTF-8

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 from helpers import ROOT, SCENES, run
 
-from compare.apps import check
+from compare.check import run as check
 from compare.render import foreign
 from scene_model.scene import load_scene
 
@@ -103,7 +103,7 @@ def _regression_cycle(tmp_path: Path, renderer: list[str], name: str, scenes: li
     assert case["effects"]["direct"]["status"] == "pass"
     page = (html / "index.html").read_text()
     assert f"{name}/classic" in page and "classic: shadow FLIP" in page
-    # The diagnosis slot (compare.judge.diagnose) names the switch that reproduces the bug.
+    # The diagnosis slot (compare.diagnosis.search) names the switch that reproduces the bug.
     assert "<h3>Diagnosis</h3>" in page and "looks like classic --no-shadows" in page
     assert "Content-Security-Policy" in page
     for kind in ("reference", "render", "difference", "flip"):
@@ -254,7 +254,7 @@ def test_renderer_failures_are_clear_case_failures(
     assert expected in r.reasons[0] and r.reasons[0].startswith("classic: render failed")
     if "boom" in template:
         assert "renderer stderr:\nboom <script>" in r.reasons[0]
-        from compare.apps.check_html import write_html
+        from compare.check.html import write_html
 
         page = write_html(results, tmp_path / "html").read_text()
         assert "boom &lt;script&gt;" in page and "boom <script>" not in page
@@ -387,7 +387,7 @@ def test_first_look_without_flip_matches_the_full_evaluation() -> None:
 
 
 def test_markdown_summary_escapes_user_text() -> None:
-    from compare.apps.check_output import markdown_summary
+    from compare.check.output import markdown_summary
 
     r = check.CaseResult("classic", "t", "default", "fail", renderer="t")
     r.reasons = ["classic: render failed: <img src=x> | a\nrenderer stderr:\nmore"]
@@ -400,8 +400,8 @@ def test_markdown_summary_escapes_user_text() -> None:
 def test_outputs_hold_hostile_text_and_a_failed_diagnosis_is_a_note(tmp_path: Path) -> None:
     import numpy as np
 
-    from compare.apps.check_html import write_html
-    from compare.apps.check_output import write_json, write_junit
+    from compare.check.html import write_html
+    from compare.check.output import write_json, write_junit
 
     r = check.CaseResult("classic", "t", "default", "fail", renderer="t")
     r.reasons = ["classic: render failed: \x01<script>alert(1)</script>"]

@@ -1,5 +1,5 @@
 """`rtval check --renderer ... --sandbox`: the renderer runs in the grading sandbox
-(compare/sandbox.py). A correct renderer gets the verdict it gets outside; one that tries to
+(compare/sandbox/bwrap.py). A correct renderer gets the verdict it gets outside; one that tries to
 read a file of the caller's, or to write outside its folders, finds nothing and leaves
 nothing."""
 
@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from helpers import SCENES, run
 
-from compare.sandbox import probe
+from compare.sandbox.bwrap import probe
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
 TRACER = Path(__file__).parent / "foreign" / "classic_tracer.cpp"

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from helpers import SCENES, run
 
-from compare.apps.check import TolerancesFileError, load_tolerances
+from compare.check.run import TolerancesFileError, load_tolerances
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
 

@@ -37,7 +37,8 @@ JOBS = 2  # the machine's cores; every variant is a single-threaded program
 @functools.cache
 def _rtdemo_has_direct_light_quirks() -> bool:
     """Whether the installed rtdemo renders Q11-Q13 (the paper's direct light)."""
-    from compare.render.runner import ToolError, rtdemo_path
+    from compare.errors import ToolError
+    from compare.render.runner import rtdemo_path
 
     try:
         cmd = [rtdemo_path(), "render", "--help"]

@@ -15,13 +15,13 @@ import pytest
 from helpers import SCENES, render_demo, run
 from student_variants import MORE, VARIANTS, render_variant
 
-from compare.apps.diagnosis import render_command, short_reason
-from compare.judge.candidate import Candidate
-from compare.judge.diagnose import Diagnosis, diagnose, unmirror
+from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.evidence import render_command, short_reason
+from compare.diagnosis.mistakes import catalogue, parse_mistakes
+from compare.diagnosis.renderer import CandidateRenderer
+from compare.diagnosis.search import Diagnosis, diagnose, unmirror
 from compare.judge.images import Image, read_image
-from compare.judge.mistakes import catalogue, parse_mistakes
 from compare.judge.target_model import TargetModel, parse_model
-from compare.render.candidates import CandidateRenderer
 from scene_model.scene import load_scene
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
@@ -336,12 +336,12 @@ def test_a_symmetric_scene_is_never_called_mirrored(rtdemo: str, tmp_path: Path)
 
 def test_claims_of_a_match_are_the_verdicts(variants: dict[str, Path], rtdemo: str) -> None:
     # Every effect the diagnosis calls "as classic" passes the verdict's exact match against
-    # classic (compare/apps/against.py, the model's renders from the render cache), and every
+    # classic (compare/verdict/against.py, the model's renders from the render cache), and every
     # effect the verdict fails is not: for an exact program and for MAX_RAY_DEPTH 10, whose
     # verdict fails on ~30 refraction and edge pixels.
-    from compare.apps import against
     from compare.judge.target_model import parse_model
     from compare.render.cache import RenderCache
+    from compare.verdict import against
 
     scene = load_scene(CLASSIC)
     deep = render_variant(scene, "depth_10", W, H, variants["exact"].with_name("deep.ppm"))

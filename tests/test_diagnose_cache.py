@@ -13,14 +13,14 @@ from pathlib import Path
 import pytest
 from helpers import SCENES, diagnosed, render_demo, run
 
-from compare.judge import diagnose_flip
-from compare.judge.candidate import Candidate
-from compare.judge.diagnose import diagnose
+from compare.diagnosis import flip as diagnose_flip
+from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.renderer import CandidateRenderer, forget_recent
+from compare.diagnosis.search import diagnose
 from compare.judge.images import Image
 from compare.judge.target_model import parse_model
 from compare.render import jobs
 from compare.render.cache import RenderCache
-from compare.render.candidates import CandidateRenderer, forget_recent
 from compare.render.jobs import set_key
 from compare.render.models import model_job
 from scene_model.scene import load_scene

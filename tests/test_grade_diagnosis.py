@@ -150,7 +150,7 @@ def test_a_match_within_the_allowance_is_not_called_a_look_alike_of_a_failed_mod
     # A rubric's pass_score of 100 fails an image whose every effect is within the exact-match
     # allowance (a few stray pixels); its diagnosis then matches the model itself, and the cell
     # says why the verdict failed instead of "looks like classic".
-    from compare.apps.grade import _beside_verdict
+    from compare.grading.grade import _beside_verdict
 
     matching = {"short": "looks like classic", "matches": True, "result": "classic", "causes": []}
     cell = _beside_verdict(matching, "classic", {"score": 99.99})

@@ -492,7 +492,7 @@ def test_bad_program_options_are_usage_errors(tmp_path: Path) -> None:
 
 
 def test_sandbox_cpu_limit_and_exit_words() -> None:
-    from compare.sandbox import Limits, Workspace, run_sandboxed
+    from compare.sandbox.bwrap import Limits, Workspace, run_sandboxed
 
     with Workspace() as ws:
         spin = run_sandboxed(["sh", "-c", "while :; do :; done"], ws, Limits(wall=30, cpu=1))
@@ -515,7 +515,7 @@ def test_sandbox_cpu_limit_and_exit_words() -> None:
 def test_tar_entries_that_leave_the_tree_are_refused(
     tmp_path: Path, make: object, reason: str
 ) -> None:
-    from compare.archives import TreeError, unpack
+    from compare.sandbox.archives import TreeError, unpack
 
     archive = tmp_path / "s.tar.gz"
     with tarfile.open(archive, "w:gz") as t:

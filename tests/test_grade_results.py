@@ -1,6 +1,6 @@
-"""Grading's typed results (compare/apps/grade_results.py): they write exactly the JSON the
+"""Grading's typed results (compare/grading/results.py): they write exactly the JSON the
 results files hold and read it back strictly; --explain's arithmetic is scoring.py's; the
-model cache (compare/apps/against.py) keeps several models, keyed by the files' identity."""
+model cache (compare/verdict/against.py) keeps several models, keyed by the files' identity."""
 
 from __future__ import annotations
 
@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 from helpers import SCENES
 
-from compare.apps import against
-from compare.apps.grade_results import BadResult, SceneResult, StudentResult, read_result
-from compare.apps.gradebook import explain
+from compare.grading.gradebook import explain
+from compare.grading.results import BadResult, SceneResult, StudentResult, read_result
 from compare.judge.images import write_exr
 from compare.judge.scoring import EffectRule, EffectScore, Term, _overall, weighted_score
+from compare.verdict import against
 
 
 def _effect(pixels: int, weight: float, score: float) -> dict[str, Any]:

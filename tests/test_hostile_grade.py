@@ -54,7 +54,7 @@ def _rows(out: Path) -> dict[str, dict[str, str]]:
 
 
 def _csv_id(sid: str) -> str:
-    from compare.csv_safe import neutralise
+    from compare.grading.csv_safe import neutralise
 
     return neutralise(sid)
 
@@ -120,7 +120,7 @@ def test_truncated_result_is_reported_by_explain_and_regraded(hostile) -> None: 
 
 def test_fifo_does_not_block_the_listing(tmp_path: Path) -> None:
     """collect() never opens an entry: a FIFO with no writer would block forever."""
-    from compare.apps.grade import collect
+    from compare.grading.grade import collect
 
     os.mkfifo(tmp_path / "f.ppm")
     (rows,) = collect(tmp_path, ["classic"])

@@ -13,9 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from jinja2 import Environment, PackageLoader, select_autoescape
 
-from compare.apps.page_security import content_security_policy, printable, with_csp
-from compare.csv_safe import FORMULA_TRIGGERS, csv_text, neutralise
 from compare.escape import json_for_script
+from compare.grading.csv_safe import FORMULA_TRIGGERS, csv_text, neutralise
+from compare.pages.security import content_security_policy, printable, with_csp
 from compare.student_ids import student_slug
 
 # Names as file names can hold them (no "/" or NUL) and labels as a shell can pass them.
@@ -53,7 +53,7 @@ def test_known_formulas_are_neutralised() -> None:
 
 def _student_page(student: str) -> str:
     env = Environment(
-        loader=PackageLoader("compare.apps", "templates"),
+        loader=PackageLoader("compare.pages", "templates"),
         autoescape=select_autoescape(["html", "j2"]),
     )
     r = {

@@ -11,7 +11,8 @@ import flip_evaluator
 import numpy as np
 import pytest
 
-from compare.judge import diagnose_flip, flip_crops, metrics
+from compare.diagnosis import flip as diagnose_flip
+from compare.judge import flip_crops, metrics
 from compare.judge.evaluate import Evaluation
 from compare.judge.exact_match import exact_match
 from compare.judge.images import linear_to_srgb

@@ -1,4 +1,4 @@
-"""mitsuba_ref is the renderer package: it depends on scene_model only (and Mitsuba, drjit,
+"""mitsuba_ref is the renderer package: it depends on scene_model and safe_files only (and Mitsuba, drjit,
 numpy, the standard library), never on compare, whose command line imports it."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-ALLOWED = {"mitsuba_ref", "scene_model", "mitsuba", "drjit", "numpy"}
+ALLOWED = {"mitsuba_ref", "scene_model", "safe_files", "mitsuba", "drjit", "numpy"}
 
 
 def _imported(path: Path) -> set[str]:

@@ -77,7 +77,7 @@ def _full_disk(monkeypatch: Any) -> None:
     def fsync(fd: int) -> None:
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr("scene_model.safe_paths.os.fsync", fsync)
+    monkeypatch.setattr("safe_files.paths.os.fsync", fsync)
 
 
 @pytest.mark.parametrize(("scene", "failing"), [("lit", "lit_sphere_0_cap.ply"), ("x", "x.xml")])

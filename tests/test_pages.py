@@ -1,4 +1,4 @@
-"""The one page writer (compare/apps/pages.py) and the one PNG encoder (compare/judge/png.py):
+"""The one page writer (compare/pages/writer.py) and the one PNG encoder (compare/judge/png.py):
 the encodings of finite images are the ones each caller wrote before, a non-finite pixel is the
 marker colour everywhere, and every page carries its CSP and escapes what it prints."""
 
@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from PIL import Image as PILImage
 
-from compare.apps.pages import render_page, write_page
 from compare.judge.images import linear_to_srgb
 from compare.judge.png import FAST, MARKER, display_values, encode_png, write_linear_png
+from compare.pages.writer import render_page, write_page
 
 
 def _decode(data: bytes) -> np.ndarray:
@@ -88,8 +88,8 @@ def test_a_page_never_replaces_a_link(tmp_path: Path) -> None:
 def test_the_step_summary_shows_user_text_literally() -> None:
     """A case named after a path with `![x](https://...)` showed a picture in GitHub's step
     summary; every Markdown metacharacter of user text is escaped."""
-    from compare.apps import check
-    from compare.apps.check_output import markdown_summary
+    from compare.check import run as check
+    from compare.check.output import markdown_summary
 
     name = "![x](https://evil.example/p.png)"
     r = check.CaseResult("classic", name, "default", "fail", renderer="t")

@@ -462,7 +462,7 @@ def test_lightless_foreign_image_verdict_leaves_absent_effects_unscored(
 def test_derived_results_depend_on_the_judge_code_they_come_from() -> None:
     """judge_identity keys the report's derived results by the judge modules that compute
     them (and what those import); other judge code (diagnose, rubric) leaves them valid."""
-    from compare.apps.report_derived import judge_modules
+    from compare.report.derived import judge_modules
 
     modules = judge_modules(ROOT / "compare" / "judge")
     assert {"metrics", "evaluate", "effects", "scoring", "sentences", "images"} <= set(modules)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from helpers import SCENES
 
-from compare.judge.candidate import SWITCHABLE_EFFECTS
+from compare.judge.target_model import SWITCHABLE_EFFECTS
 from compare.render.plan import (
     DEMO_SPPS,
     LADDER_ORDER,

@@ -128,7 +128,7 @@ LOSE_INTERRUPT_IN_MAPS = """
 import sys
 sys.path.insert(0, {tests!r})
 from test_report_safety import _lost_interrupt
-import compare.apps.report as report
+import compare.report.build as report
 from compare.cli.main import main
 real = report.difference_maps
 def maps(ctx):
@@ -242,7 +242,7 @@ def test_kill_9_of_the_report_takes_chromium_with_it(
 # The images step writes on every core: the third PNG fails as a full disk would.
 FAIL_THIRD_PNG = """
 import sys, threading
-import compare.apps.report as report
+import compare.report.build as report
 from compare.cli.main import main
 real, calls, lock = report.derived_png, [], threading.Lock()
 def derived_png(cache, sha, img, target):

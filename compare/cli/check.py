@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 from compare.cli.common import add_cache_argument, positive_int, size_type
 
 if TYPE_CHECKING:
-    from compare.apps.check import CaseResult, CheckSettings
+    from compare.check.run import CaseResult, CheckSettings
     from compare.render.foreign import RendererCommand
 
 
@@ -45,14 +45,14 @@ def _parse_renderer(args: argparse.Namespace) -> RendererCommand | None:
     if args.rtdemo:
         raise ValueError("--rtdemo and --renderer exclude each other")
     if args.sandbox:
-        from compare.sandbox import require_sandbox
+        from compare.sandbox.bwrap import require_sandbox
 
         require_sandbox()  # refuses, saying why, where no sandbox can be made
     return renderer
 
 
 def _settings(args: argparse.Namespace, renderer: RendererCommand | None) -> CheckSettings:
-    from compare.apps.check import CheckSettings
+    from compare.check.run import CheckSettings
 
     return CheckSettings(
         scenes=args.scenes,
@@ -74,7 +74,7 @@ def _settings(args: argparse.Namespace, renderer: RendererCommand | None) -> Che
 
 def _write_outputs(args: argparse.Namespace, results: list[CaseResult]) -> None:
     """The table on stdout, then each file output asked for, then the CI step summary."""
-    from compare.apps import check_output
+    from compare.check import output as check_output
 
     print(check_output.table(results))
     if args.json:
@@ -82,7 +82,7 @@ def _write_outputs(args: argparse.Namespace, results: list[CaseResult]) -> None:
     if args.junit:
         check_output.write_junit(results, Path(args.junit))
     if args.html:
-        from compare.apps.check_html import write_html
+        from compare.check.html import write_html
 
         page = write_html(results, Path(args.html), note=lambda m: print(m, file=sys.stderr))
         print(f"failure page: {page}", file=sys.stderr)
@@ -92,8 +92,8 @@ def _write_outputs(args: argparse.Namespace, results: list[CaseResult]) -> None:
 
 
 def run_check(args: argparse.Namespace) -> int:
-    from compare.apps import check
-    from scene_model.safe_paths import check_outputs_distinct
+    from compare.check import run as check
+    from safe_files.paths import check_outputs_distinct
 
     renderer = _parse_renderer(args)
     html_page = Path(args.html) / "index.html" if args.html else None
@@ -136,7 +136,7 @@ _EPILOG = (
 
 def _add_case_options(p: argparse.ArgumentParser) -> None:
     """What is rendered and what it is compared with."""
-    from compare.apps.check import DEFAULT_MODES, DEFAULT_SCENES
+    from compare.check.run import DEFAULT_MODES, DEFAULT_SCENES
 
     p.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), help="scene files")
     p.add_argument(

@@ -10,13 +10,13 @@ from typing import TYPE_CHECKING
 from compare.cli.common import add_cache_argument
 
 if TYPE_CHECKING:
-    from compare.apps.compare_pair import Comparison
     from compare.judge.tolerances import Tolerances
+    from compare.verdict.pair import Comparison
 
 
 def _image_paths(args: argparse.Namespace) -> tuple[str | None, str]:
     """(REF or None with --against, TEST), once the outputs are known to overwrite no input."""
-    from scene_model.safe_paths import check_outputs_distinct
+    from safe_files.paths import check_outputs_distinct
 
     if args.against:
         if len(args.images) != 1 or not args.scene:
@@ -53,10 +53,10 @@ def _tolerances(args: argparse.Namespace) -> Tolerances:
 
 
 def _judge_against(args: argparse.Namespace, test_path: str, tol: Tolerances) -> Comparison:
-    from compare.apps.compare_pair import load_mask, run_against
     from compare.judge.images import read_image
     from compare.render.cache import RenderCache
     from compare.render.progress import Progress
+    from compare.verdict.pair import load_mask, run_against
 
     test = read_image(test_path, encoding=args.test_encoding)
     mask = load_mask(args.mask, test.shape) if args.mask else None
@@ -75,8 +75,8 @@ def _judge_pair(
     args: argparse.Namespace, ref_path: str, test_path: str, tol: Tolerances
 ) -> Comparison | None:
     """REF against TEST; None (said on stderr) when their headers give different sizes."""
-    from compare.apps.compare_pair import load_mask, run_comparison
     from compare.judge.images import image_size, read_image
+    from compare.verdict.pair import load_mask, run_comparison
     from scene_model.scene import load_scene
 
     # Sizes from the headers first: a mismatch costs no decoding (two 8192^2 EXRs or a
@@ -98,9 +98,9 @@ def _judge_pair(
 
 
 def run_compare(args: argparse.Namespace) -> int:
-    from compare.apps.compare_pair import table, write_outputs
     from compare.judge.metrics import SizeMismatch
     from compare.judge.tolerances import EXIT_SIZE
+    from compare.verdict.pair import table, write_outputs
 
     ref_path, test_path = _image_paths(args)
     tol = _tolerances(args)

@@ -13,16 +13,15 @@ EXIT_RENDERER = 1
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
-    from compare.apps.diagnosis import render_command
     from compare.cli.common import stderr_progress
-    from compare.files import write_atomic
-    from compare.judge.candidate import Candidate
-    from compare.judge.diagnose import DiagnoseError, NoFinitePixels, diagnose
+    from compare.diagnosis.candidate import Candidate
+    from compare.diagnosis.evidence import render_command
+    from compare.diagnosis.renderer import CandidateRenderer
+    from compare.diagnosis.search import DiagnoseError, NoFinitePixels, diagnose
+    from compare.errors import ToolError
     from compare.judge.images import ImageError, read_image
     from compare.judge.target_model import parse_model
-    from compare.render.candidates import CandidateRenderer
-    from compare.render.runner import ToolError
-    from scene_model.safe_paths import check_outputs_distinct
+    from safe_files.paths import check_outputs_distinct, write_atomic
     from scene_model.scene import load_scene
 
     start = None

@@ -10,12 +10,12 @@ from typing import TYPE_CHECKING
 from compare.cli.common import add_cache_argument, positive_float, positive_int, size_type
 
 if TYPE_CHECKING:
-    from compare.apps.programs import ProgramOptions
+    from compare.grading.programs import ProgramOptions
 
 
 def run_grade(args: argparse.Namespace) -> int:
-    from compare.apps import grade
-    from compare.apps.gradebook import explain
+    from compare.grading import grade
+    from compare.grading.gradebook import explain
     from compare.render.progress import Progress
 
     out = Path(args.out)
@@ -51,7 +51,7 @@ def run_grade(args: argparse.Namespace) -> int:
 
 def _program_options(args: argparse.Namespace) -> ProgramOptions:
     """The program flags; what they leave out comes from the rubric's [program]."""
-    from compare.apps.programs import LIMIT_KEYS, ProgramOptions
+    from compare.grading.programs import LIMIT_KEYS, ProgramOptions
 
     limits = {k: getattr(args, k) for k in LIMIT_KEYS if getattr(args, k) is not None}
     return ProgramOptions(

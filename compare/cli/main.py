@@ -22,9 +22,9 @@ from compare.cli import (
     ztest,
 )
 from compare.cli.common import EXIT_USAGE, Parser
+from compare.errors import ToolError
 from compare.judge.images import ImageError
 from compare.judge.rubric import RubricError
-from compare.render.runner import ToolError
 from mitsuba_ref.drjit_env import MitsubaUnavailable
 from scene_model.scene import SceneError
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from scene_model.safe_paths import check_outputs_distinct
+from safe_files.paths import check_outputs_distinct
 
 
 def add_scene_mapping_args(p: argparse.ArgumentParser) -> None:

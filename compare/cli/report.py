@@ -7,8 +7,8 @@ import signal
 import sys
 from pathlib import Path
 
-from compare.apps.report_label import MAX_LABEL, label_problem
 from compare.cli.common import add_cache_argument, positive_int, report_size_type
+from compare.report.label import MAX_LABEL, label_problem
 
 
 def run_report(args: argparse.Namespace) -> int:
@@ -34,8 +34,8 @@ def run_report(args: argparse.Namespace) -> int:
 
 
 def _build(args: argparse.Namespace) -> Path:
-    from compare.apps.report import build_report
     from compare.render.progress import Progress
+    from compare.report.build import build_report
 
     return build_report(
         args.scene,

@@ -10,8 +10,8 @@ from compare.cli.common import add_cache_argument, size_type
 
 
 def run_stress(args: argparse.Namespace) -> int:
-    from compare.apps import stress
     from compare.render.progress import Progress
+    from compare.stress import atlas as stress
 
     files = (
         [Path(p) for p in args.scenes]

@@ -44,7 +44,7 @@ def _load_pair(args: argparse.Namespace) -> tuple[Image, Image] | None:
 def _write_json(args: argparse.Namespace, result: ZTestResult, failing: int, spp: int) -> None:
     import json
 
-    from compare.files import write_atomic
+    from safe_files.paths import write_atomic
 
     record = {
         "passed": result.passed,
@@ -63,7 +63,7 @@ def run_ztest(args: argparse.Namespace) -> int:
     from compare.judge.images import write_exr
     from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_SIZE
     from compare.judge.ztest import z_test
-    from scene_model.safe_paths import check_outputs_distinct
+    from safe_files.paths import check_outputs_distinct
 
     check_outputs_distinct(
         [("--json", args.json), ("--pvalue-image", args.pvalue_image)],

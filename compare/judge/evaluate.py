@@ -17,11 +17,11 @@ from functools import cached_property
 
 import numpy as np
 
+from compare.judge.arrays import F32
 from compare.judge.effects import EFFECTS
 from compare.judge.exact_match import Bounds, ExactMatch, exact_match
 from compare.judge.metrics import (
     BOOL,
-    F32,
     FLIP_MARGIN,
     Maps,
     Metrics,

@@ -34,9 +34,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from compare.judge.arrays import F32
 from compare.judge.images import linear_to_srgb
 
-F32 = NDArray[np.float32]
 BOOL = NDArray[np.bool_]
 ENCODINGS = ("linear", "srgb", "float")
 VALUE_SLACK = 2.0**-16

@@ -19,7 +19,7 @@ from typing import BinaryIO
 import numpy as np
 from numpy.typing import NDArray
 
-F32 = NDArray[np.float32]
+from compare.judge.arrays import F32
 
 MAGIC = 20000630
 HEAD_BYTES = 1 << 16  # rtdemo's header is ~1 KB; one longer is read by OpenEXR

@@ -23,7 +23,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-F32 = NDArray[np.float32]
+from compare.judge.arrays import F32
+
 BOOL = NDArray[np.bool_]
 FLIP_PPD = 67.0
 FLIP_REACH = 10  # the filters' reach at 67 ppd (tests/test_metrics_speedup.py: 9 is short)

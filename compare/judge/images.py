@@ -15,13 +15,10 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 import numpy as np
-from numpy.typing import NDArray
 
-from compare.files import atomic_output
 from compare.judge import exr_scanlines
-from scene_model.safe_paths import UnsafePathError, check_regular_input
-
-F32 = NDArray[np.float32]
+from compare.judge.arrays import F32
+from safe_files.paths import UnsafePathError, atomic_output, check_regular_input
 
 
 class ImageError(ValueError):
@@ -314,13 +311,6 @@ def read_image(
     if suffix == ".png":
         return _read_8bit(p, encoding or "srgb")
     return _read_8bit(p, encoding or "linear")
-
-
-def write_png(path: str | Path, rgb_linear: F32) -> None:
-    """Clamped, sRGB-encoded 8-bit PNG, written atomically; non-finite pixels in png.MARKER."""
-    from compare.judge.png import write_linear_png  # png.py builds on this module
-
-    write_linear_png(path, rgb_linear)
 
 
 def write_exr(

@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from compare.judge.arrays import F32
 from compare.judge.flip_crops import FLIP_PPD, cropped_hdr_flip, cropped_ldr_flip
 from compare.judge.images import linear_to_srgb
 
-F32 = NDArray[np.float32]
 BOOL = NDArray[np.bool_]
 SSIM_WINDOW = 11  # scikit-image's Gaussian window for sigma 1.5
 SSIM_BORDER = 5  # (win - 1) / 2, left out of the mean

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from compare.judge.arrays import F32
 from compare.judge.images import linear_to_srgb
-from compare.judge.metrics import F32
-from scene_model.safe_paths import write_atomic
+from safe_files.paths import write_atomic
 
 MARKER = (255, 0, 255)  # magenta: no render produces it by accident on a broken pixel
 FAST = 1  # zlib level for pages written per student (bench/bench_grade.py); PIL's default is 6
@@ -57,3 +57,8 @@ def write_display_png(
 def write_linear_png(path: str | Path, rgb_linear: F32, *, compress_level: int = DEFAULT) -> None:
     """A linear render as its sRGB display PNG, written atomically."""
     write_display_png(path, display_values(rgb_linear), compress_level=compress_level)
+
+
+def write_png(path: str | Path, rgb_linear: F32) -> None:
+    """Clamped, sRGB-encoded 8-bit PNG, written atomically; non-finite pixels in MARKER."""
+    write_linear_png(path, rgb_linear)

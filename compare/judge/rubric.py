@@ -10,7 +10,7 @@
     max_flip = 0.15
     weight = 2.0             # multiplies the effect's pixel share in the overall score (0-1000)
 
-    [program]                # a class of programs (compare/apps/programs.py, docs/sandbox.md)
+    [program]                # a class of programs (compare/grading/programs.py, docs/sandbox.md)
     build = "g++ -O2 -o rt *.cpp"
     run = "./rt {scene} {out}"   # the placeholders of rtval check --renderer
     output = "untitled.ppm"  # or: the fixed file it writes instead of {out}
@@ -208,7 +208,7 @@ PROGRAM_LIMITS = {
 
 def limit_value(key: str, value: Any) -> float | int:
     """A program limit (a [program.limits] value or a flag's) checked for its kind."""
-    from compare.sandbox import parse_size
+    from compare.sizes import parse_size
 
     kind = PROGRAM_LIMITS[key]
     if kind == "size":
@@ -262,7 +262,7 @@ def read_rubric(path: str | Path | None) -> tuple[str, str]:
     at most 1 MiB of UTF-8: never a FIFO or a device, read once."""
     if path is None:
         return DEFAULT_RUBRIC_TEXT, "default rubric"
-    from scene_model.safe_paths import read_bounded
+    from safe_files.paths import read_bounded
 
     p = Path(path)
     try:

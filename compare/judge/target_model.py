@@ -19,6 +19,7 @@ from dataclasses import dataclass
 MITSUBA_MODELS = ("mitsuba", "mitsuba-path")
 DEMO_MODES = ("paper", "classic", "physical")
 QUIRK_COUNT = 13
+SWITCHABLE_EFFECTS = ("shadows", "reflection", "refraction")  # rtdemo's --no-<effect>
 # The quirks each mode has (docs/paper-model.md); the C++ twin is quirks_for() in quirks.cpp.
 MODE_QUIRKS: dict[str, frozenset[int]] = {
     "paper": frozenset(range(1, QUIRK_COUNT + 1)),

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-F32 = NDArray[np.float32]
+from compare.judge.arrays import F32
+
 VARIANCE_FLOOR = 1e-4
 PASS_FRACTION = 0.9975
 

@@ -46,13 +46,16 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from compare.files import atomic_output, sha256_file, unique_sibling, write_atomic
-from compare.render.runner import ToolError, rtdemo_path
-from scene_model.safe_paths import (
+from compare.errors import ToolError
+from compare.render.runner import rtdemo_path
+from safe_files.content import sha256_file, unique_sibling
+from safe_files.paths import (
     UnsafePathError,
+    atomic_output,
     check_output_target,
     read_bounded,
     require_folder,
+    write_atomic,
     write_text_checked,
 )
 

@@ -23,11 +23,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from compare.judge.images import Image, ImageError, read_image
+from compare.render.foreign_sandboxed import SandboxedRenderFailed, render_sandboxed
+from compare.render.placeholders import PLACEHOLDER, fill
 from scene_model.scene import Scene
 
 PLACEHOLDERS = ("scene", "scene_xml", "out", "width", "height", "spp", "mode")
 OUTPUT_FORMATS = ("exr", "pfm", "png", "ppm")
-_FIELD = re.compile(r"\{([^{}]*)\}")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
 _INTERPRETERS = re.compile(r"(python[0-9.]*|pypy[0-9.]*|node|ruby|perl|julia|java|bash|sh|env)")
 STDERR_KEPT = 2000  # characters of the renderer's stderr kept for a failure message
@@ -84,7 +85,7 @@ def parse_command(
     if not words:
         raise TemplateError("--renderer is empty")
     for w in words:
-        for field in _FIELD.findall(w):
+        for field in PLACEHOLDER.findall(w):
             if field not in PLACEHOLDERS:
                 raise TemplateError(
                     f"--renderer: unknown placeholder {{{field}}} in {w!r} "
@@ -159,8 +160,6 @@ def _run_sandboxed(
 ) -> tuple[float, list[str]]:
     """Runs the renderer in the sandbox (compare/render/foreign_sandboxed.py) and moves its
     image to `out`; (seconds, the command it ran)."""
-    from compare.render.foreign_sandboxed import SandboxedRenderFailed, render_sandboxed
-
     try:
         kept, seconds, argv = render_sandboxed(list(cmd.words), values, out.name, size, timeout)
     except SandboxedRenderFailed as e:
@@ -193,7 +192,7 @@ def render(
             seconds, argv = _run_sandboxed(cmd, values, out, size, timeout)
             shown, tail = shlex.join(argv), ""
         else:
-            argv = [_FIELD.sub(lambda m: values[m.group(1)], w) for w in cmd.words]
+            argv = [fill(w, values) for w in cmd.words]
             shown = shlex.join(argv)
             seconds, tail = _run_plain(argv, shown, out, timeout)
         try:

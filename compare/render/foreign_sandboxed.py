@@ -1,5 +1,5 @@
 """`rtval check --renderer ... --sandbox`: a renderer one does not trust, run in the sandbox
-that grading uses (compare/sandbox.py, docs/sandbox.md).
+that grading uses (compare/sandbox/bwrap.py, docs/sandbox.md).
 
 The renderer sees its inputs read-only at /sandbox/in ({scene}, {scene_xml}), writes {out} in
 /sandbox/out and runs in /sandbox/work, a copy of every file or folder its command names (the
@@ -13,10 +13,11 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from compare.archives import TreeLimits, copy_tree
-from compare.render.runner import ToolError
-from compare.sandbox import IN_DIR, OUT_DIR, WORK_DIR, Limits, Workspace, run_sandboxed
-from compare.sandbox_output import read_output
+from compare.errors import ToolError
+from compare.render.placeholders import fill
+from compare.sandbox.archives import TreeLimits, copy_tree
+from compare.sandbox.bwrap import IN_DIR, OUT_DIR, WORK_DIR, Limits, Workspace, run_sandboxed
+from compare.sandbox.output import read_output
 
 SYSTEM_PREFIXES = ("/usr/", "/bin/", "/lib", "/etc/")  # visible read-only inside anyway
 
@@ -65,7 +66,7 @@ def render_sandboxed(
         argv = []
         for w in words:
             if "{" in w:
-                argv.append(_substitute(w, seen))
+                argv.append(fill(w, seen))
             else:
                 argv.append(_copy_named(w, ws, TreeLimits()))
         ws.hand_over()
@@ -79,9 +80,3 @@ def render_sandboxed(
         kept = Path(tempfile.mkdtemp(prefix="rtval-sandboxed-")) / out_name
         kept.write_bytes(data)
         return kept, outcome.seconds, argv
-
-
-def _substitute(word: str, values: dict[str, str]) -> str:
-    from compare.render.foreign import _FIELD
-
-    return _FIELD.sub(lambda m: values[m.group(1)], word)

@@ -23,9 +23,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
+from compare.errors import ToolError
 from compare.render.cache import RenderCache, render_key
 from compare.render.progress import Progress
-from compare.render.runner import ToolError, rtdemo_path
+from compare.render.runner import rtdemo_path
 
 T = TypeVar("T")
 # A passing render (read_passing) made in this long or longer is kept in the cache after all:

@@ -22,7 +22,6 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.files import atomic_output, sha256_file
 from compare.judge import effects
 from compare.judge.effects import BOOL, EFFECTS, effect_masks
 from compare.judge.images import read_image
@@ -31,6 +30,8 @@ from compare.render.cache import RenderCache
 from compare.render.jobs import RenderJob, run_jobs
 from compare.render.plan import REFERENCE_KEY, plan
 from compare.render.progress import Progress
+from safe_files.content import sha256_file
+from safe_files.paths import atomic_output
 from scene_model.scene import load_scene
 
 # A float32 program's camera ray differs from another's by ~5e-5 px (a few ulps of its

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from compare.judge.candidate import SWITCHABLE_EFFECTS
 from compare.judge.quirks import QUIRKS as QUIRK_TEXT
+from compare.judge.target_model import SWITCHABLE_EFFECTS
 from compare.render.jobs import RenderJob
 from scene_model.scene import Scene, load_scene
 

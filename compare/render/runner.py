@@ -7,9 +7,7 @@ import shutil
 import sys
 from pathlib import Path
 
-
-class ToolError(RuntimeError):
-    """A renderer could not be found or failed; the message says which and why."""
+from compare.errors import ToolError
 
 
 def rtdemo_path() -> str:

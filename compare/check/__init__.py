@@ -1,0 +1,1 @@
+"""`rtval check`: the regression check of a renderer against baselines or a target model."""

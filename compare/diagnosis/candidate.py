@@ -1,0 +1,133 @@
+"""A candidate explanation of an image: a demo model (mode and the quirks present), with
+effects switched off, a recursion depth and named mistakes (mistakes.py) on top, and scene
+constants a program may hard-code instead of reading them from the scene (the background, the
+glass spheres' ior). It is what `rtval diagnose` renders and compares; `rtdemo_args()` is the
+rtdemo command line for it, `scene_changes()` what a copy of the scene must change first.
+
+`turn` is not an explanation but a way to judge one: the candidate rendered with the camera
+turned by a fraction of a pixel, as exact matching renders a model (compare/render/models.py).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from compare.diagnosis.mistakes import catalogue
+from compare.judge.target_model import MODE_QUIRKS, SWITCHABLE_EFFECTS, TargetModel
+
+if TYPE_CHECKING:
+    from scene_model.scene import Scene
+
+RGB = tuple[float, float, float]
+
+
+def rgb_text(rgb: RGB) -> str:
+    """(1, 1, 1) -> "(1, 1, 1)": the way the names and sentences write a colour."""
+    return "(" + ", ".join(f"{v:g}" for v in rgb) + ")"
+
+
+@dataclass(frozen=True)
+class Candidate:
+    mode: str
+    quirks: frozenset[int]  # present quirks
+    effects_off: frozenset[str] = frozenset()  # a subset of SWITCHABLE_EFFECTS
+    max_depth: int | None = None  # None: the scene's
+    mistakes: frozenset[str] = field(default_factory=frozenset)
+    background: RGB | None = None  # None: the scene's
+    ior: float | None = None  # every glass sphere's; None: the scene's
+    turn: tuple[float, float] | None = None  # camera turned by (dx, dy) pixels
+    grow: int | None = None  # every sphere grown by this many float32 ulps (models.grown_scene)
+
+    @staticmethod
+    def of_mode(mode: str) -> Candidate:
+        return Candidate(mode, MODE_QUIRKS[mode])
+
+    @staticmethod
+    def from_model(model: TargetModel) -> Candidate:
+        if not model.is_demo or model.mode is None:
+            raise ValueError(f"{model.name} is not a demo model")
+        return Candidate(model.mode, model.quirks)
+
+    @property
+    def model(self) -> TargetModel:
+        return TargetModel("demo", self.mode, self.quirks)
+
+    @property
+    def name(self) -> str:
+        parts = [self.model.name]
+        parts += [f"--no-{e}" for e in SWITCHABLE_EFFECTS if e in self.effects_off]
+        if self.max_depth is not None:
+            parts.append(f"--max-depth {self.max_depth}")
+        if self.mistakes:
+            parts.append("--mistake " + ",".join(self.ordered_mistakes()))
+        # Scene constants in brackets: they are a scene copy, not rtdemo options.
+        if self.background is not None:
+            parts.append(f"[background {rgb_text(self.background)}]")
+        if self.ior is not None:
+            parts.append(f"[ior {self.ior:g}]")
+        if self.turn is not None:
+            parts.append(f"[camera turned {self.turn[0]:+g}, {self.turn[1]:+g} px]")
+        if self.grow is not None:
+            parts.append(f"[spheres {self.grow:+d} ulps]")
+        return " ".join(parts)
+
+    def ordered_mistakes(self) -> list[str]:
+        return [m for m in catalogue() if m in self.mistakes]
+
+    def rtdemo_args(self) -> list[str]:
+        """rtdemo render options for this candidate (of the scene copy, with scene_changes)."""
+        args = self.model.rtdemo_args()
+        args += [f"--no-{e}" for e in SWITCHABLE_EFFECTS if e in self.effects_off]
+        if self.max_depth is not None:
+            args += ["--max-depth", str(self.max_depth)]
+        if self.mistakes:
+            args += ["--mistake", ",".join(self.ordered_mistakes())]
+        return args
+
+    def scene_changes(self) -> dict[str, Any]:
+        """What the scene copy it is rendered from changes: {"background": [1, 1, 1],
+        "ior": 1.5} (the camera turn is not listed: it is how a candidate is judged)."""
+        out: dict[str, Any] = {}
+        if self.background is not None:
+            out["background"] = list(self.background)
+        if self.ior is not None:
+            out["ior"] = self.ior
+        return out
+
+    def with_quirk(self, quirk: int, present: bool) -> Candidate:
+        q = self.quirks | {quirk} if present else self.quirks - {quirk}
+        return dataclasses.replace(self, quirks=frozenset(q))
+
+    def with_effect(self, effect: str, on: bool) -> Candidate:
+        off = self.effects_off - {effect} if on else self.effects_off | {effect}
+        return dataclasses.replace(self, effects_off=frozenset(off))
+
+    def with_depth(self, depth: int | None) -> Candidate:
+        return dataclasses.replace(self, max_depth=depth)
+
+    def depth(self, scene: Scene) -> int:
+        """The recursion limit it renders `scene` with: its own, else the scene's."""
+        return scene.max_depth if self.max_depth is None else self.max_depth
+
+    def at_depth(self, depth: int, scene: Scene) -> Candidate:
+        """With this recursion limit; the scene's own is left unset, so that one image has
+        one name."""
+        return self.with_depth(None if depth == scene.max_depth else depth)
+
+    def with_mistake(self, name: str, present: bool) -> Candidate:
+        m = self.mistakes | {name} if present else self.mistakes - {name}
+        return dataclasses.replace(self, mistakes=frozenset(m))
+
+    def with_background(self, rgb: RGB | None) -> Candidate:
+        return dataclasses.replace(self, background=rgb)
+
+    def with_ior(self, ior: float | None) -> Candidate:
+        return dataclasses.replace(self, ior=ior)
+
+    def turned(self, turn: tuple[float, float] | None) -> Candidate:
+        return dataclasses.replace(self, turn=turn)
+
+    def grown(self, ulps: int | None) -> Candidate:
+        return dataclasses.replace(self, grow=ulps)

@@ -1,0 +1,55 @@
+"""The public catalogue of named common mistakes (compare/diagnosis/mistakes.json).
+
+Each is a run-time switch of rtdemo (`--mistake NAME[,NAME]`), so that `rtval diagnose` can
+render what a student's program with that mistake would show. rtdemo embeds the same JSON file
+at build time (demo_cpp/CMakeLists.txt) for its `--help` and its option check, so the names and
+explanations live in one place. docs/paper-model.md describes each one.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+
+CATALOGUE_FORMAT = "rtval-mistakes/1"
+
+
+@dataclass(frozen=True)
+class Mistake:
+    name: str
+    explanation: str
+    effects: tuple[str, ...]  # the effect masks where it shows first
+    # Another switch that renders the same image (shadow_past_light is "+Q5"); diagnose
+    # searches that switch and names the mistake beside it.
+    same_as: str | None = None
+
+
+@cache
+def catalogue() -> dict[str, Mistake]:
+    """Every mistake by name, in the file's order."""
+    raw = json.loads(resources.files("compare.diagnosis").joinpath("mistakes.json").read_text())
+    if raw.get("format") != CATALOGUE_FORMAT:
+        raise ValueError(f"mistakes.json: format is not {CATALOGUE_FORMAT}")
+    out: dict[str, Mistake] = {}
+    for entry in raw["mistakes"]:
+        out[entry["name"]] = Mistake(
+            entry["name"],
+            entry["explanation"],
+            tuple(entry["effect"].split(",")),
+            entry.get("same_as"),
+        )
+    return out
+
+
+def parse_mistakes(text: str) -> frozenset[str]:
+    """`no_offset,double_gamma` -> the set; raises ValueError naming an unknown one."""
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    known = catalogue()
+    for n in names:
+        if n not in known:
+            raise ValueError(f"unknown mistake {n!r} (known: {', '.join(known)})")
+    if not names:
+        raise ValueError("empty mistake list")
+    return frozenset(names)

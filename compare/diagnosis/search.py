@@ -1,0 +1,488 @@
+"""Explains a foreign image as the nearest demo model: which mode, which quirks present or
+absent, which effects switched off, which recursion depth, which scene constants (background,
+glass ior) and which named mistakes (mistakes.json) reproduce it, effect by effect.
+
+The search renders candidates through an injected `render` (this module starts no process)
+and scores each against the image per effect (diagnose_score.py; diagnose_trials.py keeps
+them). It first decides whether the image is mirrored (left-right or upside down: a program
+that draws its columns or rows the wrong way round) and un-mirrors it. Then it starts from the mode that matches most pixels of
+the whole image, tries one switch at a time (diagnose_switches.py: a quirk toggled, an effect
+off, another depth, background or ior, a mistake added or removed), keeps the one that lowers
+the summed per-effect distance most and clearly helps some effect, and repeats with the
+switches that helped, instead of all 2^13 quirk combinations. The result is retold from the
+mode it differs least from in the quirks this scene shows, and every switch that makes no
+effect's pixels match is dropped: an effect counts as explained only when the result makes at
+least EXPLAINED_SHARE of the pixels that differed from the start match (README, "What does this
+image implement?"). Claims of a match are the exact match of the candidate's renders with the
+camera turned as exact matching turns a model (`turns`), so they agree with the verdict. FLIP
+(metrics.flip_ldr_map) gives the report's numbers for the start and the result
+(diagnose_report.py writes them).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.memo import keep, load, record_name
+from compare.diagnosis.record import (
+    EXPLAINED_SHARE,
+    Diagnosis,
+    EffectFinding,
+    Evidence,
+    Found,
+    Step,
+    diagnosis,
+    finding,
+    summary,
+)
+from compare.diagnosis.score import (
+    MIRRORS,
+    DiagnoseError,
+    NoFinitePixels,
+    Renderer,
+    Target,
+    check_finite,
+    explained,
+    objective,
+    unmirror,
+)
+from compare.diagnosis.switches import (
+    MAX_SEARCH_DEPTH,
+    Switch,
+    differences,
+    simplest,
+    switches,
+    undone,
+)
+from compare.diagnosis.trials import Trials
+from compare.judge.arrays import F32
+from compare.judge.effects import BOOL, EFFECTS
+from compare.judge.images import Image
+from compare.judge.target_model import QUIRK_COUNT, TargetModel
+from scene_model.scene import Scene
+
+__all__ = [
+    "BASE_QUIRKS",
+    "EXPLAINED_SHARE",
+    "LATER_QUIRKS",
+    "MAX_RENDERS",
+    "MAX_SEARCH_DEPTH",
+    "SEARCH_QUIRKS",
+    "DiagnoseError",
+    "Diagnosis",
+    "EffectFinding",
+    "FlipSeed",
+    "NoFinitePixels",
+    "Renderer",
+    "Step",
+    "diagnose",
+    "unmirror",
+]
+
+BASE_QUIRKS = tuple(range(1, 10))  # Q10 only matters with --spp > 1
+LATER_QUIRKS = (11, 12, 13)  # searched where rtdemo renders them (CandidateRenderer says)
+SEARCH_QUIRKS = BASE_QUIRKS + LATER_QUIRKS
+# A switch is kept when it lowers the objective by MIN_GAIN (and some effect's distance
+# clearly: diagnose_score.explained).
+MIN_GAIN = 1e-3
+MAX_RENDERS = 200  # no new full sweep of every switch starts beyond this many renders
+MAX_ROUNDS = 40
+# Mistakes that move every pixel's tone: the nearest mode is chosen with and without them, so
+# that a gamma-encoded paper image is not taken for physical mode (it starts from paper).
+TONE_MISTAKES = ("double_gamma",)
+# The nearest mode is the one matching most pixels, unless none matches this share of them.
+MODE_MATCH_MIN = 0.05
+# The image is taken as mirrored when a flipped copy is at most MIRROR_RATIO as far from the
+# nearest mode as the image itself, by at least MIRROR_MIN (a share of all pixels). A scene
+# symmetric about the flip gives both the same distance, so it can never trigger.
+MIRROR_RATIO = 0.5
+MIRROR_MIN = 0.02
+MODES = ("classic", "paper", "physical")
+FlipSeed = tuple[F32, F32, BOOL]  # a render, its LDR-FLIP map against the image, where it holds
+
+
+class Search:
+    """One diagnosis: the image, every candidate tried (Trials) and the phases that choose
+    between them, in the order `run` calls them."""
+
+    def __init__(
+        self,
+        image: Image,
+        scene: Scene,
+        trials: Trials,
+        quirks: Sequence[int],
+        max_renders: int,
+        say: Callable[[str], None],
+    ) -> None:
+        self.t0 = time.perf_counter()
+        self.image, self.scene, self.trials = image, scene, trials
+        self.quirks, self.max_renders, self.say = tuple(quirks), max_renders, say
+
+    def run(self, starts: list[Candidate]) -> Diagnosis:
+        t = self.trials
+        mirrored, begin = self.begin(starts)
+        t.flip_soon(begin)  # the start's FLIP and exact match while the search runs
+        t.exact_soon(begin)
+        modes = {c.name: float(t.whole_differing(c)) for c in starts}
+        found = self.explain(begin, mirrored)
+        findings, text = self.report(found)
+        seconds = time.perf_counter() - self.t0
+        self.say(f"diagnose: {found.result.name} after {len(t.scores)} renders in {seconds:.1f} s")
+        facts = {
+            "mode_objectives": modes,
+            "renders": len(t.scores),
+            "seconds": seconds,
+            "candidates": found.candidates,
+        }
+        return diagnosis(self.scene, self.image.path, found, findings, text, facts)
+
+    # --- where to begin ------------------------------------------------------------------
+
+    def begin(self, starts: list[Candidate]) -> tuple[str, Candidate]:
+        """Renders the starts (each also with the tone mistakes), decides whether the image is
+        mirrored (judging the un-mirrored image from then on) and picks the nearest start."""
+        toned = [c.with_mistake(m, True) for c in starts for m in TONE_MISTAKES]
+        self.say(
+            f"diagnose: rendering {', '.join(c.name for c in starts)} "
+            f"(and with {', '.join(TONE_MISTAKES)})"
+        )
+        self.trials.keep.update(starts + toned)
+        self.trials.evaluate(starts + toned)
+        mirrored = self.mirrored(starts + toned)
+        begin = self.nearest(starts)
+        self.trials.keep_only({begin})
+        return mirrored, begin
+
+    def mirrored(self, cands: list[Candidate]) -> str:
+        """ "" or the MIRRORS word for the flip that fits the nearest candidate far better
+        than the image as it is; the search then judges the un-mirrored image."""
+        dist = self.trials.target.mirror_distances([self.trials.kept[c] for c in cands])
+        key = min(MIRRORS, key=lambda k: dist[k])
+        if not (dist[key] <= MIRROR_RATIO * dist[""] and dist[""] - dist[key] >= MIRROR_MIN):
+            return ""
+        self.say(
+            f"diagnose: the image is mirrored {MIRRORS[key]} (distance {dist['']:.3f} as it "
+            f"is, {dist[key]:.3f} un-mirrored); diagnosing the un-mirrored image"
+        )
+        self.trials.set_test(unmirror(self.image.rgb, key))
+        return MIRRORS[key]
+
+    def _toned_best(self, c: Candidate) -> Candidate:
+        """c or c with a tone mistake, whichever leaves fewer pixels differing."""
+        toned = [c, *(c.with_mistake(m, True) for m in TONE_MISTAKES)]
+        return min(toned, key=self.trials.whole_differing)
+
+    def nearest(self, starts: list[Candidate]) -> Candidate:
+        """The start whose pixels match the image most often, over the whole image: a program
+        with one wrong effect is placed by the effects it gets right, not by how near another
+        mode comes in the wrong one. Where no start matches MODE_MATCH_MIN of the pixels
+        (every tone is off), the one whose pixels are least far off. Each mode counts as near
+        as its best with a tone mistake; the search starts from the plain mode, so that the
+        mistake is found (and named) as a step of its own."""
+        t = self.trials
+        total = t.total_pixels()
+        counts = {c: t.whole_differing(self._toned_best(c)) for c in starts}
+        by_count = min(counts.values()) < (1 - MODE_MATCH_MIN) * total
+        if by_count:
+            nearest = min(starts, key=lambda c: counts[c])
+        else:
+            nearest = min(starts, key=lambda c: t.whole(self._toned_best(c)))
+        self.say(
+            f"diagnose: nearest mode {nearest.name} ("
+            + ", ".join(f"{c.name} {counts[c]:,}" for c in starts)
+            + f" of {total:,} px differ"
+            + ("" if by_count else "; none matches, the nearest by how far pixels are off")
+            + ")"
+        )
+        return nearest
+
+    # --- the search ----------------------------------------------------------------------
+
+    def explain(self, begin: Candidate, mirrored: str) -> Found:
+        """The search, then the result without what explains nothing, retold from the mode it
+        differs least from in the quirks the scene shows."""
+        current = self.shallowest(self.greedy(begin))
+        # Most often the result: its FLIP and exact match while the steps are retold.
+        self.trials.flip_guess(current)
+        self.trials.exact_soon(current)
+        # Switches that explain nothing go first, so that they cannot decide the mode below.
+        current, _, _ = self.justified(begin, current, False)
+        invisible = self.invisible(current)
+        untested = set(range(1, QUIRK_COUNT + 1)) - set(self.quirks) - {10}
+        simpler = simplest(current, invisible | untested)
+        if simpler.mode != begin.mode:
+            self.say(
+                f"diagnose: {current.name} is {simpler.name} here; retelling the steps from it"
+            )
+            begin = Candidate.of_mode(simpler.mode)
+            self.trials.evaluate([begin])
+        or_more = self.depth_or_more(simpler)
+        current, steps, path = self.justified(begin, simpler, or_more)
+        or_more = or_more and current.depth(self.scene) == simpler.depth(self.scene)
+        cands = {c.name: c for c in (begin, *path, current)}
+        return Found(begin, current, steps, invisible, untested, or_more, mirrored, cands)
+
+    def greedy(self, current: Candidate) -> Candidate:
+        """One switch at a time; later rounds retry only the switches that helped (and the
+        depth one up or down), a full sweep again only while some effect is still not
+        reproduced."""
+        t = self.trials
+        promising: set[tuple[str, str]] | None = None  # None: try every switch this round
+        for round_no in range(1, MAX_ROUNDS + 1):
+            full = promising is None
+            tried, cands, gains = self._round(current, promising)
+            if full:
+                promising = {
+                    (sw.kind, sw.key) for sw, g in zip(tried, gains, strict=True) if g > MIN_GAIN
+                }
+            self.say(
+                f"diagnose: round {round_no}: {len(tried)} changes of {current.name}, "
+                f"{sum(g > MIN_GAIN for g in gains)} help ({len(t.scores)} renders, "
+                f"{time.perf_counter() - self.t0:.1f} s)"
+            )
+            best = int(np.argmax(gains)) if gains else -1
+            if best < 0 or gains[best] <= MIN_GAIN:
+                if full or self._settled(current):
+                    break
+                promising = None  # stuck with the switches that helped: one full sweep
+                continue
+            self.say(
+                f"diagnose: keep {tried[best].change(self.scene)}: "
+                f"{objective(t.per(current)):.3f} -> {objective(t.per(cands[best])):.3f}"
+            )
+            current = cands[best]
+            self.trials.flip_guess(current)  # while the search goes on: often the result
+        return current
+
+    def _round(
+        self, current: Candidate, promising: set[tuple[str, str]] | None
+    ) -> tuple[list[Switch], list[Candidate], list[float]]:
+        """The switches of one round (every one, or those that helped and the depth), their
+        candidates, and what each gains."""
+        tried = [
+            sw
+            for sw in switches(current, self.scene, self.quirks, full=promising is None)
+            if promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth"
+        ]
+        cands = [sw.apply(current, self.scene) for sw in tried]
+        t = self.trials
+        t.near(current)
+        t.evaluate(cands)
+        base, still = t.per(current), t.open_effects(current)
+        # Only a switch that clearly explains some effect counts: small drops spread over
+        # every effect are noise fitting (e.g. acne patterns that float rounding decides).
+        gains = [
+            objective(base) - objective(t.per(c)) if explained(base, t.per(c), still) else 0.0
+            for c in cands
+        ]
+        return tried, cands, gains
+
+    def _settled(self, current: Candidate) -> bool:
+        """Nothing left to explain: every effect matches (within the allowance, the camera
+        turned as exact matching turns it: edge pixels of float64 programs need that), or the
+        render budget is spent."""
+        t = self.trials
+        if len(t.scores) >= self.max_renders or t.matched(current):
+            return True
+        return t.exact_of(current).passed
+
+    def shallowest(self, c: Candidate) -> Candidate:
+        """The smallest recursion limit above the scene's that fits as well as c's: limits
+        past the deepest chain the image shows give the same pixels, and the search may have
+        jumped past it. Bisection, assuming a deeper limit never fits worse once it fits."""
+        lo, hi = self.scene.max_depth, c.depth(self.scene)
+        if hi <= lo + 1:
+            return c
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            at_mid = c.at_depth(mid, self.scene)
+            self.trials.evaluate([at_mid])
+            lo, hi = (lo, mid) if self.trials.fits_as_well(at_mid, c) else (mid, hi)
+        return c.at_depth(hi, self.scene)
+
+    def depth_or_more(self, c: Candidate) -> bool:
+        """Whether the deepest limit searched fits as well as c's (the image then tells only
+        "at least this deep")."""
+        if c.depth(self.scene) <= self.scene.max_depth:
+            return False
+        deepest = c.with_depth(MAX_SEARCH_DEPTH)
+        self.trials.evaluate([deepest])
+        return self.trials.fits_as_well(deepest, c)
+
+    def invisible(self, c: Candidate) -> set[int]:
+        """Quirks whose toggle leaves c's pixels unchanged: this scene cannot tell them (and
+        Q10: every candidate is one ray per pixel, where it changes nothing)."""
+        toggles = {q: c.with_quirk(q, q not in c.quirks) for q in self.quirks}
+        t = self.trials
+        t.evaluate(list(toggles.values()))
+        out = {q for q, tog in toggles.items() if t.scores[tog].digest == t.scores[c].digest}
+        return out | {10}
+
+    # --- what the result is told as ------------------------------------------------------
+
+    def retell(self, begin: Candidate, final: Candidate) -> list[tuple[Switch, Candidate]]:
+        """The switches from begin to final, each in the order that helps most, with the
+        candidate after each."""
+        remaining = differences(begin, final, self.scene)
+        out, cur = [], begin
+        while remaining:
+            options = [sw.apply(cur, self.scene) for sw in remaining]
+            self.trials.evaluate(options)
+            i = min(range(len(options)), key=lambda j: objective(self.trials.per(options[j])))
+            out.append((remaining[i], options[i]))
+            cur = options[i]
+            del remaining[i]
+        return out
+
+    def gained(self, begin: Candidate, final: Candidate) -> set[str]:
+        """Effects the final makes at least EXPLAINED_SHARE of the start's differing pixels
+        match (judged exactly, with the turned renders: acne that float rounding decides
+        matches only within the model's own spread)."""
+        d0, d1 = self.trials.exact_differing(begin), self.trials.exact_differing(final)
+        return {k for k in d0 if d0[k] > 0 and d0[k] - d1[k] >= EXPLAINED_SHARE * d0[k]}
+
+    def needed_by(self, begin: Candidate, final: Candidate, sw: Switch) -> set[str]:
+        """Effects whose matching pixels undoing `sw` would lose: more than the exact-match
+        allowance and a tenth of what the final gained over the start."""
+        inverse = next(u for u in differences(final, begin, self.scene) if u.sets_same(sw))
+        t = self.trials
+        d0, d1 = t.exact_differing(begin), t.exact_differing(final)
+        dw = t.exact_differing(inverse.apply(final, self.scene))
+        return {k for k in d1 if dw[k] - d1[k] > max(t.allowed(k), 0.1 * max(0, d0[k] - d1[k]))}
+
+    def justified(
+        self, begin: Candidate, final: Candidate, or_more: bool
+    ) -> tuple[Candidate, list[Step], list[Candidate]]:
+        """The final without every switch that makes no explained effect's pixels match, its
+        steps from begin and the candidate after each: a mistake is named only where it
+        explains pixels."""
+        while True:
+            self.trials.evaluate([final])
+            gained = self.gained(begin, final)
+            path = self.retell(begin, final)
+            needs = {sw: self.needed_by(begin, final, sw) & gained for sw, _ in path}
+            idle = [sw for sw, eff in needs.items() if not eff]
+            if not idle:
+                break
+            for sw in idle:
+                self.say(
+                    f"diagnose: drop {sw.change(self.scene)}: it makes no effect's pixels match"
+                )
+            final = undone(final, begin, idle, self.scene)
+        return final, self._steps(begin, path, needs, or_more), [after for _, after in path]
+
+    def _steps(
+        self,
+        begin: Candidate,
+        path: list[tuple[Switch, Candidate]],
+        needs: dict[Switch, set[str]],
+        or_more: bool,
+    ) -> list[Step]:
+        steps, cur, per = [], begin, self.trials.per
+        masks = self.trials.target.masks
+        for sw, after in path:
+            change = sw.change(self.scene, or_more=or_more)
+            explains = tuple(k for k in masks if k in needs[sw])
+            steps.append(
+                Step(change, sw.cause(or_more=or_more), after.name, per(cur), per(after), explains)
+            )
+            cur = after
+        return steps
+
+    def report(self, found: Found) -> tuple[dict[str, EffectFinding], str]:
+        """Per effect: the exact match of the start and of the result, as the verdict judges
+        a model (each rendered also with the camera turned), FLIP before and after, and the
+        words."""
+        self.say("diagnose: exact match and FLIP per effect for the start and the result")
+        t, begin, final = self.trials, found.begin, found.result
+        both = list(dict.fromkeys((begin, final)))
+        for c in both:
+            t.flip_soon(c)  # while the exact matches are made
+        exact = {c: t.exact_of(c) for c in both}
+        # FLIP alone (the judge's map, metrics.py), not evaluate_pair's SSIM and other maps.
+        flip = {c: t.flip_means(c) for c in both}
+        findings = {}
+        for k in EFFECTS:
+            if k not in t.target.masks:
+                continue
+            ev = Evidence(
+                exact[begin],
+                exact[final],
+                (flip[begin][k], flip[final][k]),
+                (t.scores[begin].pixels[k], t.scores[final].pixels[k]),
+                (len(t.scores), t.best_fixed(begin, k)),
+            )
+            findings[k] = finding(k, found, ev)
+        return findings, summary(found, findings, exact[begin])
+
+
+def _starts(start: TargetModel | Candidate | None) -> list[Candidate]:
+    """Where the search may begin: `start`, or the three modes."""
+    if start is None:
+        return [Candidate.of_mode(m) for m in MODES]
+    return [start if isinstance(start, Candidate) else Candidate.from_model(start)]
+
+
+def diagnose(
+    image: Image,
+    scene: Scene,
+    render: Renderer,
+    *,
+    start: TargetModel | Candidate | None = None,
+    progress: Callable[[str], None] | None = None,
+    parallel: int = 1,
+    max_renders: int = MAX_RENDERS,
+    turns: Sequence[tuple[float, float]] | None = None,
+    search_quirks: Sequence[int] | None = None,
+    flip_seed: FlipSeed | None = None,
+) -> Diagnosis:
+    """The nearest demo candidate to `image` (linear RGB as read by images.read_image) and
+    the evidence per effect. `render` must return the candidate at the image's size with the
+    id and depth AOVs (the first render's give the effect masks). With `start`, the search
+    begins there instead of at the nearest of the three modes. `parallel` renders run at once
+    (render must then be thread-safe). `turns` are the camera turns (in pixels) exact matching
+    renders a model with, and `search_quirks` the quirks the renderer can toggle: both default
+    to the renderer's attributes of those names (CandidateRenderer has them), else to none and
+    SEARCH_QUIRKS; so do `grows` (the sphere growths exact matching renders) and `store`
+    (diagnose_score.Store: where the FLIP numbers of an image and a render, and the
+    diagnosis of an image, are kept; an image diagnosed before is not searched again,
+    diagnose_memo.py). When the switches that helped stop helping and some effect is still not
+    reproduced, every switch is tried once more (while fewer than `max_renders` renders were
+    made). `flip_seed`: a FLIP map of the image already computed (the verdict's: a render,
+    the map against the image, where it holds), which the FLIP numbers start from. Nothing
+    depends on time, so a loaded machine gives the same diagnosis, later.
+    An image without one finite pixel raises NoFinitePixels before any candidate is
+    rendered."""
+    t0 = time.perf_counter()
+    check_finite(image)
+    turns = list(turns if turns is not None else getattr(render, "turns", ()))
+    quirks = tuple(
+        search_quirks
+        if search_quirks is not None
+        else getattr(render, "search_quirks", SEARCH_QUIRKS)
+    )
+    grows, store = list(getattr(render, "grows", ())), getattr(render, "store", None)
+    say = progress or (lambda _m: None)
+    starts = _starts(start)
+    name = None
+    if store is not None:
+        tries = {"quirks": quirks, "turns": turns, "grows": grows, "max_renders": max_renders}
+        name = record_name(image, scene, starts, tries, store.identity, __file__)
+        known = load(store, name, image, t0)
+        if known is not None:
+            say(f"diagnose: {known.result}, as an earlier search of {known.renders} renders found")
+            return known
+    trials = Trials(Target(image, scene), render, parallel, turns, grows, store)
+    if flip_seed is not None:
+        trials.flips.seed(flip_seed[0], image.rgb, flip_seed[1], flip_seed[2])
+    try:
+        found = Search(image, scene, trials, quirks, max_renders, say).run(starts)
+    finally:
+        trials.close()
+    if store is not None and name is not None:
+        keep(store, name, found)
+    return found

@@ -1,0 +1,210 @@
+"""What the diagnosis (diagnose.py) may change in a candidate, one switch at a time: a quirk
+toggled, an effect off, another recursion depth, a hard-coded background or glass ior, a named
+mistake added or removed; how each is written (`cause`: "+Q2", `change`: "+Q2 (eta = 1/ior
+also when leaving glass)"), and how one candidate turns into another.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from compare.diagnosis.candidate import RGB, Candidate, rgb_text
+from compare.diagnosis.mistakes import catalogue
+from compare.judge.quirks import QUIRKS
+from compare.judge.target_model import MODE_QUIRKS, SWITCHABLE_EFFECTS
+from scene_model.scene import Scene
+
+MAX_SEARCH_DEPTH = 32
+BACKGROUNDS: tuple[RGB, ...] = ((1.0, 1.0, 1.0), (2.0, 2.0, 2.0))  # black: black_background
+IORS = (1.1, 1.2, 1.33, 1.5)
+# The kinds whose switch sets a value (any value of one kind sets the same thing).
+VALUED = ("depth", "background", "ior")
+
+
+def glass_iors(scene: Scene) -> set[float]:
+    return {s.ior for s in scene.spheres if s.transparency > 0}
+
+
+@dataclass(frozen=True)
+class Switch:
+    """One switch tried on top of a candidate."""
+
+    kind: str  # "quirk" | "effect" | "depth" | "mistake" | "background" | "ior"
+    key: str  # "2" | "shadows" | "10" (the new depth) | "no_offset" | "1,1,1" | "1.5"
+    present: bool  # quirk/mistake added, effect off, depth raised, constant not the scene's
+
+    def apply(self, c: Candidate, scene: Scene) -> Candidate:
+        if self.kind == "quirk":
+            return c.with_quirk(int(self.key), self.present)
+        if self.kind == "effect":
+            return c.with_effect(self.key, not self.present)
+        if self.kind == "mistake":
+            return c.with_mistake(self.key, self.present)
+        if self.kind == "background":
+            return c.with_background(self._rgb() if self.present else None)
+        if self.kind == "ior":
+            return c.with_ior(float(self.key) if self.present else None)
+        return c.at_depth(int(self.key), scene)
+
+    def _rgb(self) -> RGB:
+        r, g, b = (float(v) for v in self.key.split(","))
+        return (r, g, b)
+
+    def sets_same(self, other: Switch) -> bool:
+        """Whether both set the same thing (a depth, a background, an ior, or one quirk,
+        effect or mistake), whatever value each sets it to."""
+        return self.kind == other.kind and (self.key == other.key or self.kind in VALUED)
+
+    def cause(self, *, or_more: bool = False) -> str:
+        """The switch in a word or two, for a gradebook column ("looks like +Q2"); or_more: a
+        depth that every deeper limit reproduces as well."""
+        if self.kind == "quirk":
+            return f"{'+' if self.present else '-'}Q{self.key}"
+        if self.kind == "effect":
+            return f"--no-{self.key}" if self.present else f"+{self.key}"
+        if self.kind == "depth":
+            return f"max depth {self.key}" + (" or more" if or_more else "")
+        if self.kind == "background":
+            return f"background {rgb_text(self._rgb())}" if self.present else "scene background"
+        if self.kind == "ior":
+            return f"ior {float(self.key):g}" if self.present else "scene ior"
+        return f"{'' if self.present else '-'}{self.key}"
+
+    def change(self, scene: Scene, *, or_more: bool = False) -> str:
+        """What the switch does, in words, e.g. "+Q2 (eta = 1/ior also when leaving glass)"."""
+        if self.kind == "quirk":
+            q = int(self.key)
+            return f"{'+' if self.present else '-'}Q{q} ({QUIRKS[q]}" + (
+                ")" if self.present else " fixed)"
+            )
+        if self.kind == "effect":
+            if self.present:
+                return f"--no-{self.key} ({self.key} switched off)"
+            return f"{self.key} switched back on"
+        if self.kind == "depth":
+            return self._depth_change(scene, or_more)
+        if self.kind in ("background", "ior"):
+            return self._constant_change(scene)
+        m = catalogue()[self.key]
+        if self.present:
+            return f"the mistake {m.name} ({m.explanation})"
+        return f"without the mistake {m.name}"
+
+    def _depth_change(self, scene: Scene, or_more: bool) -> str:
+        d = int(self.key)
+        cut = " (the mistake depth_cut)" if d == scene.max_depth - 1 else ""
+        more = f" or more (every limit from {d} to {MAX_SEARCH_DEPTH} gives this image)"
+        return f"max depth {d}{more if or_more else cut} (the scene asks {scene.max_depth})"
+
+    def _constant_change(self, scene: Scene) -> str:
+        if self.kind == "background":
+            theirs = rgb_text(scene.background)
+            if self.present:
+                return f"background {rgb_text(self._rgb())} hard-coded (the scene's is {theirs})"
+            return f"the scene's background {theirs}"
+        theirs = ", ".join(f"{v:g}" for v in sorted(glass_iors(scene)))
+        if self.present:
+            return (
+                f"ior {float(self.key):g} hard-coded for every glass sphere (the scene's: {theirs})"
+            )
+        return f"the scene's ior {theirs}"
+
+
+def switches(c: Candidate, scene: Scene, quirks: Sequence[int], *, full: bool) -> list[Switch]:
+    """Every switch of `c` to try; `full` adds the jumps in depth."""
+    depth = c.depth(scene)
+    out = [Switch("quirk", str(q), q not in c.quirks) for q in quirks]
+    out += [Switch("effect", e, e not in c.effects_off) for e in SWITCHABLE_EFFECTS]
+    out += [Switch("depth", str(d), d > depth) for d in _depths(depth, full)]
+    # Mistakes that another switch already renders (same_as) are found through that switch.
+    out += [
+        Switch("mistake", m.name, m.name not in c.mistakes)
+        for m in catalogue().values()
+        if m.same_as is None
+    ]
+    return out + _constant_switches(c, scene)
+
+
+def _depths(d: int, full: bool) -> list[int]:
+    """One level up and down from d; in a full sweep also jumps of 2, 4, 8, ... each way and
+    the deepest searched, so that `MAX_RAY_DEPTH 10` in a depth-5 scene is one step."""
+    steps = [1, 2, 4, 8] if full else [1]
+    out = {d + s for s in steps} | {d - s for s in steps}
+    if full:
+        out.add(MAX_SEARCH_DEPTH)
+    return sorted(x for x in out if 0 <= x <= MAX_SEARCH_DEPTH and x != d)
+
+
+def _constant_switches(c: Candidate, scene: Scene) -> list[Switch]:
+    out = []
+    for rgb in BACKGROUNDS:
+        if rgb != tuple(scene.background) and rgb != c.background:
+            out.append(Switch("background", ",".join(f"{v:g}" for v in rgb), True))
+    if c.background is not None:
+        out.append(Switch("background", "scene", False))
+    theirs = glass_iors(scene)
+    if theirs:
+        out += [Switch("ior", f"{v:g}", True) for v in IORS if {v} != theirs and v != c.ior]
+        if c.ior is not None:
+            out.append(Switch("ior", "scene", False))
+    return out
+
+
+def differences(a: Candidate, b: Candidate, scene: Scene) -> list[Switch]:
+    """The one-at-a-time switches that turn candidate a into b."""
+    out = [Switch("quirk", str(q), q in b.quirks) for q in sorted(a.quirks ^ b.quirks)]
+    out += [
+        Switch("effect", e, e in b.effects_off)
+        for e in SWITCHABLE_EFFECTS
+        if (e in a.effects_off) != (e in b.effects_off)
+    ]
+    da, db = a.depth(scene), b.depth(scene)
+    if da != db:
+        out.append(Switch("depth", str(db), db > da))
+    out += [Switch("mistake", m, m in b.mistakes) for m in sorted(a.mistakes ^ b.mistakes)]
+    if a.background != b.background:
+        rgb = b.background or a.background
+        assert rgb is not None
+        out.append(Switch("background", ",".join(f"{v:g}" for v in rgb), b.background is not None))
+    if a.ior != b.ior:
+        out.append(Switch("ior", f"{b.ior or a.ior:g}", b.ior is not None))
+    return out
+
+
+def undone(final: Candidate, begin: Candidate, drop: list[Switch], scene: Scene) -> Candidate:
+    """final with the dropped switches undone (each set back to begin's value)."""
+    out = final
+    for u in differences(final, begin, scene):
+        if any(u.sets_same(d) for d in drop):
+            out = u.apply(out, scene)
+    return out
+
+
+def simplest(c: Candidate, invisible: set[int]) -> Candidate:
+    """The same candidate written from the mode it differs least from, counting only quirks
+    that change pixels (paper-Q2 --no-shadows is classic --no-shadows when Q4 and Q9 are
+    invisible)."""
+    best, best_count = c, len(c.quirks ^ MODE_QUIRKS[c.mode])
+    for mode in ("classic", "paper", "physical"):
+        quirks = (c.quirks - invisible) | (MODE_QUIRKS[mode] & invisible)
+        count = len(quirks ^ MODE_QUIRKS[mode])
+        if count < best_count:
+            best = dataclasses.replace(c, mode=mode, quirks=frozenset(quirks))
+            best_count = count
+    return best
+
+
+def aliases(c: Candidate, scene: Scene) -> list[str]:
+    """Named mistakes that the candidate's switches amount to (catalogue `same_as`)."""
+    out = []
+    depth = c.depth(scene)
+    for m in catalogue().values():
+        if (
+            (m.same_as == "+Q5" and 5 in c.quirks and 5 not in MODE_QUIRKS[c.mode])
+            or (m.same_as == "--no-shadows" and "shadows" in c.effects_off)
+            or (m.same_as == "--max-depth N-1" and depth == scene.max_depth - 1)
+        ):
+            out.append(m.name)
+    return out

@@ -1,0 +1,1 @@
+"""Grading a class: submissions, their programs in the sandbox, scores, the gradebook and student pages."""

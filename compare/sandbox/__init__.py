@@ -1,0 +1,1 @@
+"""Running untrusted programs: the bubblewrap sandbox, its outputs, and unpacking submitted archives."""

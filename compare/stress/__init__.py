@@ -1,0 +1,1 @@
+"""`rtval stress`: where each method breaks, before it misleads anyone."""

@@ -1,0 +1,1 @@
+"""Judging an image against a target model, and `rtval compare` of two images."""

@@ -1,0 +1,1 @@
+"""Safe file handling for every package: input checks, bounded reads, atomic writes, own folders."""
