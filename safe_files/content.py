@@ -1,4 +1,4 @@
-"""Small file helpers shared by every part of compare: atomic writes, content hashes, JSON."""
+"""Small file helpers: content hashes, a fresh sibling name, JSON without NaN."""
 
 from __future__ import annotations
 
@@ -7,20 +7,7 @@ import math
 import os
 import uuid
 from pathlib import Path
-from types import ModuleType
 from typing import Any
-
-# The atomic writers live beside the path checks they rely on (mitsuba_ref writes with them too).
-from safe_files.paths import atomic_output, write_atomic
-
-__all__ = [
-    "atomic_output",
-    "json_safe",
-    "sha256_file",
-    "sources_digest",
-    "unique_sibling",
-    "write_atomic",
-]
 
 
 def unique_sibling(path: Path) -> Path:
@@ -35,14 +22,6 @@ def sha256_file(path: str | Path) -> str:
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
-
-
-def sources_digest(*modules: ModuleType) -> bytes:
-    """sha256 of the modules' source files: what a result kept between runs was computed by."""
-    h = hashlib.sha256()
-    for module in modules:
-        h.update(Path(module.__file__ or "").read_bytes())
-    return h.digest()
 
 
 def json_safe(x: Any) -> Any:

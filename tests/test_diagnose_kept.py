@@ -9,7 +9,6 @@ import os
 import subprocess
 import sys
 import threading
-import types
 import zlib
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -27,7 +26,6 @@ from compare.diagnosis.candidate import Candidate
 from compare.judge.exact_match import Bounds, model_bounds
 from compare.judge.images import Image
 from compare.render.cache import RenderCache
-from safe_files.content import sources_digest
 
 CLASSIC = SCENES / "classic.json"
 W, H = 16, 12
@@ -191,16 +189,6 @@ def test_names_are_the_same_in_every_process() -> None:
         for seed in ("1", "2", "3", "4")
     }
     assert len(names) == 1
-
-
-def test_a_module_source_change_changes_the_digest(tmp_path: Path) -> None:
-    source = tmp_path / "m.py"
-    source.write_text("X = 1\n")
-    module = types.ModuleType("m")
-    module.__file__ = str(source)
-    before = sources_digest(module)
-    source.write_text("X = 2\n")
-    assert sources_digest(module) != before
 
 
 def test_a_png_after_a_ppm_of_the_same_program_is_diagnosed_as_in_a_fresh_cache(

@@ -311,7 +311,7 @@ def test_output_equal_to_an_input_or_another_output_is_refused(
 
 _FULL_DISK = """
 import resource, signal, sys
-from safe_files.content import write_atomic
+from safe_files.paths import write_atomic
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG
 resource.setrlimit(resource.RLIMIT_FSIZE, (1 << 20, 1 << 20))
 try:

@@ -457,13 +457,3 @@ def test_lightless_foreign_image_verdict_leaves_absent_effects_unscored(
     assert costs["Q12"]["note"] == "changes nothing in this scene" and costs["Q12"]["cost"] == 0
     html = (folder / "index.html").read_text()
     assert "none: changes nothing in this scene" in html
-
-
-def test_derived_results_depend_on_the_judge_code_they_come_from() -> None:
-    """judge_identity keys the report's derived results by the judge modules that compute
-    them (and what those import); other judge code (diagnose, rubric) leaves them valid."""
-    from compare.report.derived import judge_modules
-
-    modules = judge_modules(ROOT / "compare" / "judge")
-    assert {"metrics", "evaluate", "effects", "scoring", "sentences", "images"} <= set(modules)
-    assert not {"diagnose", "rubric", "candidate", "target_model"} & set(modules)

@@ -12,19 +12,18 @@ computes none.
 from __future__ import annotations
 
 import hashlib
-import importlib.metadata
 import json
 from concurrent.futures import Executor, Future
 from functools import cache
 
 import numpy as np
 
+from compare.code_identity import code_identity
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.score import Store
-from compare.judge import flip_crops, images, metrics
+from compare.judge import flip_crops, metrics
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL
-from safe_files.content import sources_digest
 
 FLIP_FORMAT = "rtval-diagnose-flip/1"
 Means = dict[str, float]
@@ -33,8 +32,7 @@ Means = dict[str, float]
 @cache
 def _flip_code() -> bytes:
     """What the FLIP numbers are computed by: the judge's FLIP code and flip-evaluator."""
-    version = importlib.metadata.version("flip-evaluator").encode()
-    return hashlib.sha256(version + sources_digest(flip_crops, metrics, images)).digest()
+    return code_identity("compare.judge.metrics", distributions=("flip-evaluator",)).encode()
 
 
 def _name(test: F32, rgb: F32, masks: dict[str, BOOL]) -> str:

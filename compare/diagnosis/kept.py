@@ -17,21 +17,17 @@ from __future__ import annotations
 
 import hashlib
 import json
-import sys
 import zlib
-from functools import cache
 from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import candidate
-from compare.diagnosis import score as diagnose_score
+from compare.code_identity import code_identity
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.score import Codes, Store
-from compare.judge import effects, exact_match, images
+from compare.judge import effects
 from compare.judge.effects import BOOL
 from compare.judge.exact_match import Bounds
-from safe_files.content import sources_digest
 
 KEPT_FORMAT = "rtval-diagnose-kept/2"
 HEAD_MAX = 4096
@@ -39,11 +35,8 @@ CHECK = 8  # hex digits of the check line
 Pair = tuple[Bounds, Bounds]
 
 
-@cache
 def _code() -> bytes:
-    return sources_digest(
-        candidate, diagnose_score, effects, exact_match, images, sys.modules[__name__]
-    )
+    return code_identity(__name__).encode()
 
 
 def kept_name(kind: str, identity: str, c: Candidate, *more: object) -> str:

@@ -14,37 +14,18 @@ import hashlib
 import json
 import time
 from collections.abc import Sequence
-from functools import cache
-from importlib import resources
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import candidate, mistakes
-from compare.diagnosis import record as diagnose_report
-from compare.diagnosis import score as diagnose_score
-from compare.diagnosis import switches as diagnose_switches
-from compare.diagnosis import trials as diagnose_trials
+from compare.code_identity import code_identity
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.record import Diagnosis
 from compare.diagnosis.score import Store
-from compare.judge import effects, exact_match, flip_crops, images, metrics, quirks, target_model
 from compare.judge.images import Image
-from safe_files.content import sources_digest
 from scene_model.scene import Scene
 
 RECORD_FORMAT = "rtval-diagnosis/1"
-_JUDGE = (candidate, diagnose_report, diagnose_score, diagnose_switches, diagnose_trials,
-          effects, exact_match, flip_crops, images, metrics, mistakes, quirks, target_model)  # fmt: skip
-
-
-@cache
-def _judge_code(search_file: str) -> bytes:
-    """The search's own source and every judge module it decides with (and mistakes.json)."""
-    h = hashlib.sha256(Path(search_file).read_bytes() + sources_digest(*_JUDGE))
-    h.update(resources.files("compare.diagnosis").joinpath("mistakes.json").read_bytes())
-    return h.digest()
 
 
 def record_name(
@@ -53,11 +34,10 @@ def record_name(
     starts: Sequence[Candidate],
     search: dict[str, Any],
     identity: str,
-    search_file: str,
 ) -> str:
     """The store name of this diagnosis; `search`: what it may try (quirks, turns, grows,
-    max_renders), `search_file`: the module that searches (diagnose.py)."""
-    h = hashlib.sha256(_judge_code(search_file) + identity.encode())
+    max_renders)."""
+    h = hashlib.sha256(code_identity("compare.diagnosis.search").encode() + identity.encode())
     rgb = np.ascontiguousarray(image.rgb)
     h.update(f"{rgb.dtype}{rgb.shape}{image.encoding}".encode() + rgb.data.cast("B"))
     h.update(repr(scene).encode())

@@ -471,7 +471,7 @@ def diagnose(
     name = None
     if store is not None:
         tries = {"quirks": quirks, "turns": turns, "grows": grows, "max_renders": max_renders}
-        name = record_name(image, scene, starts, tries, store.identity, __file__)
+        name = record_name(image, scene, starts, tries, store.identity)
         known = load(store, name, image, t0)
         if known is not None:
             say(f"diagnose: {known.result}, as an earlier search of {known.renders} renders found")

@@ -30,7 +30,6 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import hashlib
-import importlib.metadata
 import json
 import math
 import os
@@ -42,10 +41,10 @@ import threading
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
-from functools import cache
 from pathlib import Path
 from typing import Any
 
+from compare.code_identity import code_identity
 from compare.errors import ToolError
 from compare.render.runner import rtdemo_path
 from safe_files.content import sha256_file, unique_sibling
@@ -116,17 +115,9 @@ def renderer_identity(tool: str, executable: str | None = None) -> str:
     return _mitsuba_identity()
 
 
-@cache
 def _mitsuba_identity() -> str:
-    h = hashlib.sha256()
     # The renderer and the scene loader it reads with; report code changes must not re-render.
-    for pkg in ("mitsuba_ref", "scene_model"):
-        root = Path(__file__).resolve().parents[2] / pkg
-        for p in sorted(root.glob("*.py")):
-            h.update(p.read_bytes())
-    for dist in ("mitsuba", "drjit"):
-        h.update(importlib.metadata.version(dist).encode())
-    return h.hexdigest()
+    return code_identity("mitsuba_ref.reference", distributions=("mitsuba", "drjit"))
 
 
 def render_key(tool: str, args: list[str], scene_file: Path, executable: str | None = None) -> str:

@@ -4,9 +4,7 @@ judge's code, so that a warm `rtval report` reads no render and draws nothing.""
 
 from __future__ import annotations
 
-import ast
 import contextlib
-import functools
 import hashlib
 import json
 import os
@@ -18,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from compare.code_identity import code_identity
 from compare.judge.evaluate import evaluate_pair
 from compare.judge.images import Image, read_image, write_exr
 from compare.judge.png import write_png
@@ -27,55 +26,20 @@ from compare.report import figures as figs
 from safe_files.content import json_safe as _json_safe
 from safe_files.paths import atomic_output, write_atomic
 
-# The judge modules whose code the derived results come from; judge_identity follows their
-# imports within compare.judge. Other judge code (diagnose, rubric, ...) leaves them valid.
+# The judge modules the derived results come from (with what they import): metrics and analyses
+# are keyed by their code, so a change to a metric is never hidden by the cache. Other judge
+# code (the diagnosis, the rubric, ...) leaves them valid.
 JUDGE_ROOTS = ("evaluate", "effects", "convergence", "penumbra", "pareto", "scoring", "sentences")
 
 
-def judge_modules(judge: Path) -> list[str]:
-    """JUDGE_ROOTS and every compare.judge module they import, directly or not."""
-    todo, seen = list(JUDGE_ROOTS), set()
-    while todo:
-        name = todo.pop()
-        source = judge / f"{name}.py"
-        if name in seen or not source.is_file():
-            continue
-        seen.add(name)
-        for node in ast.walk(ast.parse(source.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom) and node.module == "compare.judge":
-                todo += [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom) and node.module:
-                todo += _judge_module(node.module)
-            elif isinstance(node, ast.Import):
-                todo += [m for a in node.names for m in _judge_module(a.name)]
-    return sorted(seen)
-
-
-def _judge_module(dotted: str) -> list[str]:
-    parts = dotted.split(".")
-    return [parts[2]] if len(parts) >= 3 and parts[:2] == ["compare", "judge"] else []
-
-
-@functools.cache
 def judge_identity() -> str:
-    """The code of the judge modules the derived results come from: metrics and analyses are
-    keyed by it as well, so that a change to a metric is never hidden by the cache."""
-    root = Path(__file__).resolve().parents[1] / "judge"
-    return _code_hash([root / f"{m}.py" for m in judge_modules(root)])
+    return code_identity(*(f"compare.judge.{m}" for m in JUDGE_ROOTS))[:16]
 
 
-@functools.cache
 def figures_identity() -> str:
-    """The judge's code and the figures' (report_figures.py): the key of every drawn figure.
-    Redrawing a chart recomputes no metric."""
-    return _code_hash([Path(__file__).with_name("report_figures.py")]) + judge_identity()
-
-
-def _code_hash(sources: list[Path]) -> str:
-    h = hashlib.sha256()
-    for p in sources:
-        h.update(p.name.encode() + b"\0" + p.read_bytes())
-    return h.hexdigest()[:16]
+    """The judge's code and the figures': the key of every drawn figure. Redrawing a chart
+    recomputes no metric."""
+    return code_identity("compare.report.figures")[:16] + judge_identity()
 
 
 class LazyImages:
