@@ -4,7 +4,7 @@ function may be and how many parameters it may take.
 Run by `make lint`. The rooms (docs/architecture.md) import downwards only:
 
     safe_files  <- scene_model <- mitsuba_ref
-    compare's helpers (escape, errors, sizes, interrupts, student_ids)
+    compare's helpers (escape, errors, sizes, interrupts, student_ids, code_identity)
     judge, sandbox, pages  <- render <- diagnosis, verdict <- check, report, grading, stress <- cli
 """
 
@@ -39,7 +39,7 @@ for _room in ("check", "report", "grading", "stress"):
 ALLOWED["compare.cli"] = _UPPER | {f"compare.{r}" for r in ("check", "report", "grading", "stress")}
 # compare's public API (__init__) and its pytest plugin stand above every room.
 ALLOWED["compare"] = ALLOWED["compare.cli"]
-HELPERS = {"escape", "errors", "sizes", "interrupts", "student_ids"}
+HELPERS = {"escape", "errors", "sizes", "interrupts", "student_ids", "code_identity"}
 ROOMS = {part.split(".")[1] for part in ALLOWED if part.startswith("compare.")} - {"helpers"}
 MAX_FUNCTION_LINES = 60
 MAX_PARAMETERS = 7  # more travel together in a dataclass
