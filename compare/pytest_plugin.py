@@ -57,8 +57,9 @@ def rtval_check(request: pytest.FixtureRequest) -> Callable[..., CaseResult]:
         timeout: float | None = None,
         baseline: str | Path | None = None,
     ) -> CaseResult:
-        from compare.check import run as app
-        from compare.render import foreign
+        # deferred: pytest loads this plugin in every session of the renderer's own suite
+        from compare.check import run as app  # deferred: as above
+        from compare.render import foreign  # deferred: as above
 
         root = Path(config.rootpath)
         folder = Path(baseline) if baseline else root / str(config.getini("rtval_baseline"))

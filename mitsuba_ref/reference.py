@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from mitsuba_ref.drjit_env import load_mitsuba
 from mitsuba_ref.export import ExportedScene, ExportOptions, export_scene
+from mitsuba_ref.plugin_tree import to_dict
 from scene_model.scene import Scene
 
 INTEGRATORS = ("whitted", "path")
@@ -113,7 +114,7 @@ def render_reference(
     mi = load_mitsuba(settings.variant)
     import drjit as dr
 
-    from mitsuba_ref import whitted
+    from mitsuba_ref import whitted  # deferred: drjit loads after drjit_env set its LLVM path
 
     whitted.register()
     exported, mscene = _loaded_scene(mi, settings.variant, scene, _export_options(settings))
@@ -229,7 +230,7 @@ def _export_options(settings: ReferenceSettings) -> ExportOptions:
 
 
 def _integrator(mi: Any, scene: Scene, settings: ReferenceSettings) -> Any:
-    from mitsuba_ref import whitted
+    from mitsuba_ref import whitted  # deferred: drjit loads after drjit_env set its LLVM path
 
     if settings.integrator == "whitted":
         return mi.load_dict(
@@ -372,8 +373,6 @@ def _loaded_scene(
 
 def _sensor(mi: Any, scene: Scene, exported: Any, width: int, height: int) -> Any:
     """The exported camera, with the film resized to the render size."""
-    from mitsuba_ref.plugin_tree import to_dict
-
     d = to_dict(exported.tree.props["sensor"], mi)
     d["film"]["width"], d["film"]["height"] = width, height
     return mi.load_dict(d)

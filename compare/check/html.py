@@ -15,10 +15,14 @@ from typing import Any
 import numpy as np
 
 from compare.check.run import CaseResult
+from compare.diagnosis.renderer import CandidateRenderer
+from compare.diagnosis.search import diagnose
+from compare.judge.images import Image
 from compare.judge.png import display_values, write_display_png
 from compare.judge.tolerances import diff_image
 from compare.pages.writer import write_page
 from safe_files.paths import UnsafePathError
+from scene_model.scene import load_scene
 
 PNGS = ("reference", "render", "difference", "flip")
 # A bounded search per failing case (diagnose.MAX_RENDERS is 200): the page is a first look.
@@ -40,10 +44,6 @@ def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> list[str] | Non
     pictures, rtdemo fails, the search fails), the page says so and `note` is told."""
     if case.pictures is None or not case.scene_file:
         return None
-    from compare.diagnosis.renderer import CandidateRenderer
-    from compare.diagnosis.search import diagnose
-    from compare.judge.images import Image
-    from scene_model.scene import load_scene
 
     image = Image(rgb=case.pictures.test, encoding=case.test_encoding)
     h, w = image.shape

@@ -25,6 +25,7 @@ from compare.judge.metrics import (
     FLIP_MARGIN,
     Maps,
     Metrics,
+    check_same_size,
     compute_maps,
     compute_metrics,
     flip_ldr_map,
@@ -202,7 +203,6 @@ def evaluate_pair(
     metrics are NaN, so a `max_flip` tolerance fails): a cheap first look whose verdict is
     final when it passes without `max_flip`. Raises metrics.SizeMismatch for images of
     different sizes."""
-    from compare.judge.metrics import check_same_size
 
     check_same_size(ref, test)
     result = Evaluation(ref, test, tolerances, hdr, region, dict(masks or {}), flip=flip)

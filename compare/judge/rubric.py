@@ -42,6 +42,8 @@ from typing import Any
 from compare.judge.effects import EFFECTS
 from compare.judge.scoring import FLIP_AT_ZERO_SCORE, EffectRule
 from compare.judge.target_model import ModelError, parse_model
+from compare.sizes import parse_size
+from safe_files.paths import read_bounded
 
 # Weights up to this keep the weighted sums of effect scores finite for any image size.
 MAX_WEIGHT = 1000.0
@@ -208,7 +210,6 @@ PROGRAM_LIMITS = {
 
 def limit_value(key: str, value: Any) -> float | int:
     """A program limit (a [program.limits] value or a flag's) checked for its kind."""
-    from compare.sizes import parse_size
 
     kind = PROGRAM_LIMITS[key]
     if kind == "size":
@@ -262,7 +263,6 @@ def read_rubric(path: str | Path | None) -> tuple[str, str]:
     at most 1 MiB of UTF-8: never a FIFO or a device, read once."""
     if path is None:
         return DEFAULT_RUBRIC_TEXT, "default rubric"
-    from safe_files.paths import read_bounded
 
     p = Path(path)
     try:

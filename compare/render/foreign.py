@@ -25,6 +25,7 @@ from pathlib import Path
 from compare.judge.images import Image, ImageError, read_image
 from compare.render.foreign_sandboxed import SandboxedRenderFailed, render_sandboxed
 from compare.render.placeholders import PLACEHOLDER, fill
+from mitsuba_ref.export import ExportOptions, export_scene
 from scene_model.scene import Scene
 
 PLACEHOLDERS = ("scene", "scene_xml", "out", "width", "height", "spp", "mode")
@@ -116,7 +117,6 @@ class ForeignRender:
 
 
 def _write_xml(scene: Scene, folder: Path, spp: int) -> Path:
-    from mitsuba_ref.export import ExportOptions, export_scene
 
     path = folder / "scene.xml"
     export_scene(scene, ExportOptions(spp=spp)).write(path)

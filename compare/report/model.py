@@ -7,14 +7,16 @@ from __future__ import annotations
 import itertools
 from typing import Any
 
+from compare.diagnosis.evidence import diagnose_image
+from compare.diagnosis.search import DiagnoseError
 from compare.errors import ToolError
+from compare.judge.target_model import MODE_QUIRKS, parse_model
 from compare.report.context import ReportContext
+from compare.verdict.against import GRADE_DEFAULT, judge_against_model, load, prepare
 
 
 def model_verdict(ctx: ReportContext, ladder: list[dict[str, Any]]) -> dict[str, Any]:
     """The test image against its model, and the quirks' costs read from the ablation ladder."""
-    from compare.judge.target_model import MODE_QUIRKS, parse_model
-    from compare.verdict.against import GRADE_DEFAULT, judge_against_model, load, prepare
 
     opts = ctx.opts
     model = parse_model(opts.against or GRADE_DEFAULT)
@@ -51,8 +53,6 @@ def diagnosis(ctx: ReportContext, assigned: str) -> dict[str, Any]:
     """The test image explained as the nearest demo model, with its evidence PNGs in images/.
     A diagnosis that cannot run (e.g. a renderer without AOVs) leaves the section saying
     why, not a failed report."""
-    from compare.diagnosis.evidence import diagnose_image
-    from compare.diagnosis.search import DiagnoseError
 
     try:
         return diagnose_image(

@@ -13,12 +13,14 @@ import numpy as np
 from compare.judge.effects import effect_masks
 from compare.judge.evaluate import Evaluation, evaluate_pair
 from compare.judge.exact_match import ENCODING_WORDS
-from compare.judge.images import Image, ImageError, read_image
+from compare.judge.images import Image, ImageError, read_image, srgb_to_linear
 from compare.judge.metrics import Metrics, check_same_size, display
 from compare.judge.png import write_png
+from compare.judge.target_model import parse_model
 from compare.judge.tolerances import Tolerances, Verdict, diff_image
 from compare.render.cache import RenderCache
 from compare.render.progress import Progress
+from compare.verdict.against import judge_against_model, load, prepare
 from safe_files.content import json_safe
 from safe_files.paths import write_atomic
 from scene_model.scene import Scene
@@ -137,8 +139,6 @@ def run_against(
     progress: Progress | None = None,
 ) -> Comparison:
     """`test` judged against a target model rendered at the test's size (never resampled)."""
-    from compare.judge.target_model import parse_model
-    from compare.verdict.against import judge_against_model, load, prepare
 
     model = parse_model(model_name)
     h, w = test.shape
@@ -238,6 +238,5 @@ def write_outputs(c: Comparison, *, json_path: str | None, diff_path: str | None
     if diff_path:
         d = diff_image(display(c.ref.rgb), display(c.test.rgb))
         # diff_image is already display-encoded; write it as linear so it is not re-encoded
-        from compare.judge.images import srgb_to_linear
 
         write_png(diff_path, srgb_to_linear(d))
