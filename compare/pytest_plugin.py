@@ -14,12 +14,26 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Required, TypedDict, Unpack
 
 import pytest
 
 if TYPE_CHECKING:
     from compare.check.run import CaseResult
+
+
+class CheckOptions(TypedDict, total=False):
+    """The fixture's keyword options: renderer is required; the defaults are named."""
+
+    renderer: Required[str]  # a command template, e.g. "./tracer {scene} {out}"
+    name: str | None
+    size: tuple[int, int]  # default (320, 240)
+    output_format: str  # default "exr"
+    against: str | None
+    mode: str | None
+    spp: int  # default 1
+    timeout: float | None
+    baseline: str | Path | None
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -44,36 +58,28 @@ def rtval_check(request: pytest.FixtureRequest) -> Callable[..., CaseResult]:
     test when the check fails."""
     config = request.config
 
-    def check(
-        scene: str | Path,
-        *,
-        renderer: str,
-        name: str | None = None,
-        size: tuple[int, int] = (320, 240),
-        output_format: str = "exr",
-        against: str | None = None,
-        mode: str | None = None,
-        spp: int = 1,
-        timeout: float | None = None,
-        baseline: str | Path | None = None,
-    ) -> CaseResult:
+    def check(scene: str | Path, **options: Unpack[CheckOptions]) -> CaseResult:
         # deferred: pytest loads this plugin in every session of the renderer's own suite
         from compare.check import run as app  # deferred: as above
         from compare.render import foreign  # deferred: as above
 
         root = Path(config.rootpath)
+        baseline, mode = options.get("baseline"), options.get("mode")
+        against = options.get("against")
         folder = Path(baseline) if baseline else root / str(config.getini("rtval_baseline"))
-        cmd = foreign.parse_command(renderer, name, output_format)
+        cmd = foreign.parse_command(
+            options["renderer"], options.get("name"), options.get("output_format", "exr")
+        )
         settings = app.CheckSettings(
             scenes=[str(root / scene if not Path(scene).is_absolute() else scene)],
             baseline_dir=folder if folder.is_absolute() else root / folder,
-            size=size,
+            size=options.get("size", (320, 240)),
             modes=[mode] if mode else list(app.DEFAULT_MODES),
             update=bool(config.getoption("--rtval-update")) and against is None,
             renderer=cmd,
             against=against,
-            spp=spp,
-            timeout=timeout,
+            spp=options.get("spp", 1),
+            timeout=options.get("timeout"),
         )
         lines: list[str] = []
         results = app.run_check(settings, progress=lines.append)

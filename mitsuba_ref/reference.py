@@ -123,7 +123,8 @@ def render_reference(
     sensor = _sensor(mi, scene, exported, width, height)
     jit = bool(dr.is_jit_v(mi.Float))
 
-    render_pass = _pass_renderer(mi, dr, mscene, sensor, integrator, (width, height), settings)
+    tracer = _Tracer(mi, dr, mscene, sensor, integrator, width, height)
+    render_pass = _pass_renderer(tracer, settings)
 
     # JIT variants trace several samples per pixel in one wavefront (recording the
     # recursion once per batch); scalar variants go one sample at a time.
@@ -134,11 +135,9 @@ def render_reference(
     def image(stopped_by: str, seconds: float, at: ReferenceSettings) -> ReferenceImage:
         aovs_key = (id(mscene), width, height)
         if at.aovs and aovs_key not in _AOVS:  # the camera rays' hits: the same for every render
-            _AOVS[aovs_key] = _primary_aovs(
-                mi, dr, mscene, sensor, exported.shape_index, width, height
-            )
+            _AOVS[aovs_key] = _primary_aovs(tracer, exported.shape_index)
         aovs = {k: v.copy() for k, v in _AOVS[aovs_key].items()} if at.aovs else {}
-        return _image(mi, scene, at, sums, aovs, exported, stopped_by, seconds)
+        return _image(mi, scene, at, sums, aovs, exported, (stopped_by, seconds))
 
     def at_snapshot(seconds: float) -> None:
         if snapshot is not None:
@@ -173,48 +172,53 @@ def _image(
     sums: _Sums,
     aovs: dict[str, F32],
     exported: ExportedScene,
-    stopped_by: str,
-    seconds: float,
+    stop: tuple[str, float],
 ) -> ReferenceImage:
-    """The image of the samples in `sums`, made with `settings`."""
+    """The image of the samples in `sums`, made with `settings`; `stop`: what ended the
+    render (its stopped_by) and when."""
     variance = None
     if sums.done >= 2:
         full = sums.variance()
         sums.update_stderr(full)
         variance = full.astype(np.float32)
-    header = _header(mi, scene, settings, sums, stopped_by, seconds)
+    header = _header(mi, scene, settings, sums, stop)
+    seconds = stop[1]
     mean = (sums.total / sums.done).astype(np.float32)
     notes, warnings = list(exported.notes), list(exported.warnings)
     return ReferenceImage(mean, variance, aovs, header, sums.done, seconds, notes, warnings)
 
 
+@dataclass(frozen=True)
+class _Tracer:
+    """What a pass traces with: Mitsuba, Dr.Jit, the loaded scene, its sensor and
+    integrator, and the render's size."""
+
+    mi: Any
+    dr: Any
+    mscene: Any
+    sensor: Any
+    integrator: Any
+    width: int
+    height: int
+
+
 def _pass_renderer(
-    mi: Any,
-    dr: Any,
-    mscene: Any,
-    sensor: Any,
-    integrator: Any,
-    size: tuple[int, int],
-    settings: ReferenceSettings,
+    t: _Tracer, settings: ReferenceSettings
 ) -> Callable[[int, int], NDArray[np.float64]]:
     """render_pass(seed, batch): `batch` samples per pixel, batch x H x W x 3."""
-    width, height = size
-    jit = bool(dr.is_jit_v(mi.Float))
+    mi, mscene, sensor, integrator = t.mi, t.mscene, t.sensor, t.integrator
+    jit = bool(t.dr.is_jit_v(mi.Float))
 
     def render_pass(seed: int, batch: int) -> NDArray[np.float64]:
         if jit:
-            return _jit_batch(
-                mi, dr, mscene, sensor, integrator, width, height, seed, batch, settings.centre_rays
-            )
+            return _jit_batch(t, seed, batch, settings.centre_rays)
         if settings.integrator == "path" and not settings.centre_rays:
             # Mitsuba's own render loop (C++ threads over image blocks, box filter, positions
             # uniform in the pixel): the same estimator as the loop below, at the scalar
             # variant's own speed (paper 640x480, 1 spp: 0.15 s against 1.4 s in Python).
             image = mi.render(mscene, sensor=sensor, integrator=integrator, spp=1, seed=seed)
             return np.asarray(image, np.float64)[None, :, :, :3]
-        return _scalar_pass(
-            mi, dr, mscene, sensor, integrator, width, height, seed, settings.centre_rays
-        )[None]
+        return _scalar_pass(t, seed, settings.centre_rays)[None]
 
     return render_pass
 
@@ -316,9 +320,10 @@ def _run_passes(
 
 
 def _header(
-    mi: Any, scene: Scene, settings: ReferenceSettings, sums: _Sums, stopped_by: str, seconds: float
+    mi: Any, scene: Scene, settings: ReferenceSettings, sums: _Sums, stop: tuple[str, float]
 ) -> dict[str, str]:
     """The EXR's rtval.* attributes: how the image was made."""
+    stopped_by, seconds = stop
     effects = [
         n
         for n, on in (
@@ -391,40 +396,21 @@ def _film_positions(
     return mi.Point2f((x + offset.x) / width, (y + offset.y) / height)
 
 
-def _jit_batch(
-    mi: Any,
-    dr: Any,
-    mscene: Any,
-    sensor: Any,
-    integrator: Any,
-    width: int,
-    height: int,
-    seed: int,
-    batch: int,
-    centre: bool,
-) -> NDArray[np.float64]:
+def _jit_batch(t: _Tracer, seed: int, batch: int, centre: bool) -> NDArray[np.float64]:
     """`batch` samples per pixel in one wavefront: batch x H x W x 3."""
+    mi, dr, width, height = t.mi, t.dr, t.width, t.height
     sampler = mi.load_dict({"type": "independent"})
     sampler.seed(seed, width * height * batch)
     pos = _film_positions(dr, mi, sampler, width, height, centre, batch)
-    ray, weight = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
-    L, _, _ = integrator.sample(mscene, sampler, ray, None, True)
+    ray, weight = t.sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
+    L, _, _ = t.integrator.sample(t.mscene, sampler, ray, None, True)
     L = L * weight
     out = np.stack([np.asarray(L.x), np.asarray(L.y), np.asarray(L.z)], axis=-1)
     return out.reshape(batch, height, width, 3).astype(np.float64)
 
 
-def _scalar_pass(
-    mi: Any,
-    dr: Any,
-    mscene: Any,
-    sensor: Any,
-    integrator: Any,
-    width: int,
-    height: int,
-    seed: int,
-    centre: bool,
-) -> NDArray[np.float64]:
+def _scalar_pass(t: _Tracer, seed: int, centre: bool) -> NDArray[np.float64]:
+    mi, width, height = t.mi, t.width, t.height
     out = np.zeros((height, width, 3), np.float64)
     sampler = mi.load_dict({"type": "independent"})
     for y in range(height):
@@ -435,21 +421,19 @@ def _scalar_pass(
             else:
                 o = sampler.next_2d()
                 pos = mi.Point2f((x + o.x) / width, (y + o.y) / height)
-            ray, weight = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
-            L, _, _ = integrator.sample(mscene, sampler, ray, None, True)
+            ray, weight = t.sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
+            L, _, _ = t.integrator.sample(t.mscene, sampler, ray, None, True)
             out[y, x] = [L[0] * weight[0], L[1] * weight[1], L[2] * weight[2]]
     return out
 
 
-def _primary_aovs(
-    mi: Any, dr: Any, mscene: Any, sensor: Any, shape_index: dict[str, int], width: int, height: int
-) -> dict[str, F32]:
+def _primary_aovs(t: _Tracer, shape_index: dict[str, int]) -> dict[str, F32]:
     """id, depth and N of the camera ray through each pixel centre (same meaning as the demo's)."""
-    ids = np.full((height, width), -1.0, np.float32)
-    depth = np.zeros((height, width), np.float32)
-    normal = np.zeros((height, width, 3), np.float32)
-    fill = _primary_hits_jit if dr.is_jit_v(mi.Float) else _primary_hits_scalar
-    fill(mi, dr, mscene, sensor, shape_index, ids, depth, normal)
+    ids = np.full((t.height, t.width), -1.0, np.float32)
+    depth = np.zeros((t.height, t.width), np.float32)
+    normal = np.zeros((t.height, t.width, 3), np.float32)
+    fill = _primary_hits_jit if t.dr.is_jit_v(t.mi.Float) else _primary_hits_scalar
+    fill(t, shape_index, ids, depth, normal)
     return {
         "id": ids,
         "depth": depth,
@@ -460,16 +444,10 @@ def _primary_aovs(
 
 
 def _primary_hits_jit(
-    mi: Any,
-    dr: Any,
-    mscene: Any,
-    sensor: Any,
-    shape_index: dict[str, int],
-    ids: F32,
-    depth: F32,
-    normal: F32,
+    t: _Tracer, shape_index: dict[str, int], ids: F32, depth: F32, normal: F32
 ) -> None:
     """Fills ids, depth and normal (H x W arrays) from one wavefront of centre rays."""
+    mi, dr, mscene, sensor = t.mi, t.dr, t.mscene, t.sensor
     height, width = ids.shape
     pos = _film_positions(dr, mi, None, width, height, True)
     ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
@@ -485,27 +463,21 @@ def _primary_hits_jit(
         lookup[rid] = shape_index.get(shape.id(), -1)
     for rid, index in lookup.items():
         ids[(registry == rid) & valid] = index
-    t = np.asarray(si.t).reshape(height, width)
+    hit_t = np.asarray(si.t).reshape(height, width)
     n = np.stack([np.asarray(c) for c in (si.sh_frame.n.x, si.sh_frame.n.y, si.sh_frame.n.z)], -1)
     d = np.stack([np.asarray(c) for c in (ray.d.x, ray.d.y, ray.d.z)], -1)
     n = n.reshape(height, width, 3)
     d = d.reshape(height, width, 3)
     flip = np.where((n * d).sum(-1, keepdims=True) > 0, -1.0, 1.0)
-    depth[valid] = t[valid]
+    depth[valid] = hit_t[valid]
     normal[valid] = (n * flip)[valid]
 
 
 def _primary_hits_scalar(
-    mi: Any,
-    dr: Any,
-    mscene: Any,
-    sensor: Any,
-    shape_index: dict[str, int],
-    ids: F32,
-    depth: F32,
-    normal: F32,
+    t: _Tracer, shape_index: dict[str, int], ids: F32, depth: F32, normal: F32
 ) -> None:
     """Fills ids, depth and normal (H x W arrays) one centre ray at a time."""
+    mi, mscene, sensor = t.mi, t.mscene, t.sensor
     height, width = ids.shape
     for y in range(height):
         for x in range(width):

@@ -24,7 +24,6 @@ import contextlib
 import io
 import json
 import os
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -370,40 +369,41 @@ def run_check(
     cache = RenderCache(settings.cache_dir)
     runs = _runs(settings, model)
     results: list[CaseResult] = []
-    with tempfile.TemporaryDirectory(prefix="rtval-check-") as tmp:
-        for scene_path in settings.scenes:
-            scene = load_scene(scene_path)
-            tol = tolerances.get(scene.name, tolerances.get("default", DEFAULT_TOLERANCES))
-            loaded = None
-            if model is not None:
-                renders = against.prepare(model, Path(scene_path), settings.size, cache)
-                loaded = against.load(renders)
-            for backend, mode in runs:
-                case = _one_case(
-                    settings, scene, scene_path, backend, mode, loaded, tol, cache, Path(tmp)
-                )
-                progress(
-                    f"{case.name:<28} {case.status.upper():<5}"
-                    + (f" against {case.against}" if model else "")
-                    + (" (cached render)" if case.cached else "")
-                    + (" (baseline updated)" if case.updated else "")
-                    + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
-                )
-                results.append(case)
+    for scene_path in settings.scenes:
+        scene = load_scene(scene_path)
+        tol = tolerances.get(scene.name, tolerances.get("default", DEFAULT_TOLERANCES))
+        loaded = None
+        if model is not None:
+            renders = against.prepare(model, Path(scene_path), settings.size, cache)
+            loaded = against.load(renders)
+        run = _SceneRun(settings, scene, scene_path, loaded, tol, cache)
+        for backend, mode in runs:
+            case = _one_case(run, backend, mode)
+            progress(
+                f"{case.name:<28} {case.status.upper():<5}"
+                + (f" against {case.against}" if model else "")
+                + (" (cached render)" if case.cached else "")
+                + (" (baseline updated)" if case.updated else "")
+                + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
+            )
+            results.append(case)
     return results
 
 
-def _one_case(
-    settings: CheckSettings,
-    scene: Scene,
-    scene_path: str,
-    backend: str,
-    mode: str,
-    model: LoadedModel | None,
-    tol: Tolerances,
-    cache: RenderCache,
-    tmp: Path,
-) -> CaseResult:
+@dataclass(frozen=True)
+class _SceneRun:
+    """What every case of one scene shares."""
+
+    settings: CheckSettings
+    scene: Scene
+    scene_path: str
+    model: LoadedModel | None
+    tol: Tolerances
+    cache: RenderCache
+
+
+def _one_case(run: _SceneRun, backend: str, mode: str) -> CaseResult:
+    settings, scene, model = run.settings, run.scene, run.model
     cmd = settings.renderer
     start = time.perf_counter()
     case = CaseResult(
@@ -413,21 +413,21 @@ def _one_case(
         "pass",
         renderer=cmd.name if cmd else "rtdemo",
         against=model.target.name if model else "baseline",
-        scene_file=str(scene_path),
+        scene_file=str(run.scene_path),
     )
     baseline = baseline_path(settings.baseline_dir, cmd.name if cmd else None, scene.name, mode)
     # Against a model there is no baseline: the model was rendered at --size or the scene's.
     sized = case_size(settings, scene, None if model else baseline)
     case.size = sized[0]
     try:
-        test = _render_case(settings, case, scene, scene_path, backend, model, cache, sized)
+        test = _render_case(run, case, backend, sized)
     except (foreign.RenderFailed, ToolError, ImageError) as e:
         case.status, case.failed_effects = "fail", ["render"]
         case.reasons = [f"{case.label}: render failed: {e}"]
         case.overhead_seconds = time.perf_counter() - start - case.seconds
         return case
     case.test_encoding = test.encoding
-    _judge_case_image(settings, case, test, scene_path, baseline, model, tol, cache, sized[0])
+    _judge_case_image(run, case, test, baseline, sized[0])
     if settings.update and case.status == "fail":
         _write_baseline(settings.baseline_dir, baseline, test, header=cmd is None)
         case.updated = True
@@ -436,51 +436,31 @@ def _one_case(
 
 
 def _render_case(
-    settings: CheckSettings,
-    case: CaseResult,
-    scene: Scene,
-    scene_path: str,
-    backend: str,
-    model: LoadedModel | None,
-    cache: RenderCache,
-    sized: tuple[tuple[int, int], str],
+    run: _SceneRun, case: CaseResult, backend: str, sized: tuple[tuple[int, int], str]
 ) -> Image:
     """The case's image, by rtdemo or by the renderer under test; its seconds on the case."""
+    settings, model, scene_path = run.settings, run.model, run.scene_path
     cmd, (size, size_from) = settings.renderer, sized
     if cmd is None:
         demo = model is not None and model.target.is_demo and case.mode == model.target.name
         mode_args = model.target.rtdemo_args() if model and demo else ["--mode", case.mode]
         test, case.seconds, case.cached = _render_rtdemo(
-            settings, scene_path, backend, mode_args, cache, size
+            settings, scene_path, backend, mode_args, run.cache, size
         )
         return test
-    got = foreign.render(
-        cmd,
-        scene=scene,
-        scene_file=Path(scene_path),
-        size=size,
-        spp=settings.spp,
-        mode=case.mode,
-        timeout=settings.timeout,
-        size_from=size_from,
-        sandbox=settings.sandbox,
+    request = foreign.SceneRequest(
+        run.scene, Path(scene_path), size, settings.spp, case.mode, size_from
     )
+    got = foreign.render(cmd, request, timeout=settings.timeout, sandbox=settings.sandbox)
     case.seconds = got.seconds
     return got.image
 
 
 def _judge_case_image(
-    settings: CheckSettings,
-    case: CaseResult,
-    test: Image,
-    scene_path: str,
-    baseline: Path,
-    model: LoadedModel | None,
-    tol: Tolerances,
-    cache: RenderCache,
-    size: tuple[int, int],
+    run: _SceneRun, case: CaseResult, test: Image, baseline: Path, size: tuple[int, int]
 ) -> None:
     """The case's verdict: against the model, or against its baseline (none: a failure)."""
+    model, keep = run.model, run.settings.keep_images
     try:
         ref = model.reference.rgb if model else stored_baseline(baseline)
     except ImageError as e:
@@ -498,10 +478,10 @@ def _judge_case_image(
             f"{'model' if model else 'baseline'}'s {ref.shape[1]}x{ref.shape[0]}"
         ]
     elif model is not None:
-        judge_against(case, test, model, keep=settings.keep_images)
+        judge_against(case, test, model, keep=keep)
     else:
-        masks = scene_masks(Path(scene_path), size, cache)
-        judge_case(case, ref, test.rgb, tol, masks, keep=settings.keep_images)
+        masks = scene_masks(Path(run.scene_path), size, run.cache)
+        judge_case(case, ref, test.rgb, run.tol, masks, keep=keep)
 
 
 def stored_baseline(baseline: Path) -> F32 | None:

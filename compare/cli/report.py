@@ -36,10 +36,11 @@ def run_report(args: argparse.Namespace) -> int:
 def _build(args: argparse.Namespace) -> Path:
     from compare.render.progress import Progress
     from compare.report.build import build_report
+    from compare.report.context import ReportOptions
 
-    return build_report(
-        args.scene,
-        args.reports_dir,
+    opts = ReportOptions(
+        Path(args.scene),
+        Path(args.reports_dir),
         size=args.size,
         test_image=args.test_image,
         test_label=args.label,
@@ -47,9 +48,8 @@ def _build(args: argparse.Namespace) -> Path:
         against=args.against,
         jobs=args.jobs,
         pdf=not args.no_pdf,
-        cache_dir=args.cache,
-        progress=Progress(sys.stderr),
     )
+    return build_report(opts, args.cache, Progress(sys.stderr))
 
 
 def _check_scene_size(scene_file: str) -> None:

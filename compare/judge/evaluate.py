@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TypedDict, Unpack
 
 import numpy as np
 
@@ -182,20 +183,21 @@ class Evaluation:
         return [f"{k}: {self.exact.sentence(k)}; FLIP {self.effect_flip(k):.2f}" for k, _ in bad]
 
 
-def evaluate_pair(
-    ref: F32,
-    test: F32,
-    *,
-    hdr: bool = False,
-    tolerances: Tolerances = Tolerances(),
-    region: BOOL | None = None,
-    masks: dict[str, BOOL] | None = None,
-    rules: dict[str, EffectRule] | None = None,
-    flip_at_zero: float = FLIP_AT_ZERO_SCORE,
-    pass_score: float | None = None,
-    flip: bool = True,
-    exact: ExactInputs | None = None,
-) -> Evaluation:
+class PairOptions(TypedDict, total=False):
+    """evaluate_pair's options; each is described in its docstring."""
+
+    hdr: bool  # default False
+    tolerances: Tolerances  # default Tolerances()
+    region: BOOL | None
+    masks: dict[str, BOOL] | None
+    rules: dict[str, EffectRule] | None
+    flip_at_zero: float  # default FLIP_AT_ZERO_SCORE
+    pass_score: float | None
+    flip: bool  # default True
+    exact: ExactInputs | None
+
+
+def evaluate_pair(ref: F32, test: F32, **options: Unpack[PairOptions]) -> Evaluation:
     """Every metric of `test` against `ref`, globally (over `region`) and per effect (over each
     non-empty mask, intersected with `region`), the tolerance verdicts and, with masks, the
     score under `rules`. With `exact`, `ref` is a demo model's pixel-centre render and the
@@ -205,7 +207,12 @@ def evaluate_pair(
     different sizes."""
 
     check_same_size(ref, test)
+    region, masks = options.get("region"), options.get("masks")
+    tolerances = options.get("tolerances", Tolerances())
+    hdr, flip = options.get("hdr", False), options.get("flip", True)
     result = Evaluation(ref, test, tolerances, hdr, region, dict(masks or {}), flip=flip)
+    rules, pass_score = options.get("rules"), options.get("pass_score")
+    exact = options.get("exact")
     if exact is not None:
         result.exact = exact_match(
             [ref, *exact.offsets],
@@ -229,7 +236,7 @@ def evaluate_pair(
         result.score = score_effects(
             result.effect_metrics(),
             rules,
-            flip_at_zero=flip_at_zero,
+            flip_at_zero=options.get("flip_at_zero", FLIP_AT_ZERO_SCORE),
             pass_score=pass_score,
             absent=result.absent_effects,
         )

@@ -123,19 +123,26 @@ def _write_xml(scene: Scene, folder: Path, spp: int) -> Path:
     return path
 
 
-def _values(
-    cmd: RendererCommand,
-    scene: Scene,
-    scene_file: Path,
-    size: tuple[int, int],
-    spp: int,
-    mode: str,
-    out: Path,
-) -> dict[str, str]:
+@dataclass(frozen=True)
+class SceneRequest:
+    """One scene to render: what the placeholders stand for."""
+
+    scene: Scene
+    scene_file: Path
+    size: tuple[int, int]
+    spp: int = 1
+    mode: str = "default"
+    # Where the size came from ("--size", "baseline", "scene"), for the advice on a wrongly
+    # sized image.
+    size_from: str = "--size"
+
+
+def _values(cmd: RendererCommand, request: SceneRequest, out: Path) -> dict[str, str]:
     """What each placeholder stands for; {scene_xml} is written into `out`'s folder."""
-    width, height = size
+    scene, spp, mode = request.scene, request.spp, request.mode
+    width, height = request.size
     values = {
-        "scene": str(Path(scene_file).resolve()),
+        "scene": str(Path(request.scene_file).resolve()),
         "out": str(out),
         "width": str(width),
         "height": str(height),
@@ -171,23 +178,17 @@ def _run_sandboxed(
 
 def render(
     cmd: RendererCommand,
+    request: SceneRequest,
     *,
-    scene: Scene,
-    scene_file: Path,
-    size: tuple[int, int],
-    spp: int = 1,
-    mode: str = "default",
     timeout: float | None = None,
-    size_from: str = "--size",
     sandbox: bool = False,
 ) -> ForeignRender:
     """Runs the renderer on one scene and reads its image. Raises RenderFailed naming the
-    command, the exit status or time limit, and the end of its stderr. `size_from`: where the
-    size came from ("--size", "baseline", "scene"), for the advice on a wrongly sized image."""
-    width, height = size
+    command, the exit status or time limit, and the end of its stderr."""
+    width, height = size = request.size
     with tempfile.TemporaryDirectory(prefix="rtval-render-") as tmp:
         out = Path(tmp) / f"out.{cmd.output_format}"
-        values = _values(cmd, scene, scene_file, size, spp, mode, out)
+        values = _values(cmd, request, out)
         if sandbox:
             seconds, argv = _run_sandboxed(cmd, values, out, size, timeout)
             shown, tail = shlex.join(argv), ""
@@ -203,9 +204,9 @@ def render(
             got = f"{image.shape[1]}x{image.shape[0]}"
             raise RenderFailed(
                 f"image is {got}, expected {width}x{height} ({{width}}x{{height}}"
-                f"{_size_advice(cmd, size_from, got)}): {shown}{tail}"
+                f"{_size_advice(cmd, request.size_from, got)}): {shown}{tail}"
             )
-        image.path = f"{cmd.name}:{scene.name}"
+        image.path = f"{cmd.name}:{request.scene.name}"
         return ForeignRender(image, seconds, argv)
 
 

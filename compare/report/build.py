@@ -50,25 +50,10 @@ from scene_model.scene import load_scene
 
 
 def build_report(
-    scene_path: str | Path,
-    reports_dir: str | Path = "reports",
-    *,
-    size: tuple[int, int] | None = None,
-    test_image: str | None = None,
-    test_label: str | None = None,
-    test_encoding: str | None = None,
-    against: str | None = None,
-    jobs: int = 1,
-    pdf: bool = True,
-    cache_dir: str | Path | None = None,
-    progress: Progress | None = None,
+    opts: ReportOptions, cache_dir: str | Path | None = None, progress: Progress | None = None
 ) -> Path:
-    """Writes reports_dir/<scene>/: a folder that holds everything its page links to
+    """Writes opts.reports_dir/<scene>/: a folder that holds everything its page links to
     (relative links only), so it can be zipped and opened elsewhere."""
-    opts = ReportOptions(
-        Path(scene_path), Path(reports_dir), size, test_image, test_label, test_encoding,
-        against, jobs, pdf,
-    )  # fmt: skip
     with interrupt.stop_guard():
         ctx = start(opts, RenderCache(cache_dir), progress or Progress())
         try:

@@ -32,15 +32,17 @@ TEST_KEY = "test-image"  # a given image under test, among the plan's renders
 
 @dataclass(frozen=True)
 class ReportOptions:
+    """What `rtval report` was asked for; the defaults are the command's."""
+
     scene_file: Path
-    reports_dir: Path
-    size: tuple[int, int] | None
-    test_image: str | None  # a render to grade in the demo's place
-    test_label: str | None
-    test_encoding: str | None
-    against: str | None
-    jobs: int
-    pdf: bool
+    reports_dir: Path = Path("reports")
+    size: tuple[int, int] | None = None  # None: the scene's own
+    test_image: str | None = None  # a render to grade in the demo's place
+    test_label: str | None = None
+    test_encoding: str | None = None
+    against: str | None = None
+    jobs: int = 1
+    pdf: bool = True
 
     def __post_init__(self) -> None:
         why = label_problem(self.test_label) if self.test_label is not None else None

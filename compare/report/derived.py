@@ -241,15 +241,16 @@ def derived_figure(
 
 
 def derived_map(
-    cache: RenderCache,
     ev: Evaluator,
     kind: str,
     title: str,
-    ref: Callable[[], Image],
     test: Callable[[], Image],
     test_hash: str,
     target: Path,
 ) -> None:
+    """One difference map (kind "diff", "flip" or "ssim") of `test` against the reference."""
+    ref = ev.ref
+
     def draw(p: Path) -> None:
         if kind == "diff":
             figs.signed_difference(ref().rgb, test().rgb, p, f"signed difference: {title}")
@@ -274,4 +275,4 @@ def derived_map(
                 label="SSIM",
             )
 
-    derived_figure(cache, f"map-{kind}", ev.ref_hash + test_hash + title, target, draw)
+    derived_figure(ev.cache, f"map-{kind}", ev.ref_hash + test_hash + title, target, draw)

@@ -80,7 +80,6 @@ def changed_pixels(imgs: LazyImages, cache: RenderCache, before: str, after: str
 def difference_maps(ctx: ReportContext) -> list[dict[str, str]]:
     """The maps' figures in images/, one row per mapped render: its key, title and files."""
     titles = dict(ctx.featured())
-    reference = ctx.imgs.loader(ctx.plan.reference.key)
     rows = []
     for k in ctx.mapped():
         title = titles.get(k, k)
@@ -89,6 +88,6 @@ def difference_maps(ctx: ReportContext) -> list[dict[str, str]]:
             files[kind] = f"images/map-{k}-{kind}.png"
             target = ctx.out / files[kind]
             test = ctx.imgs.loader(k)
-            derived_map(ctx.cache, ctx.ev, kind, title, reference, test, ctx.hashes[k], target)
+            derived_map(ctx.ev, kind, title, test, ctx.hashes[k], target)
         rows.append({"key": k, "label": title, **files})
     return rows
