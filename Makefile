@@ -54,7 +54,7 @@ lint-cpp:
 	clang-format --style=file:demo_cpp/.clang-format --dry-run --Werror $(CPP_FORMATTED)
 
 # The C++ scene loader under libFuzzer (clang, ASan, UBSan): 150k runs in `make test`, 10 min in `make fuzz`.
-$(FUZZ_BIN): $(STAMP) demo_cpp/fuzz/scene_loader_fuzz.cpp demo_cpp/src/scene_loader.cpp
+$(FUZZ_BIN): $(STAMP) demo_cpp/fuzz/scene_loader_fuzz.cpp demo_cpp/src/io/scene_loader.cpp
 	cmake -S demo_cpp -B build/fuzz -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DRTDEMO_FUZZ=ON \
 	  -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo > /dev/null
 	cmake --build build/fuzz --target scene_loader_fuzz

@@ -11,6 +11,7 @@ from helpers import SCENES, render_demo, run
 from PIL import Image as PILImage
 
 from compare.judge.images import read_image
+from compare.judge.target_model import DEMO_MODES, MODE_QUIRKS
 
 CLASSIC = str(SCENES / "classic.json")
 
@@ -77,6 +78,18 @@ def test_header_lists_the_quirks_present(rtdemo: str, tmp_path: Path) -> None:
     assert quirks("--fix", "Q11,Q12,Q13") == paper.removesuffix(",Q11,Q12,Q13")
     assert quirks("--mode", "classic", "--quirk", "Q12") == "Q1,Q3,Q5,Q6,Q7,Q8,Q10,Q12"
     assert quirks("--mode", "physical", "--quirk", "Q13,Q11") == "Q11,Q13"
+
+
+@pytest.mark.parametrize("mode", DEMO_MODES)
+def test_the_mode_presets_of_python_and_rtdemo_are_one(
+    rtdemo: str, tmp_path: Path, mode: str
+) -> None:
+    """MODE_QUIRKS (what the judge believes a mode holds) and rtdemo's quirks_for (what it
+    renders): a mode changed on one side only would judge against the wrong algorithm."""
+    header = render_demo(rtdemo, CLASSIC, tmp_path / "m.exr", "--mode", mode, size=(8, 6)).header
+    listed = header["rtval.quirks"]
+    rendered = set() if listed == "none" else {int(q[1:]) for q in listed.split(",")}
+    assert rendered == set(MODE_QUIRKS[mode])
 
 
 def test_ray_counts_follow_the_options(rtdemo: str, tmp_path: Path) -> None:

@@ -20,7 +20,8 @@ MITSUBA_MODELS = ("mitsuba", "mitsuba-path")
 DEMO_MODES = ("paper", "classic", "physical")
 QUIRK_COUNT = 13
 SWITCHABLE_EFFECTS = ("shadows", "reflection", "refraction")  # rtdemo's --no-<effect>
-# The quirks each mode has (docs/paper-model.md); the C++ twin is quirks_for() in quirks.cpp.
+# The quirks each mode has (docs/paper-model.md); the C++ twin is quirks_for() in quirks.cpp,
+# held equal by tests/test_rtdemo_cli.py.
 MODE_QUIRKS: dict[str, frozenset[int]] = {
     "paper": frozenset(range(1, QUIRK_COUNT + 1)),
     "classic": frozenset(range(1, QUIRK_COUNT + 1)) - {2, 4, 9, 11, 12, 13},

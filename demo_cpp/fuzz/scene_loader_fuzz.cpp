@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <string>
 
-#include "scene_loader.h"
+#include "io/scene_loader.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     try {

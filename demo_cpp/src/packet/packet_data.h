@@ -26,10 +26,27 @@ struct SceneArrays {
 };
 constexpr int kLight = 1, kSpecular = 2;
 
-// Quirks present (q[1] .. q[13]), effect switches and the named mistakes that change the
-// shading (mistakes.h; the others are settings, mistake_settings.h): uniform over a frame.
+// The quirks present (quirks.h names them), one boolean each.
+struct QuirkFlags {
+    bool paper_intersection;                // Q1
+    bool eta_one_over_ior_leaving;          // Q2
+    bool nan_at_total_internal_reflection;  // Q3
+    bool shared_shadow_factor;              // Q4
+    bool shadow_rays_pass_light;            // Q5
+    bool diffuse_at_max_depth;              // Q6
+    bool no_pi_no_falloff;                  // Q7
+    bool paper_fresnel;                     // Q8
+    bool glass_partial_shadow;              // Q9
+    bool pixel_centre_rays;                 // Q10
+    bool lit_colour_starts_at_one;          // Q11
+    bool no_lambert_cosine;                 // Q12
+    bool no_own_emission;                   // Q13
+};
+
+// Quirks present, effect switches and the named mistakes that change the shading (mistakes.h;
+// the others are settings, mistake_settings.h): uniform over a frame.
 struct Options {
-    bool q[14];
+    QuirkFlags quirk;
     int max_depth;
     bool shadows, reflection, refraction;
     bool no_inside_flip, flipped_normal, eta_inverted;

@@ -12,13 +12,33 @@
 #include <thread>
 #include <vector>
 
-#include "camera_rays.h"
-#include "cpu_features.h"
-#include "light_units.h"
+#include "core/camera_rays.h"
+#include "core/cpu_features.h"
+#include "core/light_units.h"
+#include "core/worker_threads.h"
 #include "packet/packet_data.h"
-#include "worker_threads.h"
 
 namespace rt {
+
+namespace {
+packet::QuirkFlags quirk_flags(const QuirkSet& q) {
+    packet::QuirkFlags f{};
+    f.paper_intersection = q.has(Quirk::paper_intersection);
+    f.eta_one_over_ior_leaving = q.has(Quirk::eta_one_over_ior_leaving);
+    f.nan_at_total_internal_reflection = q.has(Quirk::nan_at_total_internal_reflection);
+    f.shared_shadow_factor = q.has(Quirk::shared_shadow_factor);
+    f.shadow_rays_pass_light = q.has(Quirk::shadow_rays_pass_light);
+    f.diffuse_at_max_depth = q.has(Quirk::diffuse_at_max_depth);
+    f.no_pi_no_falloff = q.has(Quirk::no_pi_no_falloff);
+    f.paper_fresnel = q.has(Quirk::paper_fresnel);
+    f.glass_partial_shadow = q.has(Quirk::glass_partial_shadow);
+    f.pixel_centre_rays = q.has(Quirk::pixel_centre_rays);
+    f.lit_colour_starts_at_one = q.has(Quirk::lit_colour_starts_at_one);
+    f.no_lambert_cosine = q.has(Quirk::no_lambert_cosine);
+    f.no_own_emission = q.has(Quirk::no_own_emission);
+    return f;
+}
+}  // namespace
 
 const packet::Kernels& kernels_for(Isa isa) {
     switch (isa) {
@@ -286,8 +306,8 @@ TilePixels at_pixel(const TilePixels& p, std::ptrdiff_t offset) {
 
 packet::Options options_for(const TraceOptions& trace) {
     packet::Options opt{};
-    static_assert(sizeof(opt.q) == kQuirkCount + 1, "one flag per quirk, indexed from 1");
-    for (int q = 1; q <= kQuirkCount; ++q) opt.q[q] = trace.quirks.has(static_cast<Quirk>(q));
+    static_assert(sizeof(packet::QuirkFlags) == kQuirkCount, "one flag per quirk");
+    opt.quirk = quirk_flags(trace.quirks);
     opt.max_depth = trace.max_depth;
     opt.shadows = trace.shadows;
     opt.reflection = trace.reflection;

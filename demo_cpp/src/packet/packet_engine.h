@@ -6,11 +6,11 @@
 
 #include <string>
 
-#include "band_sink.h"
-#include "cpu_renderer.h"
-#include "image.h"
-#include "scene.h"
-#include "tracer.h"
+#include "core/band_sink.h"
+#include "core/cpu_renderer.h"
+#include "core/scene.h"
+#include "core/tracer.h"
+#include "io/image.h"
 
 namespace rt {
 

@@ -18,10 +18,10 @@
 #include <thread>
 #include <vector>
 
-#include "image_io.h"
-#include "mistake_settings.h"
+#include "core/mistake_settings.h"
+#include "io/image_io.h"
+#include "io/scene_loader.h"
 #include "packet/packet_data.h"
-#include "scene_loader.h"
 
 namespace rt {
 namespace {
@@ -150,7 +150,10 @@ TEST(PacketEngine, EqualsScalarWithEachQuirkFixed) {
 // Q7 present and fixed, Q1 present and fixed), one at a time and all three.
 TEST(PacketEngine, EqualsScalarWithEachDirectLightQuirkToggled) {
     const std::vector<std::vector<Quirk>> toggles = {
-        {Quirk::Q11}, {Quirk::Q12}, {Quirk::Q13}, {Quirk::Q11, Quirk::Q12, Quirk::Q13}};
+        {Quirk::lit_colour_starts_at_one},
+        {Quirk::no_lambert_cosine},
+        {Quirk::no_own_emission},
+        {Quirk::lit_colour_starts_at_one, Quirk::no_lambert_cosine, Quirk::no_own_emission}};
     for (const char* scene : kProjectScenes)
         for (const std::vector<Quirk>& t : toggles) {
             expect_same({scene, Mode::paper, t});
@@ -162,33 +165,46 @@ TEST(PacketEngine, EqualsScalarWithEachDirectLightQuirkToggled) {
         }
     // Several lights, lights behind surfaces and a light seen through glass.
     for (const char* scene : {"stress/coloured_lights.json", "stress/light_inside_glass.json"})
-        for (Quirk q : {Quirk::Q11, Quirk::Q12, Quirk::Q13}) {
+        for (Quirk q :
+             {Quirk::lit_colour_starts_at_one, Quirk::no_lambert_cosine, Quirk::no_own_emission}) {
             Case c{scene, Mode::physical, {}};
             c.adds = {q};
             expect_same(c);
-            expect_same({scene, Mode::paper, {Quirk::Q4, q}});
+            expect_same({scene, Mode::paper, {Quirk::shared_shadow_factor, q}});
         }
 }
 
 TEST(PacketEngine, EqualsScalarWithQuirkCombinations) {
-    expect_same({"classic.json", Mode::classic, {Quirk::Q1, Quirk::Q3}});
-    expect_same({"lit.json", Mode::paper, {Quirk::Q1, Quirk::Q5, Quirk::Q7}});
-    expect_same({"classic.json", Mode::paper, {Quirk::Q4, Quirk::Q6, Quirk::Q8, Quirk::Q9}});
-    expect_same({"paper.json", Mode::classic, {Quirk::Q2, Quirk::Q3, Quirk::Q10}, 9});
+    expect_same({"classic.json",
+                 Mode::classic,
+                 {Quirk::paper_intersection, Quirk::nan_at_total_internal_reflection}});
+    expect_same(
+        {"lit.json",
+         Mode::paper,
+         {Quirk::paper_intersection, Quirk::shadow_rays_pass_light, Quirk::no_pi_no_falloff}});
+    expect_same({"classic.json",
+                 Mode::paper,
+                 {Quirk::shared_shadow_factor, Quirk::diffuse_at_max_depth, Quirk::paper_fresnel,
+                  Quirk::glass_partial_shadow}});
+    expect_same({"paper.json",
+                 Mode::classic,
+                 {Quirk::eta_one_over_ior_leaving, Quirk::nan_at_total_internal_reflection,
+                  Quirk::pixel_centre_rays},
+                 9});
 }
 
 // Target models such as classic+Q2 (compare/judge/target_model.py): a mode with quirks added.
 TEST(PacketEngine, EqualsScalarWithQuirksAdded) {
     for (const char* scene : {"classic.json", "paper.json", "stress/tir_grazing.json"}) {
         Case c{scene, Mode::classic, {}};
-        c.adds = {Quirk::Q2};
+        c.adds = {Quirk::eta_one_over_ior_leaving};
         expect_same(c);
     }
     Case physical{"lit.json", Mode::physical, {}};
-    physical.adds = {Quirk::Q5, Quirk::Q8};
+    physical.adds = {Quirk::shadow_rays_pass_light, Quirk::paper_fresnel};
     expect_same(physical);
-    Case fixed_then_added{"classic.json", Mode::classic, {Quirk::Q3}};
-    fixed_then_added.adds = {Quirk::Q4, Quirk::Q9};
+    Case fixed_then_added{"classic.json", Mode::classic, {Quirk::nan_at_total_internal_reflection}};
+    fixed_then_added.adds = {Quirk::shared_shadow_factor, Quirk::glass_partial_shadow};
     expect_same(fixed_then_added);
 }
 

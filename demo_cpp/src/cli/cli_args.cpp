@@ -1,0 +1,19 @@
+#include "cli/cli_args.h"
+
+namespace rt {
+
+int parse_int_arg(const std::string& option, const std::string& text, int lo, int hi) {
+    const std::string rule = "an integer from " + std::to_string(lo) + " to " + std::to_string(hi);
+    long long v = 0;
+    std::size_t used = 0;
+    try {
+        v = std::stoll(text, &used);
+    } catch (const std::exception&) {
+        throw UsageError(option + ": expected " + rule + ", got '" + text + "'");
+    }
+    if (used != text.size() || v < lo || v > hi)
+        throw UsageError(option + ": expected " + rule + ", got '" + text + "'");
+    return static_cast<int>(v);
+}
+
+}  // namespace rt

@@ -1,0 +1,163 @@
+#include "cli/render_args.h"
+
+#include <algorithm>
+#include <iterator>
+#include <map>
+#include <thread>
+
+#include "io/file_kind.h"
+
+namespace rt {
+namespace {
+
+// An option that takes a value: stores it in `out`, given the option as typed (for messages).
+using ValuedOption = void (*)(RenderArgs& out, const std::string& option, const std::string& value);
+// An option without a value.
+using FlagOption = void (*)(RenderArgs& out);
+
+Engine parse_engine(const std::string& text) {
+    if (text == "packet") return Engine::packet;
+    if (text == "scalar") return Engine::scalar;
+    throw std::invalid_argument("expected packet or scalar, got '" + text + "'");
+}
+
+bool parse_backend_is_gl(const std::string& text) {
+    if (text != "cpu" && text != "gl")
+        throw std::invalid_argument("expected cpu or gl, got '" + text + "'");
+    return text == "gl";
+}
+
+// --fix (present = false) and --quirk (present = true), applied in command order.
+void add_quirk_changes(RenderArgs& out, const std::string& option, const std::string& text,
+                       bool present) {
+    for (Quirk q : parse_option(option, text, parse_quirk_list))
+        out.quirk_changes.push_back({q, present});
+}
+
+const std::map<std::string, ValuedOption>& valued_options() {
+    using S = const std::string&;
+    static const std::map<std::string, ValuedOption> table = {
+        {"-o", [](RenderArgs& r, S, S v) { r.exr = v; }},
+        {"--output", [](RenderArgs& r, S, S v) { r.exr = v; }},
+        {"--png", [](RenderArgs& r, S, S v) { r.png = v; }},
+        {"--ppm", [](RenderArgs& r, S, S v) { r.ppm = v; }},
+        {"--exr-compression",
+         [](RenderArgs& r, S o, S v) {
+             r.compression = parse_option(o, v, parse_exr_compression);
+         }},
+        {"--exr-channels",
+         [](RenderArgs& r, S o, S v) { r.exr_channels = parse_option(o, v, parse_exr_channels); }},
+        {"--ppm-rounding",
+         [](RenderArgs& r, S o, S v) { r.ppm_rounding = parse_option(o, v, parse_ppm_rounding); }},
+        {"--mode", [](RenderArgs& r, S o, S v) { r.mode = parse_option(o, v, parse_mode); }},
+        {"--fix", [](RenderArgs& r, S o, S v) { add_quirk_changes(r, o, v, false); }},
+        {"--quirk", [](RenderArgs& r, S o, S v) { add_quirk_changes(r, o, v, true); }},
+        {"--mistake",
+         [](RenderArgs& r, S o, S v) { r.mistakes = parse_option(o, v, parse_mistake_list); }},
+        {"--spp", [](RenderArgs& r, S o, S v) { r.spp = parse_int_arg(o, v, 1, 4096); }},
+        {"--max-depth", [](RenderArgs& r, S o, S v) { r.max_depth = parse_int_arg(o, v, 0, 64); }},
+        {"--width", [](RenderArgs& r, S o, S v) { r.width = parse_int_arg(o, v, 1, kMaxSide); }},
+        {"--height", [](RenderArgs& r, S o, S v) { r.height = parse_int_arg(o, v, 1, kMaxSide); }},
+        {"--threads", [](RenderArgs& r, S o, S v) { r.threads = parse_int_arg(o, v, 1, 1024); }},
+        {"--backend",
+         [](RenderArgs& r, S o, S v) { r.gl = parse_option(o, v, parse_backend_is_gl); }},
+        {"--engine", [](RenderArgs& r, S o, S v) { r.engine = parse_option(o, v, parse_engine); }},
+        {"--frames", [](RenderArgs& r, S o, S v) { r.frames = parse_int_arg(o, v, 1, 10000); }},
+    };
+    return table;
+}
+
+const std::map<std::string, FlagOption>& flag_options() {
+    static const std::map<std::string, FlagOption> table = {
+        {"--no-shadows", [](RenderArgs& r) { r.shadows = false; }},
+        {"--no-reflection", [](RenderArgs& r) { r.reflection = false; }},
+        {"--no-refraction", [](RenderArgs& r) { r.refraction = false; }},
+        {"-q", [](RenderArgs& r) { r.quiet = true; }},
+        {"--quiet", [](RenderArgs& r) { r.quiet = true; }},
+        {"--keep-frame", [](RenderArgs& r) { r.keep_frame = true; }},
+    };
+    return table;
+}
+
+// What no single option can check: a scene, an output where one is needed, a square --spp.
+void check_complete(const RenderArgs& out, bool output_required) {
+    if (out.scene_path.empty()) throw UsageError("missing SCENE.json (see rtdemo render --help)");
+    if (output_required && out.exr.empty() && out.png.empty() && out.ppm.empty())
+        throw UsageError("no output: give -o OUT.exr, --png OUT.png or --ppm OUT.ppm");
+    if (strata_per_axis(out.spp) == 0)
+        throw UsageError("--spp: expected a perfect square (1, 4, 9, 16, ...), got " +
+                         std::to_string(out.spp));
+}
+
+}  // namespace
+
+RenderArgs parse_render_args(const std::vector<std::string>& args, bool output_required) {
+    RenderArgs out;
+    for (std::size_t i = 0; i < args.size(); ++i) {
+        const std::string& a = args[i];
+        if (const auto flag = flag_options().find(a); flag != flag_options().end()) {
+            flag->second(out);
+        } else if (const auto valued = valued_options().find(a); valued != valued_options().end()) {
+            if (i + 1 >= args.size()) throw UsageError(a + ": expected a value");
+            valued->second(out, a, args[++i]);
+        } else if (!a.empty() && a[0] == '-') {
+            throw UsageError("unknown option '" + a + "' (see rtdemo render --help)");
+        } else if (out.scene_path.empty()) {
+            out.scene_path = a;
+        } else {
+            throw UsageError("unexpected argument '" + a + "' (one scene file per call)");
+        }
+    }
+    check_complete(out, output_required);
+    return out;
+}
+
+void check_distinct_outputs(const RenderArgs& a) {
+    const std::pair<const char*, const std::string*> outs[] = {
+        {"-o", &a.exr}, {"--png", &a.png}, {"--ppm", &a.ppm}};
+    for (std::size_t i = 0; i < std::size(outs); ++i) {
+        if (outs[i].second->empty()) continue;
+        if (same_file(*outs[i].second, a.scene_path))
+            throw UsageError(*outs[i].second + ": " + outs[i].first +
+                             " names the scene file; refusing to overwrite an input");
+        for (std::size_t j = 0; j < i; ++j)
+            if (!outs[j].second->empty() && same_file(*outs[i].second, *outs[j].second))
+                throw UsageError(*outs[i].second + ": " + outs[i].first + " and " + outs[j].first +
+                                 " name the same file");
+    }
+}
+
+RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
+    RenderSettings settings;
+    settings.trace.quirks = quirks_for(a.mode);
+    for (const auto& [q, present] : a.quirk_changes) {
+        if (present)
+            settings.trace.quirks.add(q);
+        else
+            settings.trace.quirks.fix(q);
+    }
+    if (a.mistakes.any() && a.gl)
+        throw UsageError("--mistake needs the CPU tracer (--backend cpu)");
+    settings.trace.mistakes = a.mistakes;
+    if (a.spp > 1 && settings.trace.quirks.has(Quirk::pixel_centre_rays))
+        throw UsageError("--spp " + std::to_string(a.spp) +
+                         " needs quirk Q10 fixed (use --mode physical or --fix Q10)");
+    settings.trace.max_depth = a.max_depth.value_or(scene.max_depth);
+    settings.trace.shadows = a.shadows;
+    settings.trace.reflection = a.reflection;
+    settings.trace.refraction = a.refraction;
+    settings.width = a.width.value_or(scene.camera.width);
+    settings.height = a.height.value_or(scene.camera.height);
+    if (static_cast<long long>(settings.width) * settings.height > kMaxPixels)
+        throw UsageError("image of " + std::to_string(settings.width) + "x" +
+                         std::to_string(settings.height) + " pixels is too large (at most " +
+                         std::to_string(kMaxPixels) + " pixels)");
+    settings.spp = a.spp;
+    settings.engine = a.engine;
+    settings.aovs = !a.exr.empty() && a.exr_channels == ExrChannels::all;  // only in the EXR
+    settings.threads =
+        a.threads > 0 ? a.threads : std::max(1u, std::thread::hardware_concurrency());
+    return settings;
+}
+
+}  // namespace rt

@@ -1,0 +1,154 @@
+#include "cli/render_args.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace rt {
+namespace {
+
+std::string usage_error(const std::vector<std::string>& args, bool output_required = true) {
+    try {
+        parse_render_args(args, output_required);
+    } catch (const UsageError& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+TEST(RenderArgs, EachOutputAndAlgorithmOptionSetsItsField) {
+    const RenderArgs a = parse_render_args({"s.json",
+                                            "--output",
+                                            "a.exr",
+                                            "--png",
+                                            "a.png",
+                                            "--ppm",
+                                            "a.ppm",
+                                            "--exr-compression",
+                                            "zip",
+                                            "--ppm-rounding",
+                                            "round",
+                                            "--mode",
+                                            "classic",
+                                            "--fix",
+                                            "Q1,Q2",
+                                            "--quirk",
+                                            "Q2",
+                                            "--mistake",
+                                            "no_offset",
+                                            "--spp",
+                                            "4",
+                                            "--max-depth",
+                                            "0",
+                                            "--no-shadows",
+                                            "--no-reflection",
+                                            "--no-refraction"});
+    EXPECT_EQ(a.scene_path, "s.json");
+    EXPECT_EQ(a.exr, "a.exr");
+    EXPECT_EQ(a.png, "a.png");
+    EXPECT_EQ(a.ppm, "a.ppm");
+    EXPECT_EQ(a.compression, ExrCompression::zip);
+    EXPECT_EQ(a.ppm_rounding, PpmRounding::round);
+    EXPECT_EQ(a.mode, Mode::classic);
+    const std::vector<std::pair<Quirk, bool>> changes = {{Quirk::paper_intersection, false},
+                                                         {Quirk::eta_one_over_ior_leaving, false},
+                                                         {Quirk::eta_one_over_ior_leaving, true}};
+    EXPECT_EQ(a.quirk_changes, changes);
+    EXPECT_EQ(a.mistakes.list(), "no_offset");
+    EXPECT_EQ(a.spp, 4);
+    EXPECT_EQ(a.max_depth, 0);
+    EXPECT_FALSE(a.shadows || a.reflection || a.refraction);
+}
+
+TEST(RenderArgs, EachImageAndRunOptionSetsItsField) {
+    const RenderArgs a = parse_render_args(
+        {"--width", "16384", "--height", "1", "--threads", "3", "--backend", "gl", "--engine",
+         "scalar", "--frames", "7", "--quiet", "--keep-frame", "-o", "a.exr", "s.json"});
+    EXPECT_EQ(a.scene_path, "s.json");
+    EXPECT_EQ(a.width, kMaxSide);
+    EXPECT_EQ(a.height, 1);
+    EXPECT_EQ(a.threads, 3);
+    EXPECT_TRUE(a.gl);
+    EXPECT_EQ(a.engine, Engine::scalar);
+    EXPECT_EQ(a.frames, 7);
+    EXPECT_TRUE(a.quiet && a.keep_frame);
+}
+
+TEST(RenderArgs, DefaultsAreThePapersProgramOnTheCpu) {
+    const RenderArgs a = parse_render_args({"-o", "a.exr", "s.json"});
+    EXPECT_EQ(a.exr, "a.exr");
+    EXPECT_EQ(a.mode, Mode::paper);
+    EXPECT_EQ(a.spp, 1);
+    EXPECT_FALSE(a.gl || a.width || a.height || a.max_depth || a.quiet || a.keep_frame);
+    EXPECT_EQ(a.engine, Engine::packet);
+}
+
+TEST(RenderArgs, AWrongValueNamesTheOptionAndTheValue) {
+    const std::vector<std::string> base = {"s.json", "-o", "a.exr"};
+    auto with = [&](const std::string& option, const std::string& value) {
+        std::vector<std::string> args = base;
+        args.push_back(option);
+        args.push_back(value);
+        return usage_error(args);
+    };
+    EXPECT_EQ(with("--mode", "bad"),
+              "--mode: unknown mode 'bad' (expected paper, classic or physical)");
+    EXPECT_EQ(with("--fix", "Q14"), "--fix: unknown quirk 'Q14' (expected Q1 ... Q13)");
+    EXPECT_EQ(with("--quirk", ""), "--quirk: empty quirk list (expected e.g. Q1,Q5)");
+    EXPECT_EQ(with("--exr-compression", "lz"),
+              "--exr-compression: expected none, rle or zip, got 'lz'");
+    EXPECT_EQ(with("--ppm-rounding", "nearest"),
+              "--ppm-rounding: expected truncate or round, got 'nearest'");
+    EXPECT_EQ(with("--backend", "vulkan"), "--backend: expected cpu or gl, got 'vulkan'");
+    EXPECT_EQ(with("--engine", "simd"), "--engine: expected packet or scalar, got 'simd'");
+    EXPECT_EQ(with("--width", "16385"),
+              "--width: expected an integer from 1 to 16384, got '16385'");
+    EXPECT_EQ(with("--spp", "3"), "--spp: expected a perfect square (1, 4, 9, 16, ...), got 3");
+    EXPECT_NE(with("--mistake", "no_ofset").find("--mistake: unknown mistake 'no_ofset'"),
+              std::string::npos);
+}
+
+TEST(RenderArgs, MalformedCommandLinesSayWhatIsWrong) {
+    EXPECT_EQ(usage_error({"s.json", "-o"}), "-o: expected a value");
+    EXPECT_EQ(usage_error({"s.json", "-o", "a.exr", "-"}),
+              "unknown option '-' (see rtdemo render --help)");
+    EXPECT_EQ(usage_error({"s.json", "-o", "a.exr", "t.json"}),
+              "unexpected argument 't.json' (one scene file per call)");
+    EXPECT_EQ(usage_error({"-o", "a.exr"}), "missing SCENE.json (see rtdemo render --help)");
+    EXPECT_EQ(usage_error({"s.json"}),
+              "no output: give -o OUT.exr, --png OUT.png or --ppm OUT.ppm");
+    EXPECT_EQ(usage_error({"s.json"}, false), "(no error)");
+}
+
+TEST(RenderArgs, SettingsRefuseWhatCannotBeRendered) {
+    Scene scene;
+    scene.camera.width = 640;
+    scene.camera.height = 480;
+    auto settings_error = [&](const std::vector<std::string>& args) -> std::string {
+        try {
+            settings_for(parse_render_args(args), scene);
+        } catch (const UsageError& e) {
+            return e.what();
+        }
+        return "(no error)";
+    };
+    EXPECT_EQ(settings_error({"s.json", "-o", "a.exr", "--width", "8192", "--height", "8192"}),
+              "(no error)");
+    EXPECT_EQ(settings_error({"s.json", "-o", "a.exr", "--width", "8193", "--height", "8192"}),
+              "image of 8193x8192 pixels is too large (at most 67108864 pixels)");
+    EXPECT_EQ(settings_error({"s.json", "-o", "a.exr", "--spp", "4"}),
+              "--spp 4 needs quirk Q10 fixed (use --mode physical or --fix Q10)");
+    EXPECT_EQ(
+        settings_error({"s.json", "-o", "a.exr", "--backend", "gl", "--mistake", "no_offset"}),
+        "--mistake needs the CPU tracer (--backend cpu)");
+    const RenderSettings s = settings_for(
+        parse_render_args({"s.json", "--png", "a.png", "--mode", "physical", "--spp", "9"}), scene);
+    EXPECT_EQ(s.width, 640);
+    EXPECT_EQ(s.spp, 9);
+    EXPECT_FALSE(s.aovs);  // only the EXR carries them
+    EXPECT_GE(s.threads, 1);
+}
+
+}  // namespace
+}  // namespace rt
