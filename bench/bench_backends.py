@@ -1,4 +1,4 @@
-"""CPU and GL backends of rtdemo on both scenes at 640x480 (issue 3).
+"""CPU and GL backends of rtdemo on both scenes at 640x480.
 
 Whole-process wall time (start-up, EGL context, shader compile and EXR write included) and,
 for GL, the compile time, first frame and the median of the following frames as rtdemo

@@ -1,4 +1,4 @@
-"""`rtval check --renderer` overhead (issue 19): the time a check adds to the renderer's own,
+"""`rtval check --renderer` overhead: the time a check adds to the renderer's own,
 per 640x480 scene. The renderer is tests/foreign/classic_tracer.cpp (compiled here; PPM out).
 
   warm pass   masks cached, the render equals its baseline: what a CI re-run costs

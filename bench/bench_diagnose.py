@@ -1,4 +1,4 @@
-"""Seconds per image of `rtval diagnose`, cold and with its candidate renders cached (issue 32:
+"""Seconds per image of `rtval diagnose`, cold and with its candidate renders cached (the targets:
 <= 5 s cold and <= 2 s cached at 640x480, <= 12 s cold at 1200x800, on 2 cores).
 
 The images are the numpy classic program and its student-style variants

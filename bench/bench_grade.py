@@ -1,6 +1,6 @@
 """Grading throughput at 640x480.
 
-Scenario `classic` (issue 16): 200 submissions graded against the `classic` demo model with the
+Scenario `classic`: 200 submissions graded against the `classic` demo model with the
 local process pool (2 processes): half are exact implementations (rtdemo's classic PPM rounded
 and truncated, PNG, EXR, the numpy student program's truncating PPM), the rest wrong (paper
 and physical mode, classic without shadows or refraction, classic with noise) or broken
@@ -8,7 +8,7 @@ and physical mode, classic without shadows or refraction, classic with noise) or
 command's start. Also measures one pair in-process: the exact match alone against the full
 metrics (FLIP, SSIM), i.e. what an exact submission saves.
 
-Scenario `mitsuba` (issue 9): the synthetic class made from the Mitsuba reference, graded
+Scenario `mitsuba`: the synthetic class made from the Mitsuba reference, graded
 `--against mitsuba` with the process pool and a 2-worker Dask LocalCluster.
 
 Usage: python bench/bench_grade.py [--students 200] [--scenario classic|mitsuba|all]

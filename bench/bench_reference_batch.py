@@ -1,4 +1,4 @@
-"""What a Mitsuba process costs before it renders (issue 18): the report's Mitsuba renders
+"""What a Mitsuba process costs before it renders: the report's Mitsuba renders
 run as one `rtval reference` process each, against the same renders in one
 `rtval reference --batch` process, at a small size so that the renders themselves are
 cheap and the difference is start-up (importing drjit and Mitsuba, setting the variant,

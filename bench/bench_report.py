@@ -1,5 +1,5 @@
 """`rtval report` on the paper's scene at its own size (1200x800), cold and warm, with the
-floor of each of its parts measured on its own (issue 32: cold <= 90 s, warm <= 5 s, the
+floor of each of its parts measured on its own (the targets: cold <= 90 s, warm <= 5 s, the
 report folder <= 25 MB with the PDF, on 2 cores).
 
 Cold: a fresh, empty render cache and reports folder under /tmp; warm: the same again. The

@@ -1,9 +1,9 @@
 """rtval's judge and the applications built on it.
 
-Layout: `compare.judge` (pure: images, metrics, effect masks, tolerances, scores, rubric,
-Z-test), `compare.render` (running and caching renderers), `compare.apps` (compare, check,
-report, grade, stress: they write HTML, CSV, JSON), `compare.cli` (the `rtval` command line,
-one module per command).
+Rooms by feature (docs/architecture.md): `judge` (pure: images, metrics, effect masks,
+exact match, tolerances, scores, rubric, target models), `render` (running and caching
+renderers), `diagnosis` (why an image differs), `verdict`, `check`, `report`, `grading`,
+`stress` (the applications), `sandbox`, `pages`, and `cli` (the `rtval` command line).
 
 The public API below is what another program needs to judge images as rtval does.
 """

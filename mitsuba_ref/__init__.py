@@ -1,1 +1,2 @@
-"""Scene loading for Python, Mitsuba XML export and reference rendering."""
+"""The Mitsuba side: the scene as Mitsuba XML with matching materials, the rtval_whitted
+integrator, and reference renders (Whitted and path traced)."""

@@ -1,4 +1,4 @@
-"""Judging against a target model, end to end at 320x240 (issue 16): a foreign float32 numpy
+"""Judging against a target model, end to end at 320x240: a foreign float32 numpy
 implementation of the classic program that writes a truncating PPM, and rtdemo's own classic
 PPM (rounding and truncating), PNG and EXR, all pass against `classic` with score >= 99 and
 every effect passing; against `mitsuba` they fail; the gradebook names the model and says why

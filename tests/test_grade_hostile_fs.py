@@ -1,4 +1,4 @@
-"""`rtval grade` against what a student (or a broken machine) can plant around it (issue 30):
+"""`rtval grade` against what a student (or a broken machine) can plant around it:
 links under OUT (with --out inside the submissions a student can make them), stored results
 that are links to /dev/zero or FIFOs, a Dask scheduler that never answers, refuses or speaks
 junk, and grade killed while its pool works. Each case ends in a clear message and an exit

@@ -1,4 +1,4 @@
-"""The second hostile-input pass (issue 30): the cases no other test file held, and what an
+"""The second hostile-input pass: the cases no other test file held, and what an
 attack beyond the issue's list found. Each test fails on the code before its fix."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The whole render against an independent numpy implementation of docs/paper-model.md.
 
-Criterion from issue 2: >= 99.9 % of pixels within 1/255 after clamping to [0, 1].
+The criterion: >= 99.9 % of pixels within 1/255 after clamping to [0, 1].
 The numpy tracer is float64; demo_cpp is float32 like the paper, so a few pixels on
 silhouettes and shadow edges may flip.
 """

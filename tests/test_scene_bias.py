@@ -48,7 +48,7 @@ def test_bias_reaches_the_demo_and_the_reference_alike(rtdemo: str, tmp_path: Pa
     demo_small, demo_large = _demo(rtdemo, small, tmp_path), _demo(rtdemo, large, tmp_path)
     ref_small, ref_large = _mitsuba(small), _mitsuba(large)
     n = SIZE[0] * SIZE[1]
-    # With the same bias the two renderers agree (physical mode's criterion of issue 7:
+    # With the same bias the two renderers agree (physical mode's criterion:
     # measured 2026-12-01: 0 pixels over 2/255 at bias 1e-4, 8 silhouette pixels at 1e-2).
     assert _changed(demo_large, ref_large).sum() <= 0.005 * n
     assert _changed(demo_small, ref_small).sum() <= 0.005 * n

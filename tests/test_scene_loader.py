@@ -143,7 +143,7 @@ def test_cpp_loader_rejects_the_same_with_the_same_path(
 
 
 def test_both_loaders_accept_the_builtin_scenes_with_exact_numbers() -> None:
-    paper = load_scene(SCENES / "paper.json")  # the paper's program's own spheres (issue 27)
+    paper = load_scene(SCENES / "paper.json")  # the paper's program's own spheres
     assert [s.name for s in paper.spheres] == [
         "floor",
         "red",

@@ -1,5 +1,5 @@
 """rtval_whitted's wavefront (JIT variants): the same image from run to run, and each front
-traced once rather than once per mask test (issue 18; bench/NOTES.md has the numbers)."""
+traced once rather than once per mask test (bench/NOTES.md has the numbers)."""
 
 from __future__ import annotations
 

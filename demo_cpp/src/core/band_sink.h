@@ -1,6 +1,6 @@
 // A frame handed over band by band as it renders, for outputs written while the frame is still
 // being traced (image_io.h's streams): no whole frame is ever kept, so no frame-sized memory is
-// page-faulted and zero-filled by the kernel first (bench/NOTES.md, issue 20).
+// page-faulted and zero-filled by the kernel first (bench/NOTES.md).
 #pragma once
 
 #include <optional>

@@ -1,4 +1,4 @@
-// The light-units rule shared with the Mitsuba exporter (issue 4): the paper's emission E
+// The light-units rule shared with the Mitsuba exporter: the paper's emission E
 // has no 1/pi and no falloff, so a point light at the sphere's centre gets intensity
 // I = pi * E * d0^2, with d0 the distance from the light's centre to the camera's look_at.
 // A white Lambertian surface facing the light at look_at then receives the paper's E.

@@ -1,7 +1,7 @@
 // The demo's EXR written directly (OpenEXR 2.0 file layout, single-part scanline file): the
 // same channels and attributes as the OpenEXR writer, without linking the library. Writing the
-// 9.8 MB frame through its per-line slice machinery cost more than tracing it (bench/NOTES.md,
-// issue 20), and loading its shared libraries cost every rtdemo process about 1 ms at start-up.
+// 9.8 MB frame through its per-line slice machinery cost more than tracing it (bench/NOTES.md),
+// and loading its shared libraries cost every rtdemo process about 1 ms at start-up.
 // Uncompressed (one line per block), RLE (one line per block) or ZIP (zlib, 16 lines per block).
 #pragma once
 

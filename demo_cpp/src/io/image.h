@@ -7,7 +7,7 @@ namespace rt {
 
 // A plane of floats. Large planes are mapped straight from the kernel in whole 2 MB pages
 // (transparent huge pages) and come zero-filled: a 640x480 frame's colour then costs two page
-// faults instead of ~900, and no second pass to zero it (bench/NOTES.md, issue 20).
+// faults instead of ~900, and no second pass to zero it (bench/NOTES.md).
 class Plane {
 public:
     Plane() = default;

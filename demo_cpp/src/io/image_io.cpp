@@ -123,7 +123,7 @@ void write_exr(const std::string& path, const RenderedImage& image,
                int threads, ExrChannels channels) {
     check_writable(path);
     AtomicFile file(path);
-    try {  // written directly, compressed or not (issue 20; no OpenEXR at start-up)
+    try {  // written directly, compressed or not (no OpenEXR at start-up)
         write_exr_scanlines(file.temp(), image, attributes, compression, threads, channels);
     } catch (const std::exception& e) {
         throw OutputError(path + ": cannot write EXR: " + e.what());

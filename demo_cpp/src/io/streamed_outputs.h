@@ -1,7 +1,7 @@
 // Outputs written band by band while the frame renders (BandSink): rtdemo render with a PPM or
 // an uncompressed EXR as its only output. Each band goes to its place in the file at once
 // (pwrite) from the thread that traced it, so no frame is kept, no frame-sized memory is
-// zero-filled by the kernel, and the encoding runs on every render thread (issue 20). The
+// zero-filled by the kernel, and the encoding runs on every render thread. The
 // files are byte for byte what write_ppm and write_exr write, but for the EXR's padding
 // attribute (below). A stream writes a file without a name (O_TMPFILE) that finish() names and
 // renames onto the target: one never finished, or a process killed, leaves nothing behind.

@@ -1,4 +1,4 @@
-// The packet engine: the CPU renderer built around rays in SIMD lanes (issue 20). Camera rays
+// The packet engine: the CPU renderer built around rays in SIMD lanes. Camera rays
 // of a small tile fill the lanes (8 per AVX2 vector, 16 per AVX-512); each bounce's secondary
 // rays are compacted into the next queue; colours are combined bottom-up in the scalar
 // tracer's exact order, so the image is the scalar tracer's bit for bit (tested).
