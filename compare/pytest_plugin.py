@@ -61,11 +61,13 @@ def rtval_check(request: pytest.FixtureRequest) -> Callable[..., CaseResult]:
     def check(scene: str | Path, **options: Unpack[CheckOptions]) -> CaseResult:
         # deferred: pytest loads this plugin in every session of the renderer's own suite
         from compare.check import run as app  # deferred: as above
+        from compare.judge.target_model import parse_model  # deferred: as above
         from compare.render import foreign  # deferred: as above
 
         root = Path(config.rootpath)
         baseline, mode = options.get("baseline"), options.get("mode")
         against = options.get("against")
+        model = parse_model(against) if against else None
         folder = Path(baseline) if baseline else root / str(config.getini("rtval_baseline"))
         cmd = foreign.parse_command(
             options["renderer"], options.get("name"), options.get("output_format", "exr")
@@ -77,7 +79,7 @@ def rtval_check(request: pytest.FixtureRequest) -> Callable[..., CaseResult]:
             modes=[mode] if mode else list(app.DEFAULT_MODES),
             update=bool(config.getoption("--rtval-update")) and against is None,
             renderer=cmd,
-            against=against,
+            against=model,
             spp=options.get("spp", 1),
             timeout=options.get("timeout"),
         )

@@ -37,7 +37,7 @@ from compare.judge.arrays import F32
 from compare.judge.effects import BOOL, EFFECTS
 from compare.judge.evaluate import evaluate_pair
 from compare.judge.images import Image, ImageError, image_size, read_image, write_exr
-from compare.judge.target_model import ModelError, TargetModel, parse_model
+from compare.judge.target_model import TargetModel
 from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
 from compare.render import foreign
 from compare.render.cache import RenderCache
@@ -277,7 +277,7 @@ class CheckSettings:
     update: bool = False
     rtdemo: str | None = None
     renderer: foreign.RendererCommand | None = None
-    against: str | None = None
+    against: TargetModel | None = None
     spp: int = 1
     timeout: float | None = None
     sandbox: bool = False  # run the renderer in the grading sandbox (docs/sandbox.md)
@@ -332,10 +332,7 @@ def _render_rtdemo(
 def _target(settings: CheckSettings) -> TargetModel | None:
     if settings.against is None:
         return None
-    try:
-        model = parse_model(settings.against)
-    except ModelError as e:
-        raise ValueError(f"--against: {e}") from None
+    model = settings.against
     if settings.update:
         raise ValueError("--update writes baselines; with --against there are none to write")
     if model.is_demo and settings.spp != 1:

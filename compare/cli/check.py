@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from compare.cli.common import add_cache_argument, positive_int, size_type
+from compare.cli.common import add_cache_argument, positive_int, size_type, target_model_type
 
 if TYPE_CHECKING:
     from compare.check.run import CaseResult, CheckSettings
@@ -220,6 +220,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--against",
         metavar="MODEL",
+        type=target_model_type,
         help="judge each render against a target model instead of its baseline (demo models "
         "such as classic or paper-Q8: exact match, rtdemo itself then rendered with the "
         "model's options unless --modes is given; mitsuba: the default rubric)",

@@ -8,6 +8,8 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
+from compare.judge.target_model import ModelError, TargetModel, parse_model
+
 EXIT_USAGE = 64  # EX_USAGE: kept apart from compare's 0-4 verdict codes
 
 
@@ -63,6 +65,14 @@ positive_int = _number(int, "a positive integer", lambda v: v > 0)
 positive_float = _number(float, "a positive number", lambda v: 0 < v < math.inf)
 # Mitsuba's samplers take 32-bit seeds.
 seed_type = _number(int, "an integer 0..4294967295", lambda v: 0 <= v < 2**32)
+
+
+def target_model_type(text: str) -> TargetModel:
+    """--against MODEL: parsed once, here (a bad model is a usage error before any render)."""
+    try:
+        return parse_model(text)
+    except ModelError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def stderr_progress(message: str) -> None:

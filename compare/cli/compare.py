@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from compare.cli.common import add_cache_argument
+from compare.cli.common import add_cache_argument, target_model_type
 
 if TYPE_CHECKING:
     from compare.judge.tolerances import Tolerances
@@ -128,6 +128,7 @@ def _add_image_options(p: argparse.ArgumentParser) -> None:
         "--against",
         metavar="MODEL",
         default=None,
+        type=target_model_type,
         help="judge TEST against this target model instead of a REF image: mitsuba, "
         "mitsuba-path, paper, classic, physical, MODE+Qn/-Qn (needs --scene)",
     )

@@ -7,18 +7,15 @@ import signal
 import sys
 from pathlib import Path
 
-from compare.cli.common import add_cache_argument, positive_int, report_size_type
+from compare.cli.common import add_cache_argument, positive_int, report_size_type, target_model_type
 from compare.report.label import MAX_LABEL, label_problem
 
 
 def run_report(args: argparse.Namespace) -> int:
     from compare import interrupts as interrupt
-    from compare.judge.target_model import parse_model
 
-    if args.against:
-        if not args.test_image:
-            raise ValueError("--against needs --test-image (the image judged against MODEL)")
-        parse_model(args.against)  # a bad model is a usage error before any render
+    if args.against and not args.test_image:
+        raise ValueError("--against needs --test-image (the image judged against MODEL)")
     if args.size is None:
         _check_scene_size(args.scene)
 
@@ -82,6 +79,7 @@ def _add_test_image_options(p: argparse.ArgumentParser) -> None:
         "--against",
         metavar="MODEL",
         default=None,
+        type=target_model_type,
         help="with --test-image: the model it was asked to implement (default classic); the "
         "report gives its verdict against that model and against Mitsuba side by side",
     )

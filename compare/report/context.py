@@ -18,6 +18,7 @@ import numpy as np
 from compare import interrupts as interrupt
 from compare.judge.effects import effect_masks
 from compare.judge.images import Image, ImageError, ImageSizeError, read_image
+from compare.judge.target_model import TargetModel
 from compare.render.cache import RenderCache
 from compare.render.jobs import RenderJob
 from compare.render.plan import RenderPlan
@@ -40,7 +41,7 @@ class ReportOptions:
     test_image: str | None = None  # a render to grade in the demo's place
     test_label: str | None = None
     test_encoding: str | None = None
-    against: str | None = None
+    against: TargetModel | None = None  # None: classic
     jobs: int = 1
     pdf: bool = True
 

@@ -19,7 +19,7 @@ def model_verdict(ctx: ReportContext, ladder: list[dict[str, Any]]) -> dict[str,
     """The test image against its model, and the quirks' costs read from the ablation ladder."""
 
     opts = ctx.opts
-    model = parse_model(opts.against or GRADE_DEFAULT)
+    model = opts.against or parse_model(GRADE_DEFAULT)
     ctx.progress.line(f"model {model.name} ...")
     prepared = prepare(model, opts.scene_file, opts.size, ctx.cache, progress=ctx.progress)
     ev = judge_against_model(ctx.imgs[ctx.subject.key], load(prepared))

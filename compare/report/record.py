@@ -180,7 +180,7 @@ def _command_line(ctx: ReportContext) -> list[str]:
     if ctx.given:
         line += ["--test-image", ctx.subject.copy]
         line += ["--label", opts.test_label] if opts.test_label else []
-        line += ["--against", opts.against] if opts.against else []
+        line += ["--against", opts.against.name] if opts.against else []
     return line
 
 

@@ -16,7 +16,7 @@ from compare.judge.exact_match import ENCODING_WORDS
 from compare.judge.images import Image, ImageError, read_image, srgb_to_linear
 from compare.judge.metrics import Metrics, check_same_size, display
 from compare.judge.png import write_png
-from compare.judge.target_model import parse_model
+from compare.judge.target_model import TargetModel
 from compare.judge.tolerances import Tolerances, Verdict, diff_image
 from compare.render.cache import RenderCache
 from compare.render.progress import Progress
@@ -130,7 +130,7 @@ def run_comparison(
 
 def run_against(
     test: Image,
-    model_name: str,
+    model: TargetModel,
     scene_file: Path,
     cache: RenderCache,
     *,
@@ -140,7 +140,6 @@ def run_against(
 ) -> Comparison:
     """`test` judged against a target model rendered at the test's size (never resampled)."""
 
-    model = parse_model(model_name)
     h, w = test.shape
     renders = prepare(model, scene_file, (w, h), cache, progress=progress)
     loaded = load(renders)
