@@ -7,6 +7,9 @@ SCENE     ?= paper
 SHELL     := /bin/bash
 
 FUZZ_BIN  := build/fuzz/scene_loader_fuzz
+# pytest in parallel (pytest-xdist, one render cache per worker), in a temporary folder of its
+# own: pytest's shared /tmp/pytest-of-USER is pruned by every session, racing with others.
+PYTEST    := $(PY) -m pytest -q --numprocesses=auto --maxprocesses=4 --dist loadscope
 # pip builds rtdemo and rtdemo-gl only (build/cmake); the GoogleTest suite and the bench programs are
 # built here by make test / make bench.
 DEV_BUILD := build/tests
@@ -17,17 +20,19 @@ CPP_FORMATTED := $(shell find demo_cpp bench -type f \( -name '*.cpp' -o -name '
 report: $(STAMP)
 	$(VENV)/bin/rtval report scenes/$(SCENE).json
 
-# The full run CI calls: linters first, then every test.
-test: $(STAMP)
-	$(MAKE) --no-print-directory lint test-cpp test-fuzz test-py
+# The full run CI calls: set-up, linters, then every test; it ends by saying how long it took.
+test:
+	@start=$$(date +%s); $(MAKE) --no-print-directory setup lint test-cpp test-fuzz test-py; \
+	rc=$$?; echo "make test: $$(( $$(date +%s) - start )) s (set-up included), exit $$rc"; exit $$rc
 
 # The inner loop: linters, C++ tests and the quick Python tests (no fuzzing, no slow marks).
 test-fast: $(STAMP) test-build
 	$(MAKE) --no-print-directory lint test-cpp
-	$(PY) -m pytest -q -m "not slow"
+	@tmp=$$(mktemp -d /tmp/rtval-pytest.XXXXXX); $(PYTEST) -m "not slow" --basetemp=$$tmp; rc=$$?; rm -rf $$tmp; exit $$rc
 
 # ruff and strict mypy as pyproject.toml configures them, clang-format as demo_cpp/.clang-format,
-# and the tree's shape: layers import downwards only, no function over 60 lines.
+# and the tree's shape: rooms import downwards only, no import circles, no function over 60 lines
+# or 7 parameters.
 lint: $(STAMP) lint-cpp
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
@@ -47,7 +52,7 @@ test-cpp: test-build
 	ctest --test-dir $(DEV_BUILD) --output-on-failure -j2
 
 test-py: test-build
-	$(PY) -m pytest -q
+	@tmp=$$(mktemp -d /tmp/rtval-pytest.XXXXXX); $(PYTEST) --basetemp=$$tmp; rc=$$?; rm -rf $$tmp; exit $$rc
 
 # Every C++ file under demo_cpp/ and bench/ formatted by demo_cpp/.clang-format.
 lint-cpp:

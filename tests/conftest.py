@@ -14,8 +14,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # helpers, numpy_refer
 
 @pytest.fixture(scope="session", autouse=True)
 def render_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    """One render cache for the whole test session (every rtval command and test shares it,
-    as on a user's machine), never the user's own ~/.cache/rtval."""
+    """One render cache per test process (every rtval command and test of a pytest-xdist
+    worker shares it, as on a user's machine), never the user's own ~/.cache/rtval."""
     folder = tmp_path_factory.mktemp("render-cache")
     before = os.environ.get("RTVAL_CACHE")
     os.environ["RTVAL_CACHE"] = str(folder)
