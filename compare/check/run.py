@@ -49,7 +49,7 @@ from compare.verdict.against import LoadedModel
 from safe_files.paths import own_folder, read_bounded
 from scene_model.scene import Scene, load_scene
 
-DEFAULT_SCENES = ("scenes/paper.json", "scenes/lit.json", "scenes/classic.json")
+DEFAULT_SCENES = ("paper", "lit", "classic")  # built-in scenes (scene_model/builtin.py)
 DEFAULT_MODES = ("paper", "classic", "physical")
 # A change of 2/255 on 0.02 % of pixels (15 at 320x240) passes: compilers may round a
 # silhouette pixel differently; every deliberate bug of the fault-injection test moves more.

@@ -138,7 +138,12 @@ def _add_case_options(p: argparse.ArgumentParser) -> None:
     """What is rendered and what it is compared with."""
     from compare.check.run import DEFAULT_MODES, DEFAULT_SCENES
 
-    p.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), help="scene files")
+    p.add_argument(
+        "--scenes",
+        nargs="+",
+        default=list(DEFAULT_SCENES),
+        help=f"scene files or built-in names (default: {' '.join(DEFAULT_SCENES)})",
+    )
     p.add_argument(
         "--modes",
         default=None,

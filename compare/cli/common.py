@@ -9,6 +9,7 @@ from collections.abc import Callable
 from typing import Any
 
 from compare.judge.target_model import ModelError, TargetModel, parse_model
+from scene_model.builtin import scene_path
 
 EXIT_USAGE = 64  # EX_USAGE: kept apart from compare's 0-4 verdict codes
 
@@ -73,6 +74,17 @@ def target_model_type(text: str) -> TargetModel:
         return parse_model(text)
     except ModelError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def resolve_scene_arguments(args: argparse.Namespace) -> None:
+    """Every command's scene arguments (`scene`, `scenes`), named once: a file or a built-in
+    scene (scene_model/builtin.py). Raises SceneError: exit 3, as for a scene that is bad."""
+    for name in ("scene", "scenes"):
+        value = getattr(args, name, None)
+        if isinstance(value, str):
+            setattr(args, name, str(scene_path(value)))
+        elif isinstance(value, list):
+            setattr(args, name, [str(scene_path(v)) for v in value])
 
 
 def stderr_progress(message: str) -> None:

@@ -24,9 +24,7 @@ def run_grade(args: argparse.Namespace) -> int:
         return 0
     if not args.submissions or not args.scene:
         raise ValueError("grade needs SUBMISSIONS and at least one --scene (or --explain ID)")
-    scenes = [
-        Path(s) if Path(s).suffix == ".json" else Path("scenes") / f"{s}.json" for s in args.scene
-    ]
+    scenes = [Path(s) for s in args.scene]
     results = grade.run_grading(
         Path(args.submissions),
         scenes,
@@ -145,7 +143,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     p.add_argument("submissions", nargs="?", help="folder of submissions")
     p.add_argument(
-        "--scene", action="append", help="scene name (scenes/NAME.json) or file; repeatable"
+        "--scene",
+        action="append",
+        help="a built-in scene's name (classic, paper, lit) or a scene file; repeatable",
     )
     p.add_argument(
         "--against",

@@ -21,7 +21,7 @@ from compare.cli import (
     stress,
     ztest,
 )
-from compare.cli.common import EXIT_USAGE, Parser
+from compare.cli.common import EXIT_USAGE, Parser, resolve_scene_arguments
 from compare.errors import ToolError
 from compare.judge.images import ImageError
 from compare.judge.rubric import RubricError
@@ -65,6 +65,7 @@ def main(argv: list[str] | None = None) -> int:
         # SIGTERM and SIGHUP unwind like SIGINT: every atomic writer removes its temporary
         # file and children are killed, instead of the process vanishing mid-write.
         with interrupt.stop_guard():
+            resolve_scene_arguments(args)
             code = int(args.func(args))
         sys.stdout.flush()  # here, not at exit, so that a reader gone is a BrokenPipeError below
         return code

@@ -110,8 +110,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "scene",
         nargs="?",
-        default="scenes/paper.json",
-        help="scene file (default: scenes/paper.json)",
+        default="paper",
+        help="a scene file or a built-in scene's name (default: paper, the paper's own scene)",
     )
     p.add_argument(
         "--reports-dir",

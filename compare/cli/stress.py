@@ -12,16 +12,10 @@ from compare.cli.common import add_cache_argument, size_type
 def run_stress(args: argparse.Namespace) -> int:
     from compare.render.progress import Progress
     from compare.stress import atlas as stress
+    from scene_model.builtin import built_in, built_in_names
 
-    files = (
-        [Path(p) for p in args.scenes]
-        if args.scenes
-        else sorted(Path("scenes/stress").glob("*.json"))
-    )
-    if not files:
-        raise OSError(
-            "no stress scenes: give files, or run from the project folder (scenes/stress/*.json)"
-        )
+    stress_scenes = [built_in(n) for n in built_in_names() if n.startswith("stress/")]
+    files = [Path(p) for p in args.scenes] if args.scenes else stress_scenes
     data = stress.run_stress(
         files, Path(args.out), size=args.size, cache_dir=args.cache, progress=Progress(sys.stderr)
     )
@@ -38,7 +32,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "references; reports NaN/Inf, error against the Whitted reference and stability "
         "under tiny nudges; writes an atlas to OUT/index.html.",
     )
-    p.add_argument("scenes", nargs="*", help="scene files (default: scenes/stress/*.json)")
+    p.add_argument(
+        "scenes",
+        nargs="*",
+        help="scene files or built-in names (default: every built-in stress/ scene)",
+    )
     p.add_argument("--out", default="reports/stress", help="output folder (default reports/stress)")
     p.add_argument(
         "--size",

@@ -7,7 +7,7 @@ import json
 import random
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parent.parent / "scene_model" / "scenes" / "stress"
 CAM = {
     "position": [0, 0, 0],
     "look_at": [0, 0, -1],
