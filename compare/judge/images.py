@@ -307,27 +307,23 @@ def read_image(
 ) -> Image:
     """Read an EXR, PFM, PNG or PPM/PNM image as linear float32 RGB.
 
-    The path must be a regular file (never a FIFO or a device). Its header is read first,
-    and an image of the wrong size or over MAX_PIXELS is refused before any pixel is
-    decoded, so a small file declaring a huge image costs no memory.
+    Only a regular file is read (never a FIFO or a device). A wrong or huge declared size is
+    refused from the header, before any pixel is decoded: a small file costs no memory.
 
     Parameters
     ----------
     path : str or Path
         The image; its suffix (.exr, .pfm, .png, .ppm, .pnm, any case) picks the reader.
     encoding : {"srgb", "linear"} or None, optional
-        How PNG and PPM codes are decoded to linear; EXR and PFM ignore it. Default None:
-        PNG is sRGB, PPM linear.
+        How PNG/PPM codes decode to linear (EXR, PFM ignore it); None: PNG sRGB, PPM linear.
     expected_size : tuple[int, int] or None, optional
         The (height, width) the file must declare; default None: any size.
     aovs : Collection[str] or None, optional
-        The EXR channels besides R, G, B to keep (a search reads only what it uses,
-        copying no other channel); default None: every one.
+        EXR channels besides R, G, B to keep (a search copies only what it uses); None: all.
 
     Returns
     -------
     Image
-        ``rgb`` linear float32 H x W x 3; ``encoding`` the 8-bit decoding, or "float".
 
     Raises
     ------
@@ -336,9 +332,8 @@ def read_image(
     ImageSizeError
         The declared size differs from `expected_size` (an ImageError).
     ImageError
-        An unsupported suffix, a non-regular file, a size over MAX_PIXELS, or anything
-        unreadable or malformed (missing R, G or B, truncated pixels); the message names
-        the file.
+        An unsupported suffix, a non-regular file, more than MAX_PIXELS, anything unreadable
+        or malformed (no R, G or B channel, truncated pixels); the message names the file.
     """
     p = Path(path)
     if encoding not in (None, "srgb", "linear"):
