@@ -30,15 +30,46 @@ def rgb_text(rgb: RGB) -> str:
 
 @dataclass(frozen=True)
 class Candidate:
+    """A candidate explanation of an image: a demo model with switches, mistakes and constants.
+
+    Attributes
+    ----------
+    mode : str
+        The rtdemo mode: "paper", "classic" or "physical".
+    quirks : frozenset[int]
+        The quirks present (Q1 to Q13, docs/paper-model.md).
+    effects_off : frozenset[str]
+        Effects switched off, a subset of SWITCHABLE_EFFECTS (rtdemo's ``--no-<effect>``);
+        default empty.
+    max_depth : int or None
+        The recursion limit; default None: the scene's.
+    mistakes : frozenset[str]
+        Named mistakes switched on (names of `catalogue`); default empty.
+    background : tuple[float, float, float] or None
+        The background colour a program hard-codes; default None: the scene's.
+    ior : float or None
+        Every glass sphere's index of refraction; default None: the scene's.
+    turn : tuple[float, float] or None
+        The camera turned by (dx, dy) pixels: not an explanation but a way to judge one;
+        default None.
+    grow : int or None
+        Every sphere grown by this many float32 ulps (shrunk when negative;
+        models.grown_scene); default None.
+    model : TargetModel
+        The demo model of `mode` and `quirks` (read-only).
+    name : str
+        Its name, e.g. "classic+Q2 --no-shadows --mistake no_offset [ior 1.5]" (read-only).
+    """
+
     mode: str
-    quirks: frozenset[int]  # present quirks
-    effects_off: frozenset[str] = frozenset()  # a subset of SWITCHABLE_EFFECTS
-    max_depth: int | None = None  # None: the scene's
+    quirks: frozenset[int]
+    effects_off: frozenset[str] = frozenset()
+    max_depth: int | None = None
     mistakes: frozenset[str] = field(default_factory=frozenset)
-    background: RGB | None = None  # None: the scene's
-    ior: float | None = None  # every glass sphere's; None: the scene's
-    turn: tuple[float, float] | None = None  # camera turned by (dx, dy) pixels
-    grow: int | None = None  # every sphere grown by this many float32 ulps (models.grown_scene)
+    background: RGB | None = None
+    ior: float | None = None
+    turn: tuple[float, float] | None = None
+    grow: int | None = None
 
     @staticmethod
     def of_mode(mode: str) -> Candidate:

@@ -18,17 +18,42 @@ CATALOGUE_FORMAT = "rtval-mistakes/1"
 
 @dataclass(frozen=True)
 class Mistake:
+    """A named common mistake: an rtdemo switch (``--mistake NAME``) and what it does.
+
+    Attributes
+    ----------
+    name : str
+        Its name, as rtdemo's ``--mistake`` takes it ("no_offset").
+    explanation : str
+        What the program does wrong and what the image shows.
+    effects : tuple[str, ...]
+        The effect masks where it shows first.
+    same_as : str or None
+        Another switch that renders the same image (shadow_past_light is "+Q5"): diagnose
+        searches that switch and names the mistake beside it. Default None.
+    """
+
     name: str
     explanation: str
-    effects: tuple[str, ...]  # the effect masks where it shows first
-    # Another switch that renders the same image (shadow_past_light is "+Q5"); diagnose
-    # searches that switch and names the mistake beside it.
+    effects: tuple[str, ...]
     same_as: str | None = None
 
 
 @cache
 def catalogue() -> dict[str, Mistake]:
-    """Every mistake by name, in the file's order."""
+    """Every named mistake, read once from mistakes.json.
+
+    Returns
+    -------
+    dict[str, Mistake]
+        Every mistake by name, in the file's order; the same dict on every call (cached),
+        not to be changed.
+
+    Raises
+    ------
+    ValueError
+        mistakes.json is not in the CATALOGUE_FORMAT ("rtval-mistakes/1") format.
+    """
     raw = json.loads(resources.files("compare.diagnosis").joinpath("mistakes.json").read_text())
     if raw.get("format") != CATALOGUE_FORMAT:
         raise ValueError(f"mistakes.json: format is not {CATALOGUE_FORMAT}")

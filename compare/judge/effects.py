@@ -24,6 +24,9 @@ from numpy.typing import NDArray
 from scene_model.scene import Scene
 
 EFFECTS = ("background", "emitter", "direct", "shadow", "reflection", "refraction", "edges")
+"""The effects judged apart, each a mask of effect_masks (the module's docstring says which
+pixels); per-effect results are listed in this order."""
+
 BOOL = NDArray[np.bool_]
 
 
@@ -75,7 +78,26 @@ def _blocked(scene: Scene, p: NDArray[np.float64], own: NDArray[np.int_], light:
 def effect_masks(
     scene: Scene, ids: NDArray[np.float32], depth: NDArray[np.float32]
 ) -> dict[str, BOOL]:
-    """Masks (H x W bool) for every effect in EFFECTS from camera AOVs."""
+    """Which pixels show which effect, from the camera ray's AOVs and the scene.
+
+    Each mask but ``edges`` leaves out the edge pixels (an id change within one pixel). The
+    shadow test casts a ray from each diffuse hit towards every light's centre (float64).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene rendered: its camera, spheres' kinds (diffuse, mirror, glass, light) and bias.
+    ids : ndarray of float32, H x W
+        The ``id`` AOV: the index of the sphere hit through each pixel centre (rounded),
+        negative where the ray hits nothing.
+    depth : ndarray of float32, H x W
+        The ``depth`` AOV: the hit's distance along the unit camera ray.
+
+    Returns
+    -------
+    dict[str, ndarray of bool]
+        One H x W mask per name in EFFECTS; a mask may be empty (the effect is absent).
+    """
     h, w = ids.shape
     idx = np.rint(ids).astype(int)
     kinds = np.array([s.kind for s in scene.spheres] + ["none"])  # -1 -> "none"

@@ -43,34 +43,91 @@ from compare.judge.tolerances import Tolerances, Verdict, judge_metrics
 
 @dataclass(frozen=True)
 class EffectResult:
+    """One effect's metrics and tolerance verdict, over its pixels within the region.
+
+    Attributes
+    ----------
+    metrics : Metrics
+        Every metric over the effect's pixels.
+    verdict : Verdict
+        The per-pixel tolerances inside the effect's pixels.
+    """
+
     metrics: Metrics
-    verdict: Verdict  # the per-pixel tolerances inside this effect's pixels
+    verdict: Verdict
 
 
 @dataclass(frozen=True)
 class ExactInputs:
-    """What exact judging needs besides the reference: the model's name, its renders at
-    sub-pixel offsets (the reference is the pixel-centre one) and the test's encoding."""
+    """What exact judging needs besides the reference (the model's pixel-centre render).
+
+    Attributes
+    ----------
+    model : str
+        The demo model's name ("classic", "classic+Q2", ...).
+    offsets : Sequence[F32]
+        The model's linear renders at sub-pixel offsets (the camera turned by fractions of
+        a pixel), H x W x 3 each.
+    encoding : str
+        How the test was stored: "linear", "srgb" or "float" (Image.encoding).
+    cache : dict[str, tuple[Bounds, Bounds]] or None
+        encoding -> exact_match.model_bounds, kept across a class of images of one model;
+        default None: no cache.
+    """
 
     model: str
     offsets: Sequence[F32]
-    encoding: str  # linear | srgb | float (images.Image.encoding)
-    cache: dict[str, tuple[Bounds, Bounds]] | None = (
-        None  # across a class (exact_match.model_bounds)
-    )
+    encoding: str
+    cache: dict[str, tuple[Bounds, Bounds]] | None = None
 
 
 @dataclass
 class Evaluation:
+    """The evaluation of an image pair (evaluate_pair): metrics, verdicts and score.
+
+    The maps, metrics, verdicts and per-effect results are computed on first use; the
+    expensive maps (SSIM, FLIP) once, every region only indexes them.
+
+    Attributes
+    ----------
+    ref, test : F32
+        Reference and test, linear RGB, float32 H x W x 3.
+    tolerances : Tolerances
+        The per-pixel tolerances of every verdict.
+    hdr : bool
+        HDR inputs: the maps add HDR FLIP; default False.
+    region : BOOL or None
+        H x W region of interest; default None: every pixel.
+    masks : dict[str, BOOL]
+        Effect masks (H x W) by name; default empty.
+    score : Score or None
+        With effect masks, the rubric's (or, judged exactly, the exact) scored verdict;
+        default None.
+    exact : ExactMatch or None
+        The exact match, when judged against a demo model; default None.
+    flip : bool
+        False: the maps' FLIP is NaN (evaluate_pair's cheap first look); default True.
+    maps : Maps
+        The whole image's per-pixel maps.
+    metrics : Metrics
+        Every metric over the region.
+    verdict : Verdict
+        The tolerances over the region; against a demo model, the exact match decides.
+    per_effect : dict[str, EffectResult]
+        Metrics and verdict of each effect with pixels in the region.
+    absent_effects : tuple[str, ...]
+        Effects whose mask has no pixel in the region: they have no metrics and no score.
+    """
+
     ref: F32
     test: F32
     tolerances: Tolerances
     hdr: bool = False
     region: BOOL | None = None
     masks: dict[str, BOOL] = field(default_factory=dict)
-    score: Score | None = None  # with effect masks: the rubric's (or the exact) scored verdict
-    exact: ExactMatch | None = None  # judged against a demo model
-    flip: bool = True  # False: the maps' FLIP is NaN (evaluate_pair's cheap first look)
+    score: Score | None = None
+    exact: ExactMatch | None = None
+    flip: bool = True
 
     @cached_property
     def maps(self) -> Maps:
@@ -184,28 +241,73 @@ class Evaluation:
 
 
 class PairOptions(TypedDict, total=False):
-    """evaluate_pair's options; each is described in its docstring."""
+    """evaluate_pair's options, keywords that may each be left out.
 
-    hdr: bool  # default False
-    tolerances: Tolerances  # default Tolerances()
+    Attributes
+    ----------
+    hdr : bool
+        The inputs are HDR: the maps add HDR FLIP of the linear values. Default False.
+    tolerances : Tolerances
+        The per-pixel tolerances of every verdict. Default ``Tolerances()``.
+    region : BOOL or None
+        H x W region of interest: the global metrics cover it and every mask is
+        intersected with it. Default None: every pixel.
+    masks : dict[str, BOOL] or None
+        Effect masks (effect_masks); each non-empty one is measured and judged apart, and
+        with any, the result is scored. Default None.
+    rules : dict[str, EffectRule] or None
+        Each effect's scoring rule (a Rubric's effects); an effect without one gets
+        ``EffectRule()``. Default None.
+    flip_at_zero : float
+        The mean FLIP that scores 0 (not used with `exact`). Default FLIP_AT_ZERO_SCORE.
+    pass_score : float or None
+        The overall score needed to pass. Default None: passing every effect suffices.
+    flip : bool
+        False leaves FLIP out of the maps: its metrics are NaN, so a ``max_flip`` tolerance
+        fails. A cheap first look, whose verdict is final when it passes without
+        ``max_flip``. Default True.
+    exact : ExactInputs or None
+        Judge against a demo model: `ref` is its pixel-centre render, and the verdict and
+        score are the exact match's (FLIP is computed only for a failing effect's reason).
+        Default None.
+    """
+
+    hdr: bool
+    tolerances: Tolerances
     region: BOOL | None
     masks: dict[str, BOOL] | None
     rules: dict[str, EffectRule] | None
-    flip_at_zero: float  # default FLIP_AT_ZERO_SCORE
+    flip_at_zero: float
     pass_score: float | None
-    flip: bool  # default True
+    flip: bool
     exact: ExactInputs | None
 
 
 def evaluate_pair(ref: F32, test: F32, **options: Unpack[PairOptions]) -> Evaluation:
-    """Every metric of `test` against `ref`, globally (over `region`) and per effect (over each
-    non-empty mask, intersected with `region`), the tolerance verdicts and, with masks, the
-    score under `rules`. With `exact`, `ref` is a demo model's pixel-centre render and the
-    verdict and score are the exact match's. flip=False leaves FLIP out of the maps (its
-    metrics are NaN, so a `max_flip` tolerance fails): a cheap first look whose verdict is
-    final when it passes without `max_flip`. Raises metrics.SizeMismatch for images of
-    different sizes."""
+    """Every metric of `test` against `ref`, overall and per effect, with verdicts and score.
 
+    Parameters
+    ----------
+    ref, test : F32
+        Linear RGB, float32 H x W x 3, of one size (else SizeMismatch is raised).
+    hdr : bool, default False
+        HDR inputs: the maps add HDR FLIP of the linear values.
+    tolerances : Tolerances, default Tolerances()
+    region : BOOL or None, default None
+        H x W pixels of interest (None: all); every mask is intersected with it.
+    masks : dict[str, BOOL] or None, default None
+        Effect masks (effect_masks); each non-empty one is judged apart, and the result scored.
+    rules : dict[str, EffectRule] or None, default None
+    flip_at_zero : float, default FLIP_AT_ZERO_SCORE
+    pass_score : float or None, default None
+    flip : bool, default True
+        False leaves FLIP NaN, so `max_flip` fails: a cheap first look (see PairOptions).
+    exact : ExactInputs or None, default None
+        Judge against a demo model: `ref` is its pixel-centre render; the exact match decides.
+
+    Returns
+    -------
+    Evaluation"""
     check_same_size(ref, test)
     region, masks = options.get("region"), options.get("masks")
     tolerances = options.get("tolerances", Tolerances())

@@ -83,11 +83,41 @@ class EffectMatch:
 
 @dataclass(frozen=True)
 class ExactMatch:
+    """Which pixels of a test image are what a demo model computes, up to their storage.
+
+    An effect (or, without masks, the region) passes with at most allowed_differing(pixels)
+    differing pixels: ceil(sqrt(pixels) / 16), at most 1 %, at least 1.
+
+    Attributes
+    ----------
+    model : str
+        The demo model's name ("classic", "classic+Q2", ...).
+    encoding : str
+        How the test was stored: "linear" (8-bit, PPM), "srgb" (8-bit, PNG) or "float".
+    matches : BOOL
+        H x W: every channel is a way to store the model's value, or within its spread.
+    unstable : BOOL
+        H x W: matched, but only within the model's own spread (the perturbed renders).
+    renders : int
+        The model renders used: the pixel-centre one plus the perturbed ones.
+    per_effect : dict[str, EffectMatch]
+        Each effect's counts within the region, for the masks with pixels there; default
+        empty.
+    region : BOOL or None
+        H x W pixels judged; default None: every pixel.
+    differing : int
+        Pixels of the region that do not match (read-only).
+    unstable_pixels : int
+        Pixels of the region that match only within the spread (read-only).
+    passed : bool
+        Every effect passes; without effects, the region does (read-only).
+    """
+
     model: str
     encoding: str
-    matches: BOOL  # H x W: within quantisation of some model render
-    unstable: BOOL  # H x W: matched, but only within the model's own spread
-    renders: int  # model renders used (the centre one plus the offsets)
+    matches: BOOL
+    unstable: BOOL
+    renders: int
     per_effect: dict[str, EffectMatch] = field(default_factory=dict)
     region: BOOL | None = None
 
@@ -238,8 +268,40 @@ def exact_match(
     region: BOOL | None = None,
     cache: dict[str, tuple[Bounds, Bounds]] | None = None,
 ) -> ExactMatch:
-    """`renders[0]` is the model at pixel centres, the rest perturbed renders of it. `cache`
-    (encoding -> model_bounds) saves recomputing them for every image of a class."""
+    """Judge `test` against a demo model's renders: is every pixel what the model computes?
+
+    A test channel matches when it is a value the model's own float could have been stored
+    as in `encoding`, or lies within the model's spread over its perturbed renders (where
+    the model is numerically unstable); the module's docstring gives the rules.
+
+    Parameters
+    ----------
+    renders : Sequence[F32]
+        The model's linear renders, H x W x 3: ``renders[0]`` at pixel centres, the rest
+        perturbed renders of it (the camera turned by fractions of a pixel).
+    test : F32
+        The test image, linear RGB H x W x 3 as read_image decoded it.
+    encoding : {"linear", "srgb", "float"}
+        How the test was stored (Image.encoding): 8-bit linear, 8-bit sRGB or float.
+    model : str
+        The model's name, for the sentences.
+    masks : dict[str, BOOL] or None, optional
+        Effect masks, H x W; each with pixels in the region is judged apart. Default None.
+    region : BOOL or None, optional
+        H x W pixels to judge; default None: every pixel.
+    cache : dict[str, tuple[Bounds, Bounds]] or None, optional
+        encoding -> model_bounds(renders, encoding), filled on first use; saves recomputing
+        them for every image of a class. Default None: no cache.
+
+    Returns
+    -------
+    ExactMatch
+
+    Raises
+    ------
+    ValueError
+        `encoding` is not one of ENCODINGS, or `renders` is empty.
+    """
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding must be one of {', '.join(ENCODINGS)}, got {encoding!r}")
     if not renders:

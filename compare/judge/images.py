@@ -22,16 +22,42 @@ from safe_files.paths import UnsafePathError, atomic_output, check_regular_input
 
 
 class ImageError(ValueError):
-    """An unreadable or malformed image; the message names the file."""
+    """An unreadable or malformed image; the message names the file.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, naming the file.
+    """
 
 
 @dataclass
 class Image:
-    rgb: F32  # H x W x 3, linear
+    """An image as the judge reads it: linear float32 RGB, with an EXR's other channels.
+
+    Attributes
+    ----------
+    rgb : F32
+        Linear RGB, float32 H x W x 3.
+    path : str
+        The file it was read from; default "".
+    aovs : dict[str, F32]
+        The EXR's other channels (id, depth, N.X/Y/Z, ...) by name, float32 H x W each;
+        default empty.
+    header : dict[str, str]
+        The EXR header's string attributes; default empty.
+    encoding : str
+        How 8-bit (PNG, PPM) data was decoded to linear: "linear" (default) or "srgb";
+        "float" for EXR and PFM.
+    shape : tuple[int, int]
+        (height, width), read-only.
+    """
+
+    rgb: F32
     path: str = ""
-    aovs: dict[str, F32] = field(default_factory=dict)  # H x W each
+    aovs: dict[str, F32] = field(default_factory=dict)
     header: dict[str, str] = field(default_factory=dict)
-    encoding: str = "linear"  # how 8-bit data was decoded; "float" for EXR/PFM
+    encoding: str = "linear"
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -279,14 +305,35 @@ def read_image(
     expected_size: tuple[int, int] | None = None,
     aovs: Collection[str] | None = None,
 ) -> Image:
-    """Reads an image as linear float32 RGB, with the EXR's other channels in `aovs` (None:
-    every one; a search reads only what it uses, copying no other channel).
+    """Read an EXR, PFM, PNG or PPM/PNM image as linear float32 RGB.
 
-    ``encoding`` ("srgb" or "linear") applies to 8-bit files only; by default PNG is sRGB
-    and PPM linear. The path must be a regular file; its header is read first and an image
-    whose declared (height, width) differs from ``expected_size`` (ImageSizeError) or
-    exceeds MAX_PIXELS is refused before any pixel is decoded, so a small file declaring a
-    huge image costs no memory. Raises ImageError naming the file on anything unreadable.
+    Only a regular file is read (never a FIFO or a device). A wrong or huge declared size is
+    refused from the header, before any pixel is decoded: a small file costs no memory.
+
+    Parameters
+    ----------
+    path : str or Path
+        The image; its suffix (.exr, .pfm, .png, .ppm, .pnm, any case) picks the reader.
+    encoding : {"srgb", "linear"} or None, optional
+        How PNG/PPM codes decode to linear (EXR, PFM ignore it); None: PNG sRGB, PPM linear.
+    expected_size : tuple[int, int] or None, optional
+        The (height, width) the file must declare; default None: any size.
+    aovs : Collection[str] or None, optional
+        EXR channels besides R, G, B to keep (a search copies only what it uses); None: all.
+
+    Returns
+    -------
+    Image
+
+    Raises
+    ------
+    ValueError
+        `encoding` is not None, "srgb" or "linear".
+    ImageSizeError
+        The declared size differs from `expected_size` (an ImageError).
+    ImageError
+        An unsupported suffix, a non-regular file, more than MAX_PIXELS, anything unreadable
+        or malformed (no R, G or B channel, truncated pixels); the message names the file.
     """
     p = Path(path)
     if encoding not in (None, "srgb", "linear"):
@@ -320,7 +367,32 @@ def write_exr(
     aovs: dict[str, F32] | None = None,
     header: dict[str, str] | None = None,
 ) -> None:
-    """Float32 EXR with R, G, B and optional AOV channels, written atomically."""
+    """Write a float32 EXR (ZIP-compressed scanlines) with R, G, B and optional AOVs.
+
+    Written atomically: to a temporary sibling, then renamed over `path`, so no partial
+    file ever remains.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write; only a regular file (or nothing) is replaced.
+    rgb : F32
+        The R, G, B channels, H x W x 3, written as float32 (linear, as read_image reads).
+    aovs : dict[str, F32] or None, optional
+        Further channels by name, H x W each, written as float32; default None: none.
+    header : dict[str, str] or None, optional
+        Header attributes to add, overriding compression and type; default None.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    OSError
+        The file cannot be written (a full disk included); UnsafePathError (an OSError)
+        when `path` is a link, a folder or anything but a regular file.
+    """
     import OpenEXR
 
     p = Path(path)

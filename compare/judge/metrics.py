@@ -27,23 +27,55 @@ SSIM_BORDER = 5  # (win - 1) / 2, left out of the mean
 
 
 class SizeMismatch(ValueError):
-    """The two images differ in size; nothing is resampled."""
+    """The two images differ in size; nothing is resampled.
+
+    Parameters
+    ----------
+    message : str
+        Both images' sizes, width x height.
+    """
 
 
 @dataclass
 class Maps:
-    """Per-pixel maps kept for pictures and per-region means. The whole-image arrays below
-    them are computed once per pair, so that the metrics of each region (the per-effect
-    table asks for six) only index them."""
+    """Per-pixel maps of a pair, kept for pictures and per-region means.
 
-    ssim: F32  # H x W
-    flip_ldr: F32  # H x W
+    The whole-image arrays are computed once per pair (compute_maps), so that the metrics of
+    each region (the per-effect table asks for six) only index them. Display values are the
+    linear ones clamped to [0, 1] (NaN -> 0) and sRGB-encoded.
+
+    Attributes
+    ----------
+    ssim : F32
+        H x W SSIM of the display values, the mean over channels; NaN when the image is
+        smaller than the 11 x 11 window.
+    flip_ldr : F32
+        H x W LDR FLIP of the display values; NaN when computed with flip=False.
+    flip_hdr : F32 or None
+        H x W HDR FLIP of the linear values (NaN, infinities and negatives as 0); None
+        unless asked for (hdr and flip), and on an all-black reference, where it is undefined.
+    abs_display : F32
+        H x W, the largest channel of |display(ref) - display(test)|.
+    diff_display : F32
+        H x W x 3, display(ref) - display(test).
+    abs_linear : ndarray of float64
+        H x W x 3, |ref - test| of the linear values.
+    finite : BOOL
+        H x W, both pixels finite in every channel.
+    nan_ref, nan_test : BOOL
+        H x W, a NaN in any channel of the reference, of the test.
+    inf_ref, inf_test : BOOL
+        H x W, an infinity in any channel of the reference, of the test.
+    """
+
+    ssim: F32
+    flip_ldr: F32
     flip_hdr: F32 | None
-    abs_display: F32  # H x W, max over channels
-    diff_display: F32  # H x W x 3, display(ref) - display(test)
-    abs_linear: NDArray[np.float64]  # H x W x 3, |ref - test|
-    finite: BOOL  # H x W, both pixels finite in every channel
-    nan_ref: BOOL  # H x W, a NaN in any channel
+    abs_display: F32
+    diff_display: F32
+    abs_linear: NDArray[np.float64]
+    finite: BOOL
+    nan_ref: BOOL
     nan_test: BOOL
     inf_ref: BOOL
     inf_test: BOOL
@@ -51,19 +83,58 @@ class Maps:
 
 @dataclass
 class Metrics:
+    """Every metric of a test image against its reference over one region (compute_metrics).
+
+    Display metrics compare the display values (clamped to [0, 1], NaN -> 0, sRGB-encoded);
+    linear metrics the raw linear values over the pixels finite in both images. A metric
+    with no pixel to measure is NaN (flip_hdr None); SPACES names each metric's space.
+
+    Attributes
+    ----------
+    pixels : int
+        Pixels in the region.
+    ssim : float
+        Mean SSIM (display), leaving out the image's 5-pixel border as scikit-image does
+        (kept when nothing else of the region is left).
+    flip_ldr : float
+        Mean LDR FLIP (display); NaN when the maps were computed without FLIP.
+    flip_hdr : float or None
+        Mean HDR FLIP (linear); None when the maps have none (see Maps.flip_hdr).
+    psnr_db : float
+        PSNR in dB (display, data range 1); inf for identical display values.
+    rmse_display, mae_display : float
+        Root mean square and mean absolute error (display).
+    rmse_linear, mae_linear : float
+        Root mean square and mean absolute error (linear).
+    rel_mse_linear : float
+        Mean of (ref - test)^2 / (ref^2 + 0.01) (linear).
+    max_error_linear : float
+        The largest |ref - test| of any channel (linear).
+    max_error_at : tuple[int, int, int] or None
+        (x, y, channel) of that largest error; None without a finite pixel.
+    over_threshold : int
+        Pixels whose display error exceeds `threshold` in any channel.
+    threshold : float
+        The display error threshold of `over_threshold`.
+    nan_ref, nan_test : int
+        Pixels with a NaN in any channel, in the reference, in the test.
+    inf_ref, inf_test : int
+        Pixels with an infinity in any channel, in the reference, in the test.
+    """
+
     pixels: int
-    ssim: float  # display
-    flip_ldr: float  # display
-    flip_hdr: float | None  # linear, only for HDR inputs
-    psnr_db: float  # display, data range 1
+    ssim: float
+    flip_ldr: float
+    flip_hdr: float | None
+    psnr_db: float
     rmse_display: float
     mae_display: float
     rmse_linear: float
     mae_linear: float
-    rel_mse_linear: float  # (a - b)^2 / (b^2 + 0.01)
+    rel_mse_linear: float
     max_error_linear: float
-    max_error_at: tuple[int, int, int] | None  # (x, y, channel)
-    over_threshold: int  # pixels whose display error exceeds `threshold` in any channel
+    max_error_at: tuple[int, int, int] | None
+    over_threshold: int
     threshold: float
     nan_ref: int
     nan_test: int
@@ -121,8 +192,19 @@ def flip_ldr_map(ref: F32, test: F32) -> F32:
 
 
 def compute_maps(ref: F32, test: F32, *, hdr: bool, flip: bool = True) -> Maps:
-    """SSIM and FLIP maps plus the display error map, for the whole image. flip=False leaves
-    the FLIP maps NaN (FLIP is most of the cost; a quick first look can skip it)."""
+    """SSIM and FLIP maps plus the display error maps of `test` against `ref`, whole image.
+
+    Parameters
+    ----------
+    ref, test : F32, linear RGB, H x W x 3, of one size (else SizeMismatch is raised)
+    hdr : bool
+        The inputs are HDR: HDR FLIP of the linear values is computed too.
+    flip : bool, default True
+        False leaves the FLIP maps NaN (FLIP is most of the cost; a first look can skip it).
+
+    Returns
+    -------
+    Maps"""
     from skimage.metrics import structural_similarity
 
     check_same_size(ref, test)
@@ -184,7 +266,21 @@ def _interior(shape: tuple[int, int]) -> BOOL:
 def compute_metrics(
     ref: F32, test: F32, maps: Maps, *, mask: BOOL | None = None, threshold: float = 1.0 / 255.0
 ) -> Metrics:
-    """Every metric over `mask` (all pixels when None)."""
+    """Every metric of `test` against `ref` over `mask`, read from the pair's `maps`.
+
+    Parameters
+    ----------
+    ref, test : F32
+        Linear RGB, float32 H x W x 3, of one size (else SizeMismatch is raised).
+    maps : Maps, compute_maps(ref, test, ...)
+    mask : BOOL or None, default None
+        H x W pixels to measure; None: every pixel.
+    threshold : float, default 1/255
+        Display error above which a pixel counts in ``over_threshold``.
+
+    Returns
+    -------
+    Metrics"""
     check_same_size(ref, test)
     h, w = ref.shape[:2]
     region = np.ones((h, w), bool) if mask is None else mask

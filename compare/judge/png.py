@@ -60,5 +60,29 @@ def write_linear_png(path: str | Path, rgb_linear: F32, *, compress_level: int =
 
 
 def write_png(path: str | Path, rgb_linear: F32) -> None:
-    """Clamped, sRGB-encoded 8-bit PNG, written atomically; non-finite pixels in MARKER."""
+    """Write a linear render as an 8-bit sRGB PNG for people to look at.
+
+    Each channel is clamped to [0, 1], sRGB-encoded and rounded to 8 bits; a pixel with a
+    NaN or infinity in any channel is painted MARKER (magenta), never a plausible black or
+    white. Written atomically: no partial file ever remains.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write; only a regular file (or nothing) is replaced.
+    rgb_linear : F32
+        Linear RGB, H x W x 3.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    ValueError
+        `rgb_linear` is not H x W x 3.
+    OSError
+        The file cannot be written; UnsafePathError (an OSError) when `path` is a link, a
+        folder or anything but a regular file.
+    """
     write_linear_png(path, rgb_linear)

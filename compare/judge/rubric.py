@@ -61,18 +61,46 @@ _Fail = Callable[[str, str | None, str | None], "RubricError"]  # message, key, 
 
 
 class RubricError(ValueError):
-    """An invalid rubric; the message names the file and the line."""
+    """An invalid or unreadable rubric; the message names the file and the line.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, naming the file (and the line, for an invalid one).
+    """
 
 
 @dataclass(frozen=True)
 class Rubric:
+    """A grading rubric, checked (the module's docstring shows the TOML it is read from).
+
+    Attributes
+    ----------
+    pass_score : float
+        The overall score needed to pass, 0 to 100; default 60.
+    flip_at_zero : float
+        The mean FLIP that scores 0; default FLIP_AT_ZERO_SCORE (0.5).
+    effects : dict[str, EffectRule]
+        The [effects.NAME] rules by effect; one not listed gets ``EffectRule()`` (`rule`).
+        Default empty.
+    source : str
+        Where it was read from: a path, or "default rubric" (the default).
+    digest : str
+        The first 16 hex digits of its text's SHA-256; default "".
+    against : str or None
+        The target model's canonical name; default None: the command's default.
+    program : dict[str, Any] or None
+        The [program] table, checked, its "limits" a dict; default None: the class hands
+        in images, not programs.
+    """
+
     pass_score: float = 60.0
     flip_at_zero: float = FLIP_AT_ZERO_SCORE
     effects: dict[str, EffectRule] = field(default_factory=dict)
     source: str = "default rubric"
     digest: str = ""
-    against: str | None = None  # the target model's canonical name; None: the command's default
-    program: dict[str, Any] | None = None  # the [program] table, checked; None: images
+    against: str | None = None
+    program: dict[str, Any] | None = None
 
     def rule(self, effect: str) -> EffectRule:
         return self.effects.get(effect, EffectRule())
@@ -96,6 +124,26 @@ def _line_of(text: str, key: str | None, section: str | None) -> int:
 
 
 def parse_rubric(text: str, source: str = "<rubric>") -> Rubric:
+    """Parse and check a rubric's TOML text: every table, key, type and range.
+
+    Parameters
+    ----------
+    text : str
+        The rubric, TOML (the module's docstring shows its tables).
+    source : str, optional
+        Its name in error messages and `Rubric.source`; default "<rubric>".
+
+    Returns
+    -------
+    Rubric
+
+    Raises
+    ------
+    RubricError
+        Invalid TOML; an unknown table, key, effect or target model; a value of the wrong
+        type or out of range; or every effect given weight 0. The message names `source`
+        and the line.
+    """
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -275,4 +323,23 @@ def read_rubric(path: str | Path | None) -> tuple[str, str]:
 
 
 def load_rubric(path: str | Path | None) -> Rubric:
+    """Read and check the rubric at `path`, or the default rubric.
+
+    Parameters
+    ----------
+    path : str, Path or None
+        A regular file of at most 1 MiB of UTF-8 TOML, read once (never a FIFO or a
+        device). None: the default rubric (pass_score 60, flip_at_zero 0.5, the default
+        EffectRule for every effect).
+
+    Returns
+    -------
+    Rubric
+
+    Raises
+    ------
+    RubricError
+        The file cannot be read (missing, not a regular file, over 1 MiB, not UTF-8) or
+        the rubric is invalid (parse_rubric).
+    """
     return parse_rubric(*read_rubric(path))

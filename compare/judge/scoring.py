@@ -36,21 +36,59 @@ ABSENT = "does not occur in this scene"
 
 @dataclass(frozen=True)
 class EffectRule:
+    """One effect's rule, as a rubric's [effects.NAME] table sets it.
+
+    Attributes
+    ----------
+    min_ssim : float
+        The effect fails with a mean SSIM below this, or undefined; default 0.5.
+    max_flip : float
+        The effect fails with a mean LDR FLIP above this, or NaN; default 0.10.
+    weight : float
+        Multiplies the effect's pixel count, its weight in the overall score; default 1.0.
+        The only part that applies against a demo model (the exact match decides there).
+    """
+
     min_ssim: float = 0.5
     max_flip: float = 0.10
-    weight: float = 1.0  # multiplies the pixel-count weight in the overall score
+    weight: float = 1.0
 
 
 @dataclass(frozen=True)
 class EffectScore:
-    status: str  # pass | fail
+    """One effect's score and pass or fail.
+
+    Attributes
+    ----------
+    status : str
+        "pass" or "fail".
+    score : float
+        From 0 to 100: 100 (1 - FLIP / flip_at_zero), clamped; against a demo model, 100
+        times the share of the effect's pixels that match it.
+    reasons : list[str]
+        Why it fails ("FLIP 0.310 > 0.1"); empty when it passes.
+    pixels : int
+        The effect's pixels.
+    ssim : float or None
+        Mean SSIM; None when undefined (the image is smaller than SSIM's window) or
+        against a demo model.
+    flip : float or None
+        Mean LDR FLIP; None when not computed (an effect that matches its demo model
+        exactly).
+    rule : EffectRule
+        The rule it was judged by.
+    differing : int or None
+        Against a demo model, the pixels that differ from it; default None (FLIP basis).
+    """
+
+    status: str
     score: float
     reasons: list[str]
     pixels: int
     ssim: float | None
-    flip: float | None  # None: not computed (an effect that matches its demo model exactly)
+    flip: float | None
     rule: EffectRule
-    differing: int | None = None  # exact basis: pixels that differ from the model
+    differing: int | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -71,13 +109,36 @@ class EffectScore:
 
 @dataclass(frozen=True)
 class Score:
-    status: str  # pass | fail
+    """The scored verdict of one image: the overall score and each effect's.
+
+    Attributes
+    ----------
+    status : str
+        "pass" when every effect passes (at least one is scored) and, with `pass_score`,
+        the overall score reaches it; else "fail".
+    score : float
+        The overall score, 0 to 100: the effect scores weighted by pixels times their rule's
+        weight (by pixels alone when no weighted effect occurs; 0 without effects).
+    effects : dict[str, EffectScore]
+        Each scored effect's score by name; default empty.
+    flip_at_zero_score : float
+        The mean FLIP that scores 0; default FLIP_AT_ZERO_SCORE (0.5).
+    pass_score : float or None
+        The overall score needed to pass; default None: none.
+    basis : str
+        "flip" (default): the rubric's FLIP and SSIM rules; "exact": the exact match
+        against a demo model.
+    absent : tuple[str, ...]
+        Effects whose masks have no pixels: not scored, not counted; default ().
+    """
+
+    status: str
     score: float
     effects: dict[str, EffectScore] = field(default_factory=dict)
     flip_at_zero_score: float = FLIP_AT_ZERO_SCORE
     pass_score: float | None = None
-    basis: str = "flip"  # flip: the rubric's FLIP/SSIM rules; exact: the exact match
-    absent: tuple[str, ...] = ()  # effects with no pixels: not scored, not counted
+    basis: str = "flip"
+    absent: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -222,8 +283,29 @@ def score_effects(
     pass_score: float | None = None,
     absent: tuple[str, ...] = (),
 ) -> Score:
-    """Per-effect metrics -> the scored verdict. `absent`: effects whose masks have no pixels
-    (they have no metrics either)."""
+    """Score each effect's metrics under its rule, and the image overall (FLIP basis).
+
+    An effect fails with a mean SSIM below ``min_ssim`` or undefined, or a mean LDR FLIP
+    above ``max_flip`` or NaN; it scores 100 (1 - FLIP / flip_at_zero), clamped to [0, 100].
+
+    Parameters
+    ----------
+    per_effect : dict[str, Metrics]
+        Each effect's metrics over its (non-empty) mask, by name.
+    rules : dict[str, EffectRule] or None, optional
+        Each effect's rule by name; an effect without one gets ``EffectRule()``. Default None.
+    flip_at_zero : float, optional
+        The mean FLIP that scores 0; default FLIP_AT_ZERO_SCORE (0.5).
+    pass_score : float or None, optional
+        The overall score needed to pass; default None: passing every effect suffices.
+    absent : tuple[str, ...], optional
+        Effects whose masks have no pixels (they have no metrics either); default ().
+
+    Returns
+    -------
+    Score
+        With ``basis`` "flip"; fails when no effect is scored.
+    """
     rules = rules or {}
     effects = {
         name: score_effect(m, rules.get(name, EffectRule()), flip_at_zero)

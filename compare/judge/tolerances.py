@@ -21,9 +21,42 @@ STATUS_CODE = {"pass": EXIT_PASS, "warn": EXIT_WARN, "fail": EXIT_FAIL}
 
 @dataclass(frozen=True)
 class Tolerances:
-    fail: float = 0.01  # per-pixel display error counted as failing
-    failpercent: float = 0.0  # % of pixels allowed over `fail`
-    hardfail: float = math.inf  # any pixel over this fails
+    """The per-pixel tolerances of a verdict, in the style of OIIO idiff.
+
+    A pixel's error is the largest channel difference of the display values (clamped to
+    [0, 1], sRGB-encoded). Each tolerance is checked when made: a finite number in range.
+
+    Attributes
+    ----------
+    fail : float
+        A pixel's error above this counts as failing; default 0.01. Also the threshold of
+        the metrics' ``over_threshold``.
+    failpercent : float
+        The share of pixels, in % (0 to 100), that may fail before the verdict does;
+        default 0.
+    hardfail : float
+        Any pixel's error above this fails the verdict; default inf (None is read as inf).
+    warn : float
+        A pixel's error above this counts as a warning; default 1/255.
+    warnpercent : float
+        The share of pixels, in % (0 to 100), that may warn before the verdict does;
+        default 0.
+    min_ssim : float or None
+        The verdict fails with a mean SSIM below this (or NaN); default None: no SSIM test.
+    max_flip : float or None
+        The verdict fails with a mean LDR FLIP above this (or NaN); default None: no FLIP
+        test.
+
+    Raises
+    ------
+    ValueError
+        A tolerance that is not a finite number in its range (`hardfail` may be inf;
+        `min_ssim` from -1 to 1; the others >= 0); the message names its option.
+    """
+
+    fail: float = 0.01
+    failpercent: float = 0.0
+    hardfail: float = math.inf
     warn: float = 1.0 / 255.0
     warnpercent: float = 0.0
     min_ssim: float | None = None
@@ -67,7 +100,28 @@ class Tolerances:
 
 @dataclass
 class Verdict:
-    status: str  # pass | warn | fail
+    """Pass, warn or fail under the tolerances, and why.
+
+    A NaN or infinity in the test image where the reference has none always fails.
+
+    Attributes
+    ----------
+    status : str
+        "pass", "warn" or "fail".
+    reasons : list[str]
+        Why it fails or warns; default empty.
+    failing_pixels : int
+        Pixels whose error exceeds the `fail` tolerance (against a demo model: the pixels
+        that differ from it); default 0.
+    warning_pixels : int
+        Pixels whose error exceeds the `warn` tolerance; default 0.
+    max_display_error : float
+        The largest pixel error (display values); default 0.
+    exit_code : int
+        The command's exit status for `status`: 0 pass, 1 warn, 2 fail (read-only).
+    """
+
+    status: str
     reasons: list[str] = field(default_factory=list)
     failing_pixels: int = 0
     warning_pixels: int = 0
