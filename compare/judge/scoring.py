@@ -12,8 +12,8 @@ pixels does not occur in the scene: it has no score, is not counted in the overa
 and is listed as absent (`absent_effects`), so that a page can say so.
 
 Against a demo model the basis is the exact match instead (score_exact): an effect passes when
-at most 0.1 % of its pixels differ from the model beyond the test's quantisation
-(exact_match.py), and its score is 100 x the share of its pixels that match. FLIP is then only
+no more of its pixels differ from the model beyond the test's quantisation than the stray
+allowance, ceil(sqrt(pixels) / 16), at most 1 % and at least 1 (exact_match.py), and its score is 100 x the share of its pixels that match. FLIP is then only
 evidence in the reason of a failing effect.
 """
 
