@@ -1,5 +1,5 @@
 """Nothing of rtval's is left in $TMPDIR: grading a class and a failing reference clean up after
-themselves (a reference render's cap meshes: test_hostile_inputs; the report: its renders go
+themselves (a reference render's cap meshes: test_input_checks; the report: its renders go
 through the render cache's own tmp/ folder)."""
 
 from __future__ import annotations

@@ -27,7 +27,7 @@ from compare.judge.arrays import F32
 
 BOOL = NDArray[np.bool_]
 FLIP_PPD = 67.0
-FLIP_REACH = 10  # the filters' reach at 67 ppd (tests/test_metrics_speedup.py: 9 is short)
+FLIP_REACH = 10  # the filters' reach at 67 ppd (tests/test_flip_crops.py: 9 is short)
 CALL_COST = 1024  # pixels' worth of one flip-evaluator call's fixed cost
 MIN_SIDE = 32  # boxes this small are not split further
 # ACES filmic fit (Narkowicz 2016) with its 0.6 pre-exposure folded in, as HDR-FLIP uses
