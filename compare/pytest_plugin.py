@@ -36,6 +36,14 @@ class CheckOptions(TypedDict, total=False):
     baseline: str | Path | None
 
 
+def _scene_file(root: Path, scene: str | Path) -> Path:
+    """A path relative to the rootdir, else a built-in scene's name (classic, paper, lit)."""
+    from scene_model.builtin import scene_path  # deferred: as the fixture's imports
+
+    path = root / scene
+    return path if path.exists() else scene_path(str(scene))
+
+
 def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("rtval", "rtval regression check")
     group.addoption(
@@ -73,7 +81,7 @@ def rtval_check(request: pytest.FixtureRequest) -> Callable[..., CaseResult]:
             options["renderer"], options.get("name"), options.get("output_format", "exr")
         )
         settings = app.CheckSettings(
-            scenes=[str(root / scene if not Path(scene).is_absolute() else scene)],
+            scenes=[str(_scene_file(root, scene))],
             baseline_dir=folder if folder.is_absolute() else root / folder,
             size=options.get("size", (320, 240)),
             modes=[mode] if mode else list(app.DEFAULT_MODES),
