@@ -29,6 +29,7 @@ from common import ROOT, SCENES, print_table, tool, write_results
 
 from compare.check import run as check
 from compare.render import foreign
+from compare.render.cache import RenderCache
 
 SIZE = (640, 480)
 GOAL_S = 1.0
@@ -75,7 +76,7 @@ def main() -> None:
             baseline_dir=baselines,
             size=SIZE,
             renderer=cmd,
-            cache_dir=cache,
+            cache=RenderCache(cache),
             **kw,  # type: ignore[arg-type]
         )
 

@@ -281,7 +281,8 @@ class CheckSettings:
     spp: int = 1
     timeout: float | None = None
     sandbox: bool = False  # run the renderer in the grading sandbox (docs/sandbox.md)
-    cache_dir: Path | None = None  # model renders and effect masks (the shared render cache)
+    # Model renders and effect masks: the render cache every command shares.
+    cache: RenderCache = field(default_factory=RenderCache)
     keep_images: bool = False  # keep failing cases' pictures (for --html)
 
 
@@ -363,7 +364,7 @@ def run_check(
     model = _target(settings)
     cmd = settings.renderer
     tolerances = load_tolerances(settings.baseline_dir, cmd.name if cmd else None)
-    cache = RenderCache(settings.cache_dir)
+    cache = settings.cache
     runs = _runs(settings, model)
     results: list[CaseResult] = []
     for scene_path in settings.scenes:

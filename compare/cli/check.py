@@ -53,6 +53,7 @@ def _parse_renderer(args: argparse.Namespace) -> RendererCommand | None:
 
 def _settings(args: argparse.Namespace, renderer: RendererCommand | None) -> CheckSettings:
     from compare.check.run import CheckSettings
+    from compare.render.cache import RenderCache
 
     return CheckSettings(
         scenes=args.scenes,
@@ -67,7 +68,7 @@ def _settings(args: argparse.Namespace, renderer: RendererCommand | None) -> Che
         spp=args.spp,
         timeout=args.timeout,
         sandbox=args.sandbox,
-        cache_dir=Path(args.cache) if args.cache else None,
+        cache=RenderCache(args.cache),
         keep_images=bool(args.html),
     )
 

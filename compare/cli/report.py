@@ -31,6 +31,7 @@ def run_report(args: argparse.Namespace) -> int:
 
 
 def _build(args: argparse.Namespace) -> Path:
+    from compare.render.cache import RenderCache
     from compare.render.progress import Progress
     from compare.report.build import build_report
     from compare.report.context import ReportOptions
@@ -46,7 +47,7 @@ def _build(args: argparse.Namespace) -> Path:
         jobs=args.jobs,
         pdf=not args.no_pdf,
     )
-    return build_report(opts, args.cache, Progress(sys.stderr))
+    return build_report(opts, RenderCache(args.cache), Progress(sys.stderr))
 
 
 def _check_scene_size(scene_file: str) -> None:

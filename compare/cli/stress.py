@@ -10,6 +10,7 @@ from compare.cli.common import add_cache_argument, size_type
 
 
 def run_stress(args: argparse.Namespace) -> int:
+    from compare.render.cache import RenderCache
     from compare.render.progress import Progress
     from compare.stress import atlas as stress
     from scene_model.builtin import built_in, built_in_names
@@ -17,7 +18,11 @@ def run_stress(args: argparse.Namespace) -> int:
     stress_scenes = [built_in(n) for n in built_in_names() if n.startswith("stress/")]
     files = [Path(p) for p in args.scenes] if args.scenes else stress_scenes
     data = stress.run_stress(
-        files, Path(args.out), size=args.size, cache_dir=args.cache, progress=Progress(sys.stderr)
+        files,
+        Path(args.out),
+        size=args.size,
+        cache=RenderCache(args.cache),
+        progress=Progress(sys.stderr),
     )
     print(stress.table(data))
     print(Path(args.out) / "index.html")

@@ -50,12 +50,12 @@ from scene_model.scene import load_scene
 
 
 def build_report(
-    opts: ReportOptions, cache_dir: str | Path | None = None, progress: Progress | None = None
+    opts: ReportOptions, cache: RenderCache | None = None, progress: Progress | None = None
 ) -> Path:
     """Writes opts.reports_dir/<scene>/: a folder that holds everything its page links to
     (relative links only), so it can be zipped and opened elsewhere."""
     with interrupt.stop_guard():
-        ctx = start(opts, RenderCache(cache_dir), progress or Progress())
+        ctx = start(opts, cache or RenderCache(), progress or Progress())
         try:
             finish(ctx, examine(ctx))
             interrupt.check()  # a stop signal whose exception was lost: still not complete

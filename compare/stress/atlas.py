@@ -159,12 +159,12 @@ def run_stress(
     out_dir: Path,
     *,
     size: tuple[int, int],
-    cache_dir: Path | str | None = None,
+    cache: RenderCache | None = None,
     progress: Callable[[str], None] = print,
 ) -> dict[str, Any]:
     out_dir.mkdir(parents=True, exist_ok=True)
     own_folder(out_dir, "images")  # never through a link planted there
-    cache = RenderCache(cache_dir)
+    cache = cache or RenderCache()
     results: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="rtval-stress-") as tmp_name:
         tmp = Path(tmp_name)
