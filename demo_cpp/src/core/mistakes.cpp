@@ -9,12 +9,9 @@
 namespace rt {
 
 namespace {
-const char* const kNames[kMistakeCount] = {
-    "no_offset",       "no_inside_flip",    "eta_inverted",     "shadow_past_light",
-    "fresnel_missing", "fresnel_constant",  "fresnel_exponent", "black_background",
-    "flipped_normal",  "half_pixel_offset", "double_gamma",     "depth_cut",
-    "no_shadows",
-};
+#define RT_MISTAKE_NAME(name) #name,
+const char* const kNames[kMistakeCount] = {RT_MISTAKE_LIST(RT_MISTAKE_NAME)};
+#undef RT_MISTAKE_NAME
 }  // namespace
 
 const char* mistake_name(Mistake m) { return kNames[static_cast<int>(m)]; }

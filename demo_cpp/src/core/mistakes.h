@@ -1,35 +1,30 @@
 // Named common mistakes of a Whitted ray tracer as run-time switches (--mistake NAME), so that
 // `rtval diagnose` can render what a program with that mistake shows and `rtval check` can be
 // tested against a broken build. The names and explanations live in one file,
-// compare/judge/mistakes.json, embedded at build time and read by the Python side too.
+// compare/diagnosis/mistakes.json, embedded at build time and read by the Python side too: a
+// mistake is one row there (the enum below is made from its names) and its code in the tracers.
 #pragma once
 
 #include <bitset>
 #include <string>
 #include <vector>
 
+#include "embedded_mistakes.h"  // RT_MISTAKE_LIST
+
 namespace rt {
 
 enum class Mistake {
-    no_offset,          // secondary and shadow rays start exactly on the surface
-    no_inside_flip,     // the normal is not flipped when the ray is inside a sphere
-    eta_inverted,       // the index ratio the wrong way up at both crossings
-    shadow_past_light,  // shadow rays not stopped at the light (= quirk Q5)
-    fresnel_missing,    // reflection and refraction added at full strength
-    fresnel_constant,   // Fresnel weight 0.5 at every angle
-    fresnel_exponent,   // (1 - cos)^2 in the paper's Fresnel curve
-    black_background,   // a miss returns black
-    flipped_normal,     // the shading normal points into the surface
-    half_pixel_offset,  // camera rays through pixel corners
-    double_gamma,       // x^(1/2.2) before the output is written
-    depth_cut,          // the recursion stops one level early
-    no_shadows,         // shadow rays never blocked
+#define RT_MISTAKE_ENUM(name) name,
+    RT_MISTAKE_LIST(RT_MISTAKE_ENUM)
+#undef RT_MISTAKE_ENUM
 };
-constexpr int kMistakeCount = 13;
+#define RT_MISTAKE_ONE(name) +1
+constexpr int kMistakeCount = 0 RT_MISTAKE_LIST(RT_MISTAKE_ONE);
+#undef RT_MISTAKE_ONE
 
 class MistakeSet {
 public:
-    bool has(Mistake m) const { return bits_.test(static_cast<std::size_t>(m)); }
+    bool has(Mistake m) const { return bits_[static_cast<std::size_t>(m)]; }
     void add(Mistake m) { bits_.set(static_cast<std::size_t>(m)); }
     void remove(Mistake m) { bits_.reset(static_cast<std::size_t>(m)); }
     bool any() const { return bits_.any(); }

@@ -7,6 +7,8 @@
 
 #include <cstdint>
 
+#include "core/mistakes.h"
+
 namespace rt::packet {
 
 // Spheres as structure of arrays; every array has `count` entries.
@@ -49,8 +51,7 @@ struct Options {
     QuirkFlags quirk;
     int max_depth;
     bool shadows, reflection, refraction;
-    bool no_inside_flip, flipped_normal, eta_inverted;
-    bool fresnel_missing, fresnel_constant, fresnel_exponent;
+    MistakeSet mistakes;  // those the kernels read; the others are settings
 };
 
 // Camera rays exactly as CameraRays::render_from_camera computes them.

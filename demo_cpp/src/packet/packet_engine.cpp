@@ -312,13 +312,7 @@ packet::Options options_for(const TraceOptions& trace) {
     opt.shadows = trace.shadows;
     opt.reflection = trace.reflection;
     opt.refraction = trace.refraction;
-    const MistakeSet& m = trace.mistakes;
-    opt.no_inside_flip = m.has(Mistake::no_inside_flip);
-    opt.flipped_normal = m.has(Mistake::flipped_normal);
-    opt.eta_inverted = m.has(Mistake::eta_inverted);
-    opt.fresnel_missing = m.has(Mistake::fresnel_missing);
-    opt.fresnel_constant = m.has(Mistake::fresnel_constant);
-    opt.fresnel_exponent = m.has(Mistake::fresnel_exponent);
+    opt.mistakes = trace.mistakes;
     return opt;
 }
 
