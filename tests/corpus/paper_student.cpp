@@ -13,6 +13,10 @@
 //
 // --mirror writes the picture as the paper's OpenGL window shows it: pixel x drawn at
 // x_ndc = -2 (x / W - 0.5), i.e. mirrored left to right.
+//
+// Built with -DC_STYLE it is written as scratchapixel's C-flavoured code is: the square roots
+// of C's <math.h> (the float promoted to double, the result narrowed back) and a PPM writer
+// that rounds instead of truncating. Both are correct; the float chains differ.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -21,6 +25,12 @@
 #include <fstream>
 #include <vector>
 
+#ifdef C_STYLE
+#define sqrt(x) (float(::sqrt(double(x))))
+#define CODE(v) (unsigned char)(min(float(1), v) * 255 + 0.5f)
+#else
+#define CODE(v) (unsigned char)(min(float(1), v) * 255)
+#endif
 using namespace std;
 
 class Vec3f {
@@ -226,9 +236,7 @@ int main(int argc, char **argv) {
         for (unsigned x = 0; x < width; ++x) {
             // The window draws pixel x at x_ndc = -2 (x / W - 0.5): column W - 1 - x.
             const Vec3f &c = image[y * width + (mirror ? width - 1 - x : x)];
-            ofs << (unsigned char)(min(float(1), c.x) * 255)
-                << (unsigned char)(min(float(1), c.y) * 255)
-                << (unsigned char)(min(float(1), c.z) * 255);
+            ofs << CODE(c.x) << CODE(c.y) << CODE(c.z);
         }
     }
     ofs.close();

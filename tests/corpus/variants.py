@@ -12,6 +12,7 @@ from corpus.programs import Build, Variant
 FULL = (640, 480)  # classic.json's own size
 SMALL = (320, 240)
 PAPER_SMALL = (360, 240)  # paper.json is 1200x800 (3:2)
+PAPER_FULL = (1200, 800)
 
 SCRATCH = "scratch_float.cpp"
 C99 = "classic_c99.c"
@@ -100,6 +101,15 @@ def _paper() -> list[Variant]:
             "paper",
             "paper",
             PAPER_SMALL,
+            ("paper", *args),
+        ),
+        # At the paper's own size its depth-10 glass chains are where float chaos is widest.
+        Variant(
+            "paper-c-style-full",
+            Build(PAPER, "g++", ("-O2",), ("C_STYLE",)),
+            "paper",
+            "paper",
+            PAPER_FULL,
             ("paper", *args),
         ),
         Variant("paper-lit-gcc-O2", b, "lit", "paper", SMALL, ("lit", *args)),
