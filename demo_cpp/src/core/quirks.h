@@ -8,22 +8,32 @@
 namespace rt {
 
 // Each quirk by what it does; its number is its label ("Q7") in docs, flags and headers.
+// RT_QUIRK_LIST(X) is X(name, number) for each: the enum, the packet engine's named flags
+// and their filling are made from it, so a quirk is one line here and its code.
+#define RT_QUIRK_LIST(X)                                                                          \
+    X(paper_intersection, 1)               /* Q1: the tca < 0 early-out and a fixed bias */       \
+    X(eta_one_over_ior_leaving, 2)         /* Q2: eta = 1/ior also when leaving glass */          \
+    X(nan_at_total_internal_reflection, 3) /* Q3: a NaN direction at total internal reflection */ \
+    X(shared_shadow_factor, 4)             /* Q4: one shadow factor shared by all lights */       \
+    X(shadow_rays_pass_light, 5)           /* Q5: shadow rays not stopped at the light */         \
+    X(diffuse_at_max_depth, 6)      /* Q6: specular surfaces shaded as diffuse at max depth */    \
+    X(no_pi_no_falloff, 7)          /* Q7: no 1/pi and no distance falloff */                     \
+    X(paper_fresnel, 8)             /* Q8: the paper's Fresnel curve 0.1 + 0.9 (1 - cos)^3 */     \
+    X(glass_partial_shadow, 9)      /* Q9: glass casts partial shadows */                         \
+    X(pixel_centre_rays, 10)        /* Q10: one ray through each pixel centre */                  \
+    X(lit_colour_starts_at_one, 11) /* Q11: the directly lit colour starts at 1, not 0 */         \
+    X(no_lambert_cosine, 12) /* Q12: no Lambert cosine: lights behind a surface light it too */   \
+    X(no_own_emission, 13)   /* Q13: the hit sphere's own emission is never added */
+
 enum class Quirk {
-    paper_intersection = 1,                // Q1: the tca < 0 early-out and a fixed bias
-    eta_one_over_ior_leaving = 2,          // Q2: eta = 1/ior also when leaving glass
-    nan_at_total_internal_reflection = 3,  // Q3: a NaN direction at total internal reflection
-    shared_shadow_factor = 4,              // Q4: one shadow factor shared by all lights
-    shadow_rays_pass_light = 5,            // Q5: shadow rays not stopped at the light
-    diffuse_at_max_depth = 6,              // Q6: specular surfaces shaded as diffuse at max depth
-    no_pi_no_falloff = 7,                  // Q7: no 1/pi and no distance falloff
-    paper_fresnel = 8,                     // Q8: the paper's Fresnel curve 0.1 + 0.9 (1 - cos)^3
-    glass_partial_shadow = 9,              // Q9: glass casts partial shadows
-    pixel_centre_rays = 10,                // Q10: one ray through each pixel centre
-    lit_colour_starts_at_one = 11,         // Q11: the directly lit colour starts at 1, not 0
-    no_lambert_cosine = 12,  // Q12: no Lambert cosine: lights behind a surface light it too
-    no_own_emission = 13,    // Q13: the hit sphere's own emission is never added
+#define RT_QUIRK_ENUM(name, number) name = number,
+    RT_QUIRK_LIST(RT_QUIRK_ENUM)
+#undef RT_QUIRK_ENUM
 };
-constexpr int kQuirkCount = 13;
+#define RT_QUIRK_ONE(name, number) +1
+constexpr int kQuirkCount = 0 RT_QUIRK_LIST(RT_QUIRK_ONE);
+#undef RT_QUIRK_ONE
+
 // "Q7": the label docs, command lines and EXR headers use.
 std::string quirk_label(Quirk q);
 

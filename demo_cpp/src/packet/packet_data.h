@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "core/mistakes.h"
+#include "core/quirks.h"
 
 namespace rt::packet {
 
@@ -30,19 +31,9 @@ constexpr int kLight = 1, kSpecular = 2;
 
 // The quirks present (quirks.h names them), one boolean each.
 struct QuirkFlags {
-    bool paper_intersection;                // Q1
-    bool eta_one_over_ior_leaving;          // Q2
-    bool nan_at_total_internal_reflection;  // Q3
-    bool shared_shadow_factor;              // Q4
-    bool shadow_rays_pass_light;            // Q5
-    bool diffuse_at_max_depth;              // Q6
-    bool no_pi_no_falloff;                  // Q7
-    bool paper_fresnel;                     // Q8
-    bool glass_partial_shadow;              // Q9
-    bool pixel_centre_rays;                 // Q10
-    bool lit_colour_starts_at_one;          // Q11
-    bool no_lambert_cosine;                 // Q12
-    bool no_own_emission;                   // Q13
+#define RT_QUIRK_FLAG(name, number) bool name;
+    RT_QUIRK_LIST(RT_QUIRK_FLAG)
+#undef RT_QUIRK_FLAG
 };
 
 // Quirks present, effect switches and the named mistakes that change the shading (mistakes.h;

@@ -23,19 +23,9 @@ namespace rt {
 namespace {
 packet::QuirkFlags quirk_flags(const QuirkSet& q) {
     packet::QuirkFlags f{};
-    f.paper_intersection = q.has(Quirk::paper_intersection);
-    f.eta_one_over_ior_leaving = q.has(Quirk::eta_one_over_ior_leaving);
-    f.nan_at_total_internal_reflection = q.has(Quirk::nan_at_total_internal_reflection);
-    f.shared_shadow_factor = q.has(Quirk::shared_shadow_factor);
-    f.shadow_rays_pass_light = q.has(Quirk::shadow_rays_pass_light);
-    f.diffuse_at_max_depth = q.has(Quirk::diffuse_at_max_depth);
-    f.no_pi_no_falloff = q.has(Quirk::no_pi_no_falloff);
-    f.paper_fresnel = q.has(Quirk::paper_fresnel);
-    f.glass_partial_shadow = q.has(Quirk::glass_partial_shadow);
-    f.pixel_centre_rays = q.has(Quirk::pixel_centre_rays);
-    f.lit_colour_starts_at_one = q.has(Quirk::lit_colour_starts_at_one);
-    f.no_lambert_cosine = q.has(Quirk::no_lambert_cosine);
-    f.no_own_emission = q.has(Quirk::no_own_emission);
+#define RT_QUIRK_SET(name, number) f.name = q.has(Quirk::name);
+    RT_QUIRK_LIST(RT_QUIRK_SET)
+#undef RT_QUIRK_SET
     return f;
 }
 }  // namespace
