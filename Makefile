@@ -10,9 +10,9 @@ FUZZ_BIN  := build/fuzz/scene_loader_fuzz
 # pytest in parallel (pytest-xdist, one render cache per worker), in a temporary folder of its
 # own: pytest's shared /tmp/pytest-of-USER is pruned by every session, racing with others.
 PYTEST    := $(PY) -m pytest -q --numprocesses=auto --maxprocesses=4 --dist loadscope
-# pip builds rtdemo and rtdemo-gl only (build/cmake); the GoogleTest suite and the bench programs are
-# built here by make test / make bench.
-DEV_BUILD := build/tests
+# pip configures build/cmake with the GoogleTest suite and the bench programs and builds rtdemo and
+# rtdemo-gl there; make test and make bench build the rest in it, from the same objects.
+DEV_BUILD := build/cmake
 CPP_FORMATTED := $(shell find demo_cpp bench -type f \( -name '*.cpp' -o -name '*.h' \) | sort)
 
 .PHONY: report test test-fast lint lint-cpp test-cpp test-py test-fuzz test-build fuzz bench bench-build setup clean
@@ -39,24 +39,20 @@ lint: $(STAMP) lint-cpp
 	$(VENV)/bin/mypy
 	$(PY) scripts/check_structure.py
 
-# Configured once (ninja re-runs CMake itself when a CMakeLists changes).
-$(DEV_BUILD)/build.ninja: $(STAMP)
-	cmake -S demo_cpp -B $(DEV_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=ON \
-	  -DRTDEMO_BENCH=ON > /dev/null
-	touch $@
-
-test-build: $(DEV_BUILD)/build.ninja
-	cmake --build $(DEV_BUILD) --target rtdemo_tests rtdemo
+# pip configured the folder; ninja re-runs CMake itself when a CMakeLists changes.
+test-build: $(STAMP)
+	cmake --build $(DEV_BUILD) --target rtdemo_tests
 
 test-cpp: test-build
 	ctest --test-dir $(DEV_BUILD) --output-on-failure -j2
 
-test-py: test-build
+test-py: $(STAMP)
 	@tmp=$$(mktemp -d /tmp/rtval-pytest.XXXXXX); $(PYTEST) --basetemp=$$tmp; rc=$$?; rm -rf $$tmp; exit $$rc
 
 # Every C++ file under demo_cpp/ and bench/ formatted by demo_cpp/.clang-format.
 lint-cpp:
-	clang-format --style=file:demo_cpp/.clang-format --dry-run --Werror $(CPP_FORMATTED)
+	@clang-format --style=file:demo_cpp/.clang-format --dry-run --Werror $(CPP_FORMATTED)
+	@echo "clang-format: $(words $(CPP_FORMATTED)) C++ files as demo_cpp/.clang-format says"
 
 # The C++ scene loader under libFuzzer (clang, ASan, UBSan): 150k runs in `make test`, 10 min in `make fuzz`.
 $(FUZZ_BIN): $(STAMP) demo_cpp/fuzz/scene_loader_fuzz.cpp demo_cpp/src/io/scene_loader.cpp
@@ -75,7 +71,7 @@ fuzz: $(FUZZ_BIN)
 	mkdir -p build/fuzz/corpus
 	$(FUZZ_BIN) -max_total_time=600 -print_final_stats=1 build/fuzz/corpus demo_cpp/fuzz/corpus
 
-bench-build: $(DEV_BUILD)/build.ninja
+bench-build: $(STAMP)
 	cmake --build $(DEV_BUILD) --target rtdemo rtdemo-gl seed_tracer sphere_test_peak
 
 bench: bench-build

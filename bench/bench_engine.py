@@ -34,7 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import ROOT, SCENES, print_table, write_results
 
 # rtdemo and seed_tracer of the test build (make bench-build: BUILD_TESTING=ON, RTDEMO_BENCH=ON).
-BUILD = ROOT / "build" / "tests"
+BUILD = ROOT / "build" / "cmake"
 SUMMARY = re.compile(r": ([0-9.]+) s on (\d+) threads, ([0-9.]+) M rays .* write ([0-9.]+) s")
 CLASSIC = str(SCENES / "classic.json")
 
@@ -153,12 +153,12 @@ def main() -> None:
         "--rounds", type=int, default=15, help="alternating rounds per comparison (default 15)"
     )
     parser.add_argument(
-        "--rtdemo", default=str(BUILD / "rtdemo"), help="rtdemo binary (default: build/tests)"
+        "--rtdemo", default=str(BUILD / "rtdemo"), help="rtdemo binary (default: build/cmake)"
     )
     parser.add_argument(
         "--seed",
         default=str(BUILD / "seed_tracer"),
-        help="the plain program (default: build/tests)",
+        help="the plain program (default: build/cmake)",
     )
     parser.add_argument(
         "--physical-rounds", type=int, default=5, help="rounds for physical 16 spp (default 5)"

@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from common import ROOT, SCENES, print_table, time_process, tool, write_results
 
 # seed_tracer and sphere_test_peak: built by make bench (never by pip) in the test build folder.
-BUILD = ROOT / "build" / "tests"
+BUILD = ROOT / "build" / "cmake"
 GL_RUNS = 5
 
 

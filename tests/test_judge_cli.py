@@ -16,7 +16,6 @@ from compare.diagnosis.mistakes import catalogue
 from compare.judge.images import read_image, write_exr
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
-# Built by make test (build/tests, with the GoogleTest suite), never by pip.
 # Every named mistake (compare/diagnosis/mistakes.json) but shadow_past_light, which is quirk Q5:
 # already present in paper and classic, and invisible in physical mode in the built-in scenes
 # (nothing lies beyond their light).
