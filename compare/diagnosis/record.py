@@ -11,17 +11,17 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.gates import EXPLAINED_SHARE, Gate
 from compare.diagnosis.switches import aliases
 from compare.judge.exact_match import ExactMatch
 from compare.judge.target_model import QUIRK_COUNT, SWITCHABLE_EFFECTS
 from scene_model.scene import Scene
 
-# An effect is explained when the result makes at least this share of the pixels that differed
-# from the start match. Measured (tests/test_diagnose.py, 160x120 and 640x480): every named
-# cause of the student variants makes 93-100 % match; the best candidates for programs nothing
-# explains make 0-19 % match (glass never multiplied by its colour; a refracted ray that hits
-# nothing): half is far from both.
-EXPLAINED_SHARE = 0.5
+# EXPLAINED_SHARE (gates.py): an effect is explained when the result makes at least this share
+# of the pixels that differed from the start match. Measured (tests/test_diagnose.py, 160x120
+# and 640x480): every named cause of the student variants makes 93-100 % match; the best
+# candidates for programs nothing explains make 0-19 % match (glass never multiplied by its
+# colour; a refracted ray that hits nothing): half is far from both.
 
 
 @dataclass(frozen=True)
@@ -199,6 +199,7 @@ class Evidence:
     flips: tuple[float, float]  # mean FLIP in the effect: start, result
     distances: tuple[float, float]  # mean 8-bit levels beyond one: start, result
     near: tuple[int, float]  # (candidates tried, the best share of start's differing matched)
+    gate: Gate | None = None  # the result against the start (gates.py); None: as start
 
 
 def finding(k: str, found: Found, ev: Evidence) -> EffectFinding:
@@ -208,11 +209,15 @@ def finding(k: str, found: Found, ev: Evidence) -> EffectFinding:
     # An effect no single step is needed for, but that the result fixes, is the steps' work
     # together.
     by = tuple(st.change for st in steps if k in st.explains) or tuple(st.change for st in steps)
-    fixed = e0.differing - e1.differing >= EXPLAINED_SHARE * e0.differing > 0
-    if e1.passed:
-        state = "as start" if e0.passed else "explained"
+    # A cause is named only where every gate holds (gates.py): the result matches the pixels
+    # that differed, not through its own noise, FLIP halves, no effect got worse.
+    named = ev.gate is not None and ev.gate.passed and bool(steps)
+    if e0.passed:
+        state = "as start"
+    elif e1.passed:
+        state = "explained" if named else "unexplained"
     else:
-        state = "partly explained" if fixed and steps else "unexplained"
+        state = "partly explained" if named else "unexplained"
     return EffectFinding(
         k,
         e1.pixels,
@@ -237,7 +242,7 @@ def _sentence(k: str, state: str, by: tuple[str, ...], begin: Candidate, ev: Evi
     start_differing, final = ev.start.per_effect[k].differing, ev.final
     if state == "as start":
         return f"{k}: as {begin.name} (FLIP {f1:.3f})"
-    if state == "unexplained" and start_differing <= final.per_effect[k].allowed:
+    if state == "unexplained" and start_differing <= ev.start.per_effect[k].allowed:
         return (
             f"{k}: matches {begin.name}, but {final.sentence(k)}: the changes that explain the "
             "other effects cost it"
@@ -252,9 +257,11 @@ def _sentence(k: str, state: str, by: tuple[str, ...], begin: Candidate, ev: Evi
             f"{k}: partly explained by {' and '.join(by)}: {final.sentence(k)} "
             f"({start_differing:,} from {begin.name}); FLIP {f0:.3f} -> {f1:.3f}"
         )
+    why = ev.gate.why_not() if ev.gate is not None else ""
+    against = final if not final.per_effect[k].passed else ev.start
     return (
-        f"{k}: not explained: {final.sentence(k)}; FLIP {f1:.3f}; {_nearest(ev.near)}: a new "
-        "bug, not a quirk or a named mistake"
+        f"{k}: not explained: {against.sentence(k)}; FLIP {f1:.3f}; "
+        f"{why or _nearest(ev.near)}: a new bug, not a quirk or a named mistake"
     )
 
 

@@ -302,6 +302,18 @@ def explained(
     )
 
 
+def worsened(before: Score, after: Score, allowance: dict[str, int]) -> tuple[str, ...]:
+    """The effects a change makes clearly worse: more pixels differing than before beyond the
+    exact-match allowance, and a distance up by EXPLAINS and 10 % (explained's mirror)."""
+    b, a = before.per_effect(), after.per_effect()
+    return tuple(
+        k
+        for k in b
+        if after.differing[k] - before.differing[k] > allowance.get(k, 0)
+        and a[k] - b[k] > max(EXPLAINS, 0.1 * b[k])
+    )
+
+
 class Target:
     """The image as the search judges it: its 8-bit codes (un-mirrored once that is decided)
     and, from the first render's AOVs, the effect regions and the exact-match allowance.

@@ -27,9 +27,9 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
 from compare.diagnosis.memo import keep, load, record_name
 from compare.diagnosis.record import (
-    EXPLAINED_SHARE,
     Diagnosis,
     EffectFinding,
     Evidence,
@@ -49,6 +49,7 @@ from compare.diagnosis.score import (
     explained,
     objective,
     unmirror,
+    worsened,
 )
 from compare.diagnosis.switches import (
     MAX_SEARCH_DEPTH,
@@ -121,6 +122,7 @@ class Search:
         self.t0 = time.perf_counter()
         self.image, self.scene, self.trials = image, scene, trials
         self.quirks, self.max_renders, self.say = tuple(quirks), max_renders, say
+        self.gated: dict[tuple[Candidate, Candidate], dict[str, Gate]] = {}
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
@@ -275,8 +277,14 @@ class Search:
         base, still = t.per(current), t.open_effects(current)
         # Only a switch that clearly explains some effect counts: small drops spread over
         # every effect are noise fitting (e.g. acne patterns that float rounding decides).
+        # One that makes another effect clearly worse is never kept, however much it gains
+        # elsewhere: a sign flip that blackens lit surfaces as the image does, but bends the
+        # glass wrongly, is not the student's mistake.
         gains = [
-            objective(base) - objective(t.per(c)) if explained(base, t.per(c), still) else 0.0
+            objective(base) - objective(t.per(c))
+            if explained(base, t.per(c), still)
+            and not worsened(t.scores[current], t.scores[c], t.target.allowance)
+            else 0.0
             for c in cands
         ]
         return tried, cands, gains
@@ -338,41 +346,65 @@ class Search:
             del remaining[i]
         return out
 
-    def gained(self, begin: Candidate, final: Candidate) -> set[str]:
-        """Effects the final makes at least EXPLAINED_SHARE of the start's differing pixels
-        match (judged exactly, with the turned renders: acne that float rounding decides
-        matches only within the model's own spread)."""
-        d0, d1 = self.trials.exact_differing(begin), self.trials.exact_differing(final)
-        return {k for k in d0 if d0[k] > 0 and d0[k] - d1[k] >= EXPLAINED_SHARE * d0[k]}
+    def gates_of(self, begin: Candidate, final: Candidate) -> dict[str, Gate]:
+        """Per effect, whether final may be named as its cause (gates.py): the verdict's
+        exact match of both, final's spread against begin's, FLIP before and after."""
+        if (begin, final) in self.gated:
+            return self.gated[begin, final]
+        t = self.trials
+        e0, e1 = t.exact_of(begin), t.exact_of(final)
+        absorbed = absorbed_pixels(
+            (e0, t.pairs[begin]),
+            (e1, t.pairs[final]),
+            lambda: t.produced(final),
+            t.target.values_judged,
+        )
+        flips = (t.flip_map(begin), t.flip_map(final))
+        self.gated[begin, final] = gates(e0, e1, absorbed, flips, t.target.masks)
+        return self.gated[begin, final]
 
-    def needed_by(self, begin: Candidate, final: Candidate, sw: Switch) -> set[str]:
-        """Effects whose matching pixels undoing `sw` would lose: more than the exact-match
-        allowance and a tenth of what the final gained over the start."""
+    def undo_effects(
+        self, begin: Candidate, final: Candidate, sw: Switch
+    ) -> tuple[set[str], set[str]]:
+        """Effects whose matching pixels undoing `sw` would lose (more than the exact-match
+        allowance and a tenth of what the final gained over the start), and effects it would
+        win back (more than the allowance)."""
         inverse = next(u for u in differences(final, begin, self.scene) if u.sets_same(sw))
         t = self.trials
         d0, d1 = t.exact_differing(begin), t.exact_differing(final)
         dw = t.exact_differing(inverse.apply(final, self.scene))
-        return {k for k in d1 if dw[k] - d1[k] > max(t.allowed(k), 0.1 * max(0, d0[k] - d1[k]))}
+        lose = {k for k in d1 if dw[k] - d1[k] > max(t.allowed(k), 0.1 * max(0, d0[k] - d1[k]))}
+        win = {k for k in d1 if d1[k] - dw[k] > t.allowed(k)}
+        return lose, win
 
     def justified(
         self, begin: Candidate, final: Candidate, or_more: bool
     ) -> tuple[Candidate, list[Step], list[Candidate]]:
-        """The final without every switch that makes no explained effect's pixels match, its
-        steps from begin and the candidate after each: a mistake is named only where it
-        explains pixels."""
+        """The final without every switch that explains no effect that passes the gates
+        (gates.py), and without every switch that makes some effect worse than the start;
+        its steps from begin and the candidate after each: a cause is named only where the
+        image shows it."""
         while True:
             self.trials.evaluate([final])
-            gained = self.gained(begin, final)
+            passed = self.gates_of(begin, final)
+            gained = {k for k, g in passed.items() if g.passed}
+            worse = {k for k, g in passed.items() if g.worse}
             path = self.retell(begin, final)
-            needs = {sw: self.needed_by(begin, final, sw) & gained for sw, _ in path}
-            idle = [sw for sw, eff in needs.items() if not eff]
-            if not idle:
-                break
-            for sw in idle:
+            undo = {sw: self.undo_effects(begin, final, sw) for sw, _ in path}
+            needs = {sw: lose & gained for sw, (lose, _) in undo.items()}
+            drop = [sw for sw, eff in needs.items() if not eff]
+            culprits = [sw for sw, (_, win) in undo.items() if win & worse and sw not in drop]
+            if worse and not culprits:  # together, not one by one: none of them is named
+                culprits = [sw for sw in needs if sw not in drop]
+            for sw in culprits:
                 self.say(
-                    f"diagnose: drop {sw.change(self.scene)}: it makes no effect's pixels match"
+                    f"diagnose: drop {sw.change(self.scene)}: it makes {', '.join(sorted(worse))} worse"
                 )
-            final = undone(final, begin, idle, self.scene)
+            for sw in drop:
+                self.say(f"diagnose: drop {sw.change(self.scene)}: it explains no effect")
+            if not drop + culprits:
+                break
+            final = undone(final, begin, drop + culprits, self.scene)
         return final, self._steps(begin, path, needs, or_more), [after for _, after in path]
 
     def _steps(
@@ -405,6 +437,7 @@ class Search:
         exact = {c: t.exact_of(c) for c in both}
         # FLIP alone (the judge's map, metrics.py), not evaluate_pair's SSIM and other maps.
         flip = {c: t.flip_means(c) for c in both}
+        passed = self.gates_of(begin, final)
         findings = {}
         for k in EFFECTS:
             if k not in t.target.masks:
@@ -415,6 +448,7 @@ class Search:
                 (flip[begin][k], flip[final][k]),
                 (t.scores[begin].pixels[k], t.scores[final].pixels[k]),
                 (len(t.scores), t.best_fixed(begin, k)),
+                passed.get(k) if final != begin else None,
             )
             findings[k] = finding(k, found, ev)
         return findings, summary(found, findings, exact[begin])

@@ -8,12 +8,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 
+import numpy as np
+
 from compare.diagnosis import kept as diagnose_kept
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.flip import Flips, Means
 from compare.diagnosis.score import Codes, Renderer, Score, Store, Target
+from compare.judge import flip_crops, metrics
 from compare.judge.arrays import F32
-from compare.judge.exact_match import ExactMatch, model_bounds
+from compare.judge.effects import BOOL
+from compare.judge.exact_match import Bounds, ExactMatch, channel_matches, model_bounds
 from compare.judge.images import Image
 
 
@@ -40,6 +44,8 @@ class Trials:
         self.kept: dict[Candidate, Image] = {}
         self.keep: set[Candidate] = set()
         self.exact_memo: dict[Candidate, Future[ExactMatch]] = {}
+        self.pairs: dict[Candidate, tuple[Bounds, Bounds]] = {}  # bounds of each exact match
+        self.flip_maps: dict[Candidate, F32] = {}  # the FLIP maps the gates average
 
     def set_test(self, rgb: F32) -> None:
         """Judge against `rgb` from now on: every kept render is scored again, every other
@@ -159,6 +165,15 @@ class Trials:
         t = self.target
         return self.flips.means(c, self.centre(c).rgb, t.test, t.masks)
 
+    def flip_map(self, c: Candidate) -> F32:
+        """The LDR-FLIP map of the image against c's centre render (metrics.flip_ldr_map's
+        values, computed only around the pixels where they differ), kept for this search."""
+        if c not in self.flip_maps:
+            ref = metrics.display(self.centre(c).rgb)
+            test = metrics.display(self.target.test)
+            self.flip_maps[c] = flip_crops.cropped_ldr_flip(ref, test)
+        return self.flip_maps[c]
+
     def exact_of(self, c: Candidate) -> ExactMatch:
         """The verdict's own judging (exact_match.py) of the image against the candidate,
         rendered at pixel centres, with the camera turned by each turn and its spheres grown
@@ -174,11 +189,23 @@ class Trials:
         if c not in self.exact_memo:
             self.exact_memo[c] = self.background.submit(self._exact, c)
 
+    def _perturbed(self, c: Candidate) -> list[Candidate]:
+        return [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
+
+    def produced(self, c: Candidate) -> BOOL:
+        """H x W: pixels whose value in the image one of c's renders (centre or perturbed)
+        stores by itself, not only the interval between them (gates.absorbed_pixels)."""
+        t = self.target
+        out: BOOL = np.zeros(t.test.shape[:2], bool)
+        for im in self.render_all([c, *self._perturbed(c)]):
+            out |= channel_matches(im.rgb, t.test, t.image.encoding)
+        return out
+
     def _exact(self, c: Candidate) -> ExactMatch:
         """c's exact match from its bounds: kept in the store, or computed from its renders
         (only then read)."""
         encoding = self.target.image.encoding
-        perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
+        perturbed = self._perturbed(c)
         name = self._kept_name("bounds", c, self.turns, self.grows, encoding)
         shape = self.target.image.rgb.shape
         data = diagnose_kept.read(self.store, name, diagnose_kept.bounds_size(shape))
@@ -187,6 +214,7 @@ class Trials:
             renders = [im.rgb for im in self.render_all([c, *perturbed])]
             pair = model_bounds(renders, encoding)
             diagnose_kept.write(self.store, name, diagnose_kept.pack_bounds(pair))
+        self.pairs[c] = pair
         return self.target.exact(c, pair, 1 + len(perturbed))
 
     def _kept_name(self, kind: str, c: Candidate, *more: object) -> str:

@@ -1,0 +1,113 @@
+"""A cause is named for an effect only when every gate holds (compare/diagnosis/gates.py): its
+render matches the pixels that differed by the verdict's exact match, not through a spread
+wider than the start's; FLIP over them falls by half; no other effect gets worse. Each test
+reproduces a mechanism by which the diagnosis once named a false cause."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from helpers import SCENES, render_demo
+
+from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.renderer import CandidateRenderer
+from compare.diagnosis.search import Diagnosis, diagnose
+from compare.judge.effects import effect_masks
+from compare.judge.images import Image, read_image
+from compare.judge.target_model import TargetModel
+from scene_model.scene import load_scene
+
+CLASSIC = SCENES / "classic.json"
+W, H = 160, 120
+
+
+def _ppm(path: Path, rgb: np.ndarray) -> Image:
+    """`rgb` written as the classic program writes it (clamped, truncated) and read back."""
+    data = (np.clip(np.nan_to_num(rgb, nan=0.0), 0.0, 1.0) * 255).astype(np.uint8)
+    path.write_bytes(f"P6\n{W} {H}\n255\n".encode() + data.tobytes())
+    return read_image(path)
+
+
+def test_a_change_that_makes_the_glass_worse_is_not_named(rtdemo: str, tmp_path: Path) -> None:
+    # Lit surfaces black everywhere (rtdemo's flipped_normal), the glass right (classic's own
+    # pixels): flipped_normal fixes the direct light and the mirrors, and bends every ray
+    # through the glass the wrong way. Before the gates it was named ("explained by the
+    # mistake flipped_normal"), with refraction 0 -> 6,078 px differing (measured at 160x120).
+    scene = load_scene(CLASSIC)
+    base = render_demo(rtdemo, CLASSIC, tmp_path / "c.exr", "-q", "--mode", "classic",
+                       size=(W, H))  # fmt: skip
+    flipped = render_demo(rtdemo, CLASSIC, tmp_path / "f.exr", "-q", "--mode", "classic",
+                          "--mistake", "flipped_normal", size=(W, H))  # fmt: skip
+    glass = effect_masks(scene, base.aovs["id"], base.aovs["depth"])["refraction"]
+    rgb = np.where(glass[..., None], base.rgb, flipped.rgb)
+    image = _ppm(tmp_path / "black-lit.ppm", rgb)
+    with CandidateRenderer(CLASSIC, W, H, threads=1, cache=tmp_path / "cache") as render:
+        d = diagnose(image, scene, render, parallel=2)
+    assert "flipped_normal" not in d.mistakes and d.steps == [], d.sentences
+    assert d.start == "classic" and d.effects["refraction"].state == "as start"
+    assert {"direct", "reflection"} <= set(d.unexplained)
+    assert d.effects["direct"].final_differing == 943  # every lit ground pixel, still named
+
+
+# --- a noisy candidate and a smooth error, with an injected renderer ------------------------
+
+
+def _ids() -> tuple[np.ndarray, np.ndarray]:
+    ids = np.full((32, 32), -1.0, np.float32)
+    ids[8:24, 8:24] = 1.0  # the classic scene's glass sphere
+    return ids, np.where(ids >= 0, 20.0, 0.0).astype(np.float32)
+
+
+def _noisy_render(c: TargetModel | Candidate) -> Image:
+    """Background 1 and glass 0.3; with no_offset the glass is acne, a checkerboard of 0.2 and
+    0.8 whose squares swap in every perturbed render (a camera turn or a sphere grown): its
+    mean is 0.5, and its spread covers every value between."""
+    c = c if isinstance(c, Candidate) else Candidate.from_model(c)
+    ids, depth = _ids()
+    rgb = np.ones((32, 32, 3), np.float32)
+    glass = ids == 1
+    if "no_offset" in c.mistakes:
+        yy, xx = np.mgrid[0:32, 0:32]
+        odd = (yy + xx) % 2 == (0 if c.turn is None and c.grow is None else 1)
+        rgb[glass & odd], rgb[glass & ~odd] = 0.2, 0.8
+    else:
+        rgb[glass] = 0.3
+    return Image(rgb=rgb, aovs={"id": ids, "depth": depth})
+
+
+def _image(glass: np.ndarray | float) -> Image:
+    rgb = np.ones((32, 32, 3), np.float32)
+    rgb[8:24, 8:24] = glass
+    q = np.floor(rgb * 255) / 255
+    return Image(rgb=q.astype(np.float32), path="toy.ppm", encoding="linear")
+
+
+TURNS = [(0.1, 0.0)]  # the perturbed render exact matching judges a candidate with
+
+
+def _diagnose_toy(image: Image) -> Diagnosis:
+    start = Candidate.of_mode("classic")
+    return diagnose(image, load_scene(CLASSIC), _noisy_render, start=start, turns=TURNS)
+
+
+def test_a_noisy_candidate_does_not_absorb_a_smooth_error() -> None:
+    # The glass is a smooth 0.5: no_offset's acne has that mean (the search keeps it: its
+    # mean colour is right) and a spread that covers it, so its exact match "matches" every
+    # glass pixel, though no render of it holds 0.5. Before the gates: "explained by the
+    # mistake no_offset".
+    d = _diagnose_toy(_image(0.5))
+    assert "no_offset" not in d.mistakes and d.steps == [], d.sentences
+    assert "refraction" in d.unexplained
+    assert d.effects["refraction"].final_differing == 196  # the glass inside its silhouette
+
+
+def test_acne_that_the_candidate_renders_is_still_named() -> None:
+    # The image is the candidate's acne with its top rows the other way round: each of those
+    # pixels is a value the perturbed render stores, so the spread covers a real value.
+    acne = Candidate.of_mode("classic").with_mistake("no_offset", True)
+    rgb = _noisy_render(acne).rgb[8:24, 8:24].copy()
+    rgb[:4] = _noisy_render(acne.turned(TURNS[0])).rgb[8:12, 8:24]
+    d = _diagnose_toy(_image(rgb))
+    assert d.mistakes == ["no_offset"] and d.causes == ["no_offset"], d.sentences
+    assert d.effects["refraction"].state == "explained" and d.exact
