@@ -111,3 +111,36 @@ def test_acne_that_the_candidate_renders_is_still_named() -> None:
     d = _diagnose_toy(_image(rgb))
     assert d.mistakes == ["no_offset"] and d.causes == ["no_offset"], d.sentences
     assert d.effects["refraction"].state == "explained" and d.exact
+
+
+# --- two modes close by count ---------------------------------------------------------------
+
+
+def _modes_render(c: TargetModel | Candidate) -> Image:
+    """A 22x22 glass block on the background. classic: background 1, glass 0.3; physical:
+    background 0 but its top row 1, glass 0.6; black_background turns every background pixel
+    0. Nothing else changes a pixel."""
+    c = c if isinstance(c, Candidate) else Candidate.from_model(c)
+    ids = np.full((32, 32), -1.0, np.float32)
+    ids[4:26, 4:26] = 1.0
+    physical = c.mode == "physical"
+    rgb = np.full((32, 32, 3), 0.0 if physical else 1.0, np.float32)
+    if physical:
+        rgb[0] = 1.0
+    if "black_background" in c.mistakes:
+        rgb[:] = 0.0
+    rgb[ids == 1] = 0.6 if physical else 0.3
+    return Image(rgb=rgb, aovs={"id": ids, "depth": np.where(ids >= 0, 20.0, 0.0)})
+
+
+def test_close_modes_are_both_searched_and_the_better_told() -> None:
+    # The classic program with black_background: physical leaves fewer pixels differing (its
+    # background is black but for one row), by less than the clear margin. From physical
+    # nothing explains the glass; from classic one mistake explains the whole image. Before:
+    # "physical --mistake black_background; not explained: refraction".
+    rgb = _modes_render(Candidate.of_mode("classic").with_mistake("black_background", True)).rgb
+    image = Image(rgb=np.floor(rgb * 255) / 255, path="toy.ppm", encoding="linear")
+    d = diagnose(image, load_scene(CLASSIC), _modes_render)
+    assert d.mode_objectives["physical"] < d.mode_objectives["classic"], d.mode_objectives
+    assert d.start == "classic" and d.result == "classic --mistake black_background", d.sentences
+    assert d.causes == ["black_background"] and d.exact and d.unexplained == []

@@ -102,6 +102,10 @@ MODE_MATCH_MIN = 0.05
 # symmetric about the flip gives both the same distance, so it can never trigger.
 MIRROR_RATIO = 0.5
 MIRROR_MIN = 0.02
+# The nearest mode wins outright only by a clear margin: more than MODE_CLOSE_SHARE of all
+# pixels and MODE_CLOSE_RATIO of its own count; a mode within it is searched from as well.
+MODE_CLOSE_SHARE = 0.02
+MODE_CLOSE_RATIO = 0.1
 MODES = ("classic", "paper", "physical")
 FlipSeed = tuple[F32, F32, BOOL]  # a render, its LDR-FLIP map against the image, where it holds
 
@@ -126,11 +130,16 @@ class Search:
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
-        mirrored, begin = self.begin(starts)
-        t.flip_soon(begin)  # the start's FLIP and exact match while the search runs
-        t.exact_soon(begin)
+        mirrored, begins = self.begin(starts)
+        for b in begins:
+            t.flip_soon(b)  # the start's FLIP and exact match while the search runs
+            t.exact_soon(b)
         modes = {c.name: float(t.whole_differing(c)) for c in starts}
-        found = self.explain(begin, mirrored)
+        # Where two modes come close, each is searched and the better explanation told: a
+        # classic program with one shading bug may be a hair nearer physical by count.
+        found = min((self.explain(b, mirrored) for b in begins), key=self.left_over)
+        if len(begins) > 1:
+            self.say(f"diagnose: told from {found.begin.name}, the better explanation")
         findings, text = self.report(found)
         seconds = time.perf_counter() - self.t0
         self.say(f"diagnose: {found.result.name} after {len(t.scores)} renders in {seconds:.1f} s")
@@ -144,7 +153,13 @@ class Search:
 
     # --- where to begin ------------------------------------------------------------------
 
-    def begin(self, starts: list[Candidate]) -> tuple[str, Candidate]:
+    def left_over(self, found: Found) -> tuple[int, int]:
+        """How much an explanation leaves: pixels still differing from its result (the
+        verdict's exact match), then its number of steps."""
+        left = sum(self.trials.exact_differing(found.result).values())
+        return left, len(found.steps)
+
+    def begin(self, starts: list[Candidate]) -> tuple[str, list[Candidate]]:
         """Renders the starts (each also with the tone mistakes), decides whether the image is
         mirrored (judging the un-mirrored image from then on) and picks the nearest start."""
         toned = [c.with_mistake(m, True) for c in starts for m in TONE_MISTAKES]
@@ -155,9 +170,9 @@ class Search:
         self.trials.keep.update(starts + toned)
         self.trials.evaluate(starts + toned)
         mirrored = self.mirrored(starts + toned)
-        begin = self.nearest(starts)
-        self.trials.keep_only({begin})
-        return mirrored, begin
+        begins = self.nearest(starts)
+        self.trials.keep_only(set(begins))
+        return mirrored, begins
 
     def mirrored(self, cands: list[Candidate]) -> str:
         """ "" or the MIRRORS word for the flip that fits the nearest candidate far better
@@ -178,7 +193,7 @@ class Search:
         toned = [c, *(c.with_mistake(m, True) for m in TONE_MISTAKES)]
         return min(toned, key=self.trials.whole_differing)
 
-    def nearest(self, starts: list[Candidate]) -> Candidate:
+    def nearest(self, starts: list[Candidate]) -> list[Candidate]:
         """The start whose pixels match the image most often, over the whole image: a program
         with one wrong effect is placed by the effects it gets right, not by how near another
         mode comes in the wrong one. Where no start matches MODE_MATCH_MIN of the pixels
@@ -200,7 +215,19 @@ class Search:
             + ("" if by_count else "; none matches, the nearest by how far pixels are off")
             + ")"
         )
-        return nearest
+        close = [c for c in starts if c != nearest and by_count and self._close(counts, c, nearest)]
+        if close:
+            self.say(
+                f"diagnose: {', '.join(c.name for c in close)} as near: searched from each too"
+            )
+        return [nearest, *close]
+
+    def _close(self, counts: dict[Candidate, int], c: Candidate, nearest: Candidate) -> bool:
+        """Whether c's count of differing pixels is within the clear margin of the nearest's."""
+        margin = max(
+            MODE_CLOSE_SHARE * self.trials.total_pixels(), MODE_CLOSE_RATIO * counts[nearest]
+        )
+        return counts[c] - counts[nearest] <= margin
 
     # --- the search ----------------------------------------------------------------------
 
