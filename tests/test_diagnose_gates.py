@@ -12,7 +12,7 @@ from helpers import SCENES, render_demo
 
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import Diagnosis, diagnose
+from compare.diagnosis.search import DiagnoseOptions, Diagnosis, FunctionRenderer, diagnose
 from compare.judge.effects import effect_masks
 from compare.judge.images import Image, read_image
 from compare.judge.target_model import TargetModel
@@ -43,7 +43,7 @@ def test_a_change_that_makes_the_glass_worse_is_not_named(rtdemo: str, tmp_path:
     rgb = np.where(glass[..., None], base.rgb, flipped.rgb)
     image = _ppm(tmp_path / "black-lit.ppm", rgb)
     with CandidateRenderer(CLASSIC, W, H, threads=1, cache=tmp_path / "cache") as render:
-        d = diagnose(image, scene, render, parallel=2)
+        d = diagnose(image, scene, render, DiagnoseOptions(parallel=2))
     assert "flipped_normal" not in d.mistakes and d.steps == [], d.sentences
     assert d.start == "classic" and d.effects["refraction"].state == "as start"
     assert {"direct", "reflection"} <= set(d.unexplained)
@@ -88,7 +88,8 @@ TURNS = [(0.1, 0.0)]  # the perturbed render exact matching judges a candidate w
 
 def _diagnose_toy(image: Image) -> Diagnosis:
     start = Candidate.of_mode("classic")
-    return diagnose(image, load_scene(CLASSIC), _noisy_render, start=start, turns=TURNS)
+    noisy = FunctionRenderer(_noisy_render, turns=TURNS)
+    return diagnose(image, load_scene(CLASSIC), noisy, DiagnoseOptions(start=start))
 
 
 def test_a_noisy_candidate_does_not_absorb_a_smooth_error() -> None:
@@ -140,7 +141,7 @@ def test_close_modes_are_both_searched_and_the_better_told() -> None:
     # "physical --mistake black_background; not explained: refraction".
     rgb = _modes_render(Candidate.of_mode("classic").with_mistake("black_background", True)).rgb
     image = Image(rgb=np.floor(rgb * 255) / 255, path="toy.ppm", encoding="linear")
-    d = diagnose(image, load_scene(CLASSIC), _modes_render)
+    d = diagnose(image, load_scene(CLASSIC), FunctionRenderer(_modes_render))
     assert d.mode_objectives["physical"] < d.mode_objectives["classic"], d.mode_objectives
     assert d.start == "classic" and d.result == "classic --mistake black_background", d.sentences
     assert d.causes == ["black_background"] and d.exact and d.unexplained == []

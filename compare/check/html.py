@@ -41,7 +41,7 @@ def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> list[str] | Non
     if case.pictures is None or not case.scene_file:
         return None
     from compare.diagnosis.renderer import CandidateRenderer
-    from compare.diagnosis.search import diagnose
+    from compare.diagnosis.search import DiagnoseOptions, diagnose
     from compare.judge.images import Image
     from scene_model.scene import load_scene
 
@@ -49,9 +49,8 @@ def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> list[str] | Non
     h, w = image.shape
     try:
         with CandidateRenderer(case.scene_file, w, h) as render:
-            found = diagnose(
-                image, load_scene(case.scene_file), render, max_renders=DIAGNOSE_RENDERS
-            )
+            how = DiagnoseOptions(max_renders=DIAGNOSE_RENDERS)
+            found = diagnose(image, load_scene(case.scene_file), render, how)
     except Exception as e:  # an optional slot: its failure must not lose the page
         message = f"no diagnosis for {case.name}: {type(e).__name__}: {e}"
         note(message)

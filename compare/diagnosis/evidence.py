@@ -11,6 +11,7 @@ processes and on Dask workers alike.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +19,7 @@ import numpy as np
 
 from compare.diagnosis.mistakes import catalogue
 from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import Diagnosis, FlipSeed, diagnose, unmirror
+from compare.diagnosis.search import DiagnoseOptions, Diagnosis, FlipSeed, diagnose, unmirror
 from compare.judge.images import Image, linear_to_srgb
 from compare.judge.png import FAST, write_display_png
 from compare.judge.quirks import QUIRKS
@@ -173,42 +174,49 @@ class _Evidence:
         }
 
 
+@dataclass(frozen=True)
+class EvidenceOptions:
+    """How diagnose_image runs and names what it writes: `prefix` of the evidence PNGs, `href`
+    before their names in the dict, `assigned` the model the image was judged against (the
+    gradebook cell names the mode when it differs), `parallel` renders at once, `progress`
+    where progress lines go, `flip_seed` diagnose's."""
+
+    prefix: str = "diagnosis"
+    href: str = ""
+    assigned: str | None = None
+    parallel: int = 1
+    progress: Callable[[str], None] | None = None
+    flip_seed: FlipSeed | None = None
+
+
 def diagnose_image(
     image: Image,
     scene_file: str | Path,
     cache: RenderCache | str | Path,
     evidence_dir: str | Path,
-    *,
-    prefix: str = "diagnosis",
-    href: str = "",
-    assigned: str | None = None,
-    parallel: int = 1,
-    progress: Callable[[str], None] | None = None,
-    flip_seed: FlipSeed | None = None,
+    options: EvidenceOptions | None = None,
 ) -> dict[str, Any]:
     """The diagnosis of `image` (a render of `scene_file`) as a JSON-ready dict: Diagnosis
     .as_dict() plus `short` (the gradebook cell), `evidence` (pictures per explaining change,
     written to evidence_dir as PREFIX-*.png, named href + file in the dict) and the cache's
     renders and hits. `cache`: the render cache the candidates are rendered through (or its
-    folder); `flip_seed`: diagnose's. Raises DiagnoseError or ToolError when the image cannot
-    be diagnosed."""
+    folder). Raises DiagnoseError or ToolError when the image cannot be diagnosed."""
+    o = options or EvidenceOptions()
     scene = load_scene(scene_file)
     h, w = image.shape
     folder = Path(evidence_dir)
     folder.mkdir(parents=True, exist_ok=True)
-    with CandidateRenderer(
-        scene_file, w, h, threads=1 if parallel > 1 else 0, cache=cache
-    ) as render:
-        d = diagnose(
-            image, scene, render, progress=progress, parallel=parallel, flip_seed=flip_seed
-        )
-        evidence = _Evidence(image, d, render, folder, prefix).entries(href)
+    threads = 1 if o.parallel > 1 else 0
+    with CandidateRenderer(scene_file, w, h, threads=threads, cache=cache) as render:
+        how = DiagnoseOptions(progress=o.progress, parallel=o.parallel, flip_seed=o.flip_seed)
+        d = diagnose(image, scene, render, how)
+        evidence = _Evidence(image, d, render, folder, o.prefix).entries(o.href)
         out = d.as_dict()
         out |= {
-            "short": short_reason(d, assigned),
+            "short": short_reason(d, o.assigned),
             "command": render_command(d, Path(scene_file).name),
             "evidence": evidence,
-            "assigned": assigned,
+            "assigned": o.assigned,
             "cache": {"rendered": render.rendered, "hits": render.cache_hits},
         }
     result: dict[str, Any] = json_safe(out)

@@ -91,6 +91,8 @@ class Diagnosis:
     candidate: Candidate = field(repr=False)
     # The start, every step's candidate and the result, by name (the evidence pictures').
     candidates: dict[str, Candidate] = field(default_factory=dict, repr=False)
+    # Candidates not judged: their render ran past the time limit, "NAME: why".
+    skipped: list[str] = field(default_factory=list)
 
     @property
     def exact(self) -> bool:
@@ -188,6 +190,7 @@ class Found:
     or_more: bool  # the result's depth: every deeper limit fits as well
     mirrored: str
     candidates: dict[str, Candidate]  # the start, each step's and the result, by name
+    skipped: tuple[str, ...] = ()  # candidates over the time limit, with why
 
 
 @dataclass(frozen=True)
@@ -323,6 +326,11 @@ def _sentences(found: Found, findings: dict[str, EffectFinding], text: str) -> l
             "not visible in this scene (toggling them changes no pixel): "
             + ", ".join(f"Q{q}" for q in sorted(found.invisible))
         )
+    if found.skipped:
+        out.append(
+            f"skipped ({len(found.skipped)} candidates ran past their time limit, so they "
+            "were not judged): " + "; ".join(found.skipped)
+        )
     if found.untested:
         out.append(
             "not searched (this rtdemo cannot render them): "
@@ -372,4 +380,5 @@ def diagnosis(
         seconds=facts["seconds"],
         candidate=c,
         candidates=facts["candidates"],
+        skipped=list(found.skipped),
     )

@@ -10,7 +10,7 @@ score and judges the ones a claim is made of exactly, as the verdict does.
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
 
@@ -25,7 +25,6 @@ from compare.judge.images import Image, linear_to_srgb
 from compare.judge.target_model import TargetModel
 from scene_model.scene import Scene
 
-Renderer = Callable[[TargetModel | Candidate], Image]
 I16 = NDArray[np.int16]
 Px = TypeVar("Px", np.float32, np.int16)
 
@@ -58,6 +57,44 @@ class Store(Protocol):
     def get_bytes(self, name: str, max_bytes: int) -> bytes | None: ...
 
     def put_bytes(self, name: str, data: bytes) -> None: ...
+
+
+class Renderer(Protocol):
+    """What renders the diagnosis's candidates at the image's size (CandidateRenderer, or a
+    FunctionRenderer around an injected function): the render itself, and what the search
+    needs to know of it."""
+
+    # Seconds one candidate's render may take before it is stopped and skipped (the search
+    # sets it from the start's cost); None: no limit.
+    time_limit: float | None
+
+    @property
+    def turns(self) -> Sequence[tuple[float, float]]:
+        """The camera turns (in pixels) exact matching renders a model with."""
+
+    @property
+    def grows(self) -> Sequence[int]:
+        """The sphere growths (float32 ulps) exact matching renders a model with."""
+
+    @property
+    def search_quirks(self) -> tuple[int, ...]:
+        """The quirks this renderer can toggle."""
+
+    @property
+    def store(self) -> Store | None:
+        """Where FLIP numbers, kept codes and diagnoses live between runs (None: nowhere)."""
+
+    def __call__(self, what: TargetModel | Candidate) -> Image:
+        """The candidate's render (with its id and depth AOVs for a plain model)."""
+
+    def passing(self, what: TargetModel | Candidate) -> Image:
+        """The render of a candidate scored once and dropped."""
+
+    def with_aovs(self, what: TargetModel | Candidate) -> Image:
+        """The render with its id and depth AOVs."""
+
+    def cost(self, what: TargetModel | Candidate) -> float:
+        """Seconds its render took when made (0 when not known)."""
 
 
 class DiagnoseError(ValueError):

@@ -21,8 +21,10 @@ camera turned as exact matching turns a model (`turns`), so they agree with the 
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -44,6 +46,7 @@ from compare.diagnosis.score import (
     DiagnoseError,
     NoFinitePixels,
     Renderer,
+    Store,
     Target,
     check_finite,
     explained,
@@ -74,9 +77,11 @@ __all__ = [
     "MAX_SEARCH_DEPTH",
     "SEARCH_QUIRKS",
     "DiagnoseError",
+    "DiagnoseOptions",
     "Diagnosis",
     "EffectFinding",
     "FlipSeed",
+    "FunctionRenderer",
     "NoFinitePixels",
     "Renderer",
     "Step",
@@ -92,6 +97,9 @@ SEARCH_QUIRKS = BASE_QUIRKS + LATER_QUIRKS
 MIN_GAIN = 1e-3
 MAX_RENDERS = 200  # no new full sweep of every switch starts beyond this many renders
 MAX_ROUNDS = 40
+# No new full sweep starts after this many seconds of search: with the time limit of each
+# render (trials.TIME_LIMIT_MAX) a 640x480 diagnosis ends within 30 s, whatever the image.
+SEARCH_SECONDS = 15.0
 # Mistakes that move every pixel's tone: the nearest mode is chosen with and without them, so
 # that a gamma-encoded paper image is not taken for physical mode (it starts from paper).
 TONE_MISTAKES = ("double_gamma",)
@@ -138,6 +146,10 @@ class Search:
         # Where two modes come close, each is searched and the better explanation told: a
         # classic program with one shading bug may be a hair nearer physical by count.
         found = min((self.explain(b, mirrored) for b in begins), key=self.left_over)
+        if t.skipped:
+            found = dataclasses.replace(
+                found, skipped=tuple(f"{c.name} ({why})" for c, why in t.skipped.items())
+            )
         if len(begins) > 1:
             self.say(f"diagnose: told from {found.begin.name}, the better explanation")
         findings, text = self.report(found)
@@ -169,6 +181,9 @@ class Search:
         )
         self.trials.keep.update(starts + toned)
         self.trials.evaluate(starts + toned)
+        limit = self.trials.limit_time(starts + toned)
+        if limit is not None:
+            self.say(f"diagnose: each candidate may render for {limit:.1f} s")
         mirrored = self.mirrored(starts + toned)
         begins = self.nearest(starts)
         self.trials.keep_only(set(begins))
@@ -322,6 +337,9 @@ class Search:
         render budget is spent."""
         t = self.trials
         if len(t.scores) >= self.max_renders or t.matched(current):
+            return True
+        if time.perf_counter() - self.t0 > SEARCH_SECONDS:
+            self.say(f"diagnose: {SEARCH_SECONDS:.0f} s spent: no further sweep")
             return True
         return t.exact_of(current).passed
 
@@ -488,62 +506,86 @@ def _starts(start: TargetModel | Candidate | None) -> list[Candidate]:
     return [start if isinstance(start, Candidate) else Candidate.from_model(start)]
 
 
+@dataclass
+class FunctionRenderer:
+    """A Renderer around a plain function (what tests inject): no store, no costs known."""
+
+    render: Callable[[TargetModel | Candidate], Image]
+    turns: Sequence[tuple[float, float]] = ()
+    grows: Sequence[int] = ()
+    search_quirks: tuple[int, ...] = SEARCH_QUIRKS
+    store: Store | None = None
+    time_limit: float | None = None
+
+    def __call__(self, what: TargetModel | Candidate) -> Image:
+        return self.render(what)
+
+    def passing(self, what: TargetModel | Candidate) -> Image:
+        return self.render(what)
+
+    def with_aovs(self, what: TargetModel | Candidate) -> Image:
+        return self.render(what)
+
+    def cost(self, what: TargetModel | Candidate) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
+class DiagnoseOptions:
+    """How one diagnosis runs. `start`: begin there instead of at the nearest of the three
+    modes; `progress`: where the progress lines go; `parallel`: renders at once (the renderer
+    must then be thread-safe); `max_renders`: no new full sweep of every switch starts past
+    this many renders; `flip_seed`: a FLIP map of the image already computed (the verdict's:
+    a render, the map against the image, where it holds), which the FLIP numbers start from."""
+
+    start: TargetModel | Candidate | None = None
+    progress: Callable[[str], None] | None = None
+    parallel: int = 1
+    max_renders: int = MAX_RENDERS
+    flip_seed: FlipSeed | None = None
+
+
 def diagnose(
-    image: Image,
-    scene: Scene,
-    render: Renderer,
-    *,
-    start: TargetModel | Candidate | None = None,
-    progress: Callable[[str], None] | None = None,
-    parallel: int = 1,
-    max_renders: int = MAX_RENDERS,
-    turns: Sequence[tuple[float, float]] | None = None,
-    search_quirks: Sequence[int] | None = None,
-    flip_seed: FlipSeed | None = None,
+    image: Image, scene: Scene, render: Renderer, options: DiagnoseOptions | None = None
 ) -> Diagnosis:
     """The nearest demo candidate to `image` (linear RGB as read by images.read_image) and
     the evidence per effect. `render` must return the candidate at the image's size with the
-    id and depth AOVs (the first render's give the effect masks). With `start`, the search
-    begins there instead of at the nearest of the three modes. `parallel` renders run at once
-    (render must then be thread-safe). `turns` are the camera turns (in pixels) exact matching
-    renders a model with, and `search_quirks` the quirks the renderer can toggle: both default
-    to the renderer's attributes of those names (CandidateRenderer has them), else to none and
-    SEARCH_QUIRKS; so do `grows` (the sphere growths exact matching renders) and `store`
-    (diagnose_score.Store: where the FLIP numbers of an image and a render, and the
-    diagnosis of an image, are kept; an image diagnosed before is not searched again,
-    diagnose_memo.py). When the switches that helped stop helping and some effect is still not
-    reproduced, every switch is tried once more (while fewer than `max_renders` renders were
-    made). `flip_seed`: a FLIP map of the image already computed (the verdict's: a render,
-    the map against the image, where it holds), which the FLIP numbers start from. Nothing
-    depends on time, so a loaded machine gives the same diagnosis, later.
+    id and depth AOVs (the first render's give the effect masks); its `turns` and `grows` are
+    how exact matching perturbs a model, its `search_quirks` the quirks it can toggle, its
+    `store` where FLIP numbers and diagnoses are kept (an image diagnosed before is not
+    searched again, memo.py), and its `time_limit` is set from the start's cost (a candidate
+    over it is skipped, and the diagnosis says so). When the switches that helped stop
+    helping and some effect is still not reproduced, every switch is tried once more (while
+    fewer than `max_renders` renders were made). Nothing depends on time but the skipped
+    candidates, so a loaded machine gives the same diagnosis, later.
     An image without one finite pixel raises NoFinitePixels before any candidate is
     rendered."""
+    o = options or DiagnoseOptions()
     t0 = time.perf_counter()
     check_finite(image)
-    turns = list(turns if turns is not None else getattr(render, "turns", ()))
-    quirks = tuple(
-        search_quirks
-        if search_quirks is not None
-        else getattr(render, "search_quirks", SEARCH_QUIRKS)
+    turns, grows, quirks, store = (
+        list(render.turns),
+        list(render.grows),
+        render.search_quirks,
+        render.store,
     )
-    grows, store = list(getattr(render, "grows", ())), getattr(render, "store", None)
-    say = progress or (lambda _m: None)
-    starts = _starts(start)
+    say = o.progress or (lambda _m: None)
+    starts = _starts(o.start)
     name = None
     if store is not None:
-        tries = {"quirks": quirks, "turns": turns, "grows": grows, "max_renders": max_renders}
+        tries = {"quirks": quirks, "turns": turns, "grows": grows, "max_renders": o.max_renders}
         name = record_name(image, scene, starts, tries, store.identity)
         known = load(store, name, image, t0)
         if known is not None:
             say(f"diagnose: {known.result}, as an earlier search of {known.renders} renders found")
             return known
-    trials = Trials(Target(image, scene), render, parallel, turns, grows, store)
-    if flip_seed is not None:
-        trials.flips.seed(flip_seed[0], image.rgb, flip_seed[1], flip_seed[2])
+    trials = Trials(Target(image, scene), render, o.parallel, store)
+    if o.flip_seed is not None:
+        trials.flips.seed(o.flip_seed[0], image.rgb, o.flip_seed[1], o.flip_seed[2])
     try:
-        found = Search(image, scene, trials, quirks, max_renders, say).run(starts)
+        found = Search(image, scene, trials, quirks, o.max_renders, say).run(starts)
     finally:
         trials.close()
-    if store is not None and name is not None:
+    if store is not None and name is not None and not found.skipped:  # a later run may judge them
         keep(store, name, found)
     return found

@@ -19,6 +19,14 @@ from compare.judge.arrays import F32
 from compare.judge.effects import BOOL
 from compare.judge.exact_match import Bounds, ExactMatch, channel_matches, model_bounds
 from compare.judge.images import Image
+from compare.render.jobs import RenderTimeLimit
+
+# A candidate's render may take TIME_FACTOR times the dearest start's (a ray tree that doubles
+# at every glass bounce runs for minutes), within these bounds in seconds: a loaded machine
+# renders the start slowly too, and a 640x480 diagnosis must end within 30 s.
+TIME_FACTOR = 40.0
+TIME_LIMIT_MIN = 2.0
+TIME_LIMIT_MAX = 8.0
 
 
 class Trials:
@@ -30,12 +38,11 @@ class Trials:
         target: Target,
         render: Renderer,
         parallel: int,
-        turns: Sequence[tuple[float, float]],
-        grows: Sequence[int],
         store: Store | None = None,
     ) -> None:
         self.target, self.render, self.parallel = target, render, parallel
-        self.turns, self.grows = list(turns), list(grows)
+        self.turns, self.grows = list(render.turns), list(render.grows)
+        self.skipped: dict[Candidate, str] = {}  # candidates over the time limit: why
         # One thread for the work a claim needs later (FLIP, exact matches), begun early.
         self.background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose")
         self.store = store
@@ -94,7 +101,10 @@ class Trials:
             return None, t.score_codes(codes)
         # A render only scored, its codes kept: the renderer need not keep it (passing).
         passing = name is not None and c not in self.keep
-        im = getattr(self.render, "passing", self.render)(c) if passing else self.render(c)
+        try:
+            im = self.render.passing(c) if passing else self.render(c)
+        except RenderTimeLimit as e:
+            return None, self.skip(c, str(e))
         if t.regions is None:
             self._first_check(c, im)
         else:
@@ -116,14 +126,31 @@ class Trials:
         data = diagnose_kept.read(self.store, name, diagnose_kept.codes_size(pixels))
         return name, diagnose_kept.unpack_codes(data, pixels)
 
+    def skip(self, c: Candidate, why: str) -> Score:
+        """c ran past the time limit: it is skipped (said in the diagnosis), scored as far
+        from the image as any render can be, so that no step keeps it."""
+        self.skipped[c] = why
+        regions = self.target.regions
+        assert regions is not None
+        whole = {k: int(n) for k, n in zip(regions.names, regions.counts, strict=True)}
+        worst = dict.fromkeys(whole, 255.0)
+        return Score(whole, dict.fromkeys(whole, 1.0), worst, worst, b"skipped:" + c.name.encode())
+
+    def limit_time(self, starts: Sequence[Candidate]) -> float | None:
+        """Sets the renderer's time limit from what the starts' renders cost (TIME_FACTOR
+        times the dearest, within TIME_LIMIT_MIN and TIME_LIMIT_MAX); None when no cost is
+        known (a function renderer)."""
+        cost = max((self.render.cost(c) for c in starts), default=0.0)
+        limit = None if cost <= 0 else min(TIME_LIMIT_MAX, max(TIME_LIMIT_MIN, TIME_FACTOR * cost))
+        self.render.time_limit = limit
+        return limit
+
     def _with_aovs(self, c: Candidate, im: Image) -> Image:
         """c's render with the AOVs the first check needs: `im`, or rendered again with them
-        by a renderer that leaves them out of some renders (CandidateRenderer.with_aovs)."""
-        again = getattr(self.render, "with_aovs", None)
-        if again is None or ("id" in im.aovs and "depth" in im.aovs):
+        by a renderer that leaves them out of some renders (CandidateRenderer)."""
+        if "id" in im.aovs and "depth" in im.aovs:
             return im
-        with_aovs: Image = again(c)
-        return with_aovs
+        return self.render.with_aovs(c)
 
     def _first_check(self, c: Candidate, im: Image) -> None:
         """The first render sets the effect masks: the ones kept for it, or found (and kept)."""

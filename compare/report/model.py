@@ -51,7 +51,7 @@ def diagnosis(ctx: ReportContext, assigned: str) -> dict[str, Any]:
     """The test image explained as the nearest demo model, with its evidence PNGs in images/.
     A diagnosis that cannot run (e.g. a renderer without AOVs) leaves the section saying
     why, not a failed report."""
-    from compare.diagnosis.evidence import diagnose_image
+    from compare.diagnosis.evidence import EvidenceOptions, diagnose_image
     from compare.diagnosis.search import DiagnoseError
 
     try:
@@ -60,10 +60,12 @@ def diagnosis(ctx: ReportContext, assigned: str) -> dict[str, Any]:
             ctx.opts.scene_file,
             ctx.cache,
             ctx.images_dir,
-            prefix="diagnosis",
-            href="images/",
-            assigned=assigned,
-            parallel=max(1, ctx.opts.jobs),
+            EvidenceOptions(
+                prefix="diagnosis",
+                href="images/",
+                assigned=assigned,
+                parallel=max(1, ctx.opts.jobs),
+            ),
         )
     except (DiagnoseError, ToolError) as e:
         return {"error": str(e)}
