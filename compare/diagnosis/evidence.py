@@ -100,6 +100,8 @@ def render_command(d: Diagnosis, scene_file: str | Path) -> str:
     text = f"rtdemo render {scene} {' '.join(d.rtdemo_args)}"
     if d.mirrored:
         text += f", then mirrored {d.mirrored}"
+    for transform in d.image_transforms:
+        text += f", then {transform}"
     return text
 
 

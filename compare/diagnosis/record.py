@@ -34,6 +34,8 @@ class Step:
     before: dict[str, float]
     after: dict[str, float]
     explains: tuple[str, ...]  # effects whose pixels it makes match (and that are explained)
+    kind: str = "step"  # Switch.cause_kind: quirk, mistake, camera, image, step, constant
+    step: str = ""  # Switch.step: the step of the algorithm it changes
 
 
 @dataclass(frozen=True)
@@ -93,6 +95,10 @@ class Diagnosis:
     candidates: dict[str, Candidate] = field(default_factory=dict, repr=False)
     # Candidates not judged: their render ran past the time limit, "NAME: why".
     skipped: list[str] = field(default_factory=list)
+    # What the image's writer did to the values or pixels, fitted on the image (transforms.py).
+    image_transforms: list[str] = field(default_factory=list)
+    # The causes as the JSON's `causes` list: name, kind, effects, evidence, sentence.
+    cause_list: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def exact(self) -> bool:
@@ -102,7 +108,7 @@ class Diagnosis:
     def causes(self) -> list[str]:
         """What differs from the start mode, shortly: ["+Q2"], ["mirrored left-right"], []."""
         head = [f"mirrored {self.mirrored}"] if self.mirrored else []
-        return head + [s.cause for s in self.steps]
+        return head + self.image_transforms + [s.cause for s in self.steps]
 
     def reason(self) -> str:
         """One line for a gradebook: "looks like classic+Q2 (+Q2)", with the regions that
@@ -118,7 +124,7 @@ class Diagnosis:
         d = asdict(self)
         d.pop("candidate")
         d.pop("candidates")
-        d["causes"] = self.causes
+        d["causes"] = d.pop("cause_list")
         d["reason"] = self.reason()
         for k, f in self.effects.items():
             d["effects"][k]["fixed_share"] = f.fixed_share
@@ -138,7 +144,8 @@ class Diagnosis:
         is not one)."""
         cands = {k: _candidate(v) for k, v in raw["record_candidates"].items()}
         fields = {f.name for f in dataclasses.fields(Diagnosis)} - {"candidate", "candidates"}
-        d = {k: raw[k] for k in fields}
+        d = {k: raw[k] for k in fields - {"cause_list"}}
+        d["cause_list"] = list(raw["causes"])
         d["steps"] = [Step(**{**st, "explains": tuple(st["explains"])}) for st in d["steps"]]
         d["effects"] = {
             k: EffectFinding(
@@ -179,6 +186,16 @@ def _candidate(raw: dict[str, Any]) -> Candidate:
 
 
 @dataclass(frozen=True)
+class ImageCause:
+    """A transform of the image's writer, fitted and gated (search.transformed)."""
+
+    family: str  # transforms.Transform.family
+    name: str  # in words: "channels written as B, G, R (not R, G, B)"
+    effects: tuple[str, ...]  # the effects it explains
+    gates: dict[str, Gate]  # their evidence: pixels and FLIP before and after
+
+
+@dataclass(frozen=True)
 class Found:
     """What the search found, before it is judged effect by effect."""
 
@@ -191,6 +208,7 @@ class Found:
     mirrored: str
     candidates: dict[str, Candidate]  # the start, each step's and the result, by name
     skipped: tuple[str, ...] = ()  # candidates over the time limit, with why
+    images: tuple[ImageCause, ...] = ()  # the writer's transforms found (transforms.py)
 
 
 @dataclass(frozen=True)
@@ -286,6 +304,8 @@ def summary(found: Found, findings: dict[str, EffectFinding], start: ExactMatch)
     nothing explains."""
     begin, mirrored = found.begin, found.mirrored
     head = f"mirrored {mirrored} (diagnosed un-mirrored); " if mirrored else ""
+    for cause in found.images:
+        head += f"the image was written with {cause.name} (diagnosed through it); "
     off = [k for k in findings if not start.per_effect[k].passed]
     if not off:
         text = f"matches {begin.name} in every effect (exact match)"
@@ -317,6 +337,46 @@ def summary(found: Found, findings: dict[str, EffectFinding], start: ExactMatch)
             + ": a new bug, not a quirk or a named mistake"
         )
     return head + text
+
+
+def cause_list(found: Found, findings: dict[str, EffectFinding]) -> list[dict[str, Any]]:
+    """Every cause named, as the JSON's `causes`: the mirror, the writer's transforms, then
+    each step, with the effects it explains and their evidence (pixels differing and FLIP,
+    before and after), and a sentence naming the step of the algorithm."""
+    out = []
+    if found.mirrored:
+        out.append(_cause(f"mirrored {found.mirrored}", "image", "image writing (pixel order)", {}))
+    for c in found.images:
+        ev = {
+            k: {"differing": [g.differed, g.differed - g.claimed], "flip": list(g.flips)}
+            for k, g in c.gates.items()
+        }
+        out.append(_cause(c.name, "image", "image writing", ev))
+    for st in found.steps:
+        ev = {
+            k: {
+                "differing": [findings[k].start_differing, findings[k].final_differing],
+                "flip": [findings[k].start_flip, findings[k].final_flip],
+            }
+            for k in st.explains
+            if k in findings
+        }
+        out.append(_cause(st.cause, st.kind, st.step or st.change, ev, st.change))
+    return out
+
+
+def _cause(name: str, kind: str, step: str, ev: dict[str, Any], change: str = "") -> dict[str, Any]:
+    words = [f"{step}: {change or name}"]
+    for k, e in ev.items():
+        (n0, n1), (f0, f1) = e["differing"], e["flip"]
+        words.append(f"{k} {n0:,} px differed, {n1:,} after; FLIP {f0:.3f} -> {f1:.3f}")
+    return {
+        "name": name,
+        "kind": kind,
+        "effects": list(ev),
+        "evidence": ev,
+        "sentence": "; ".join(words),
+    }
 
 
 def _sentences(found: Found, findings: dict[str, EffectFinding], text: str) -> list[str]:
@@ -381,4 +441,6 @@ def diagnosis(
         candidate=c,
         candidates=facts["candidates"],
         skipped=list(found.skipped),
+        image_transforms=[c.name for c in found.images],
+        cause_list=cause_list(found, findings),
     )

@@ -190,6 +190,12 @@ def _flip_codes(target: I16, key: str) -> I16:
     return out[::-1] if "ud" in key else out
 
 
+def code_distance(enc: I16, target: I16) -> float:
+    """How far a render's codes lie from the image's: the share of all pixels off by more
+    than one level, plus their mean excess / LEVELS_PER_UNIT."""
+    return _mirror_distance(enc, target)
+
+
 def _mirror_distance(enc: I16, target: I16) -> float:
     """Share of all pixels off by more than one level, plus their mean excess / LEVELS_PER_UNIT."""
     excess = _excess(enc, target)

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from compare.diagnosis import transforms
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
 from compare.diagnosis.memo import keep, load, record_name
@@ -36,6 +37,7 @@ from compare.diagnosis.record import (
     EffectFinding,
     Evidence,
     Found,
+    ImageCause,
     Step,
     diagnosis,
     finding,
@@ -63,8 +65,10 @@ from compare.diagnosis.switches import (
     undone,
 )
 from compare.diagnosis.trials import Trials
+from compare.judge import flip_crops, metrics
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL, EFFECTS
+from compare.judge.exact_match import exact_match
 from compare.judge.images import Image
 from compare.judge.target_model import QUIRK_COUNT, TargetModel
 from scene_model.scene import Scene
@@ -135,6 +139,7 @@ class Search:
         self.image, self.scene, self.trials = image, scene, trials
         self.quirks, self.max_renders, self.say = tuple(quirks), max_renders, say
         self.gated: dict[tuple[Candidate, Candidate], dict[str, Gate]] = {}
+        self.images: list[ImageCause] = []  # the writer's transforms found (transformed)
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
@@ -146,10 +151,8 @@ class Search:
         # Where two modes come close, each is searched and the better explanation told: a
         # classic program with one shading bug may be a hair nearer physical by count.
         found = min((self.explain(b, mirrored) for b in begins), key=self.left_over)
-        if t.skipped:
-            found = dataclasses.replace(
-                found, skipped=tuple(f"{c.name} ({why})" for c, why in t.skipped.items())
-            )
+        skipped = tuple(f"{c.name} ({why})" for c, why in t.skipped.items())
+        found = dataclasses.replace(found, skipped=skipped, images=tuple(self.images))
         if len(begins) > 1:
             self.say(f"diagnose: told from {found.begin.name}, the better explanation")
         findings, text = self.report(found)
@@ -186,8 +189,50 @@ class Search:
             self.say(f"diagnose: each candidate may render for {limit:.1f} s")
         mirrored = self.mirrored(starts + toned)
         begins = self.nearest(starts)
+        if self.transformed(begins):  # the modes are judged again through it
+            begins = self.nearest(starts)
         self.trials.keep_only(set(begins))
         return mirrored, begins
+
+    def transformed(self, begins: list[Candidate]) -> bool:
+        """Fits the writer's transforms (transforms.py) on the image against each begin's
+        render; the best that passes the gates is named and the search judges through it
+        from then on."""
+        t = self.trials
+        fits = [
+            (fit, t.centre(b).rgb)
+            for b in begins
+            if (fit := transforms.best(t.target.test, t.centre(b).rgb, t.target.codes))
+        ]
+        if not fits:
+            return False
+        (tr, d0, d1), render = min(fits, key=lambda f: f[0][2])
+        g = self._transform_gates(render, tr)
+        named = tuple(k for k in t.target.masks if k in g and g[k].passed)
+        if not named or any(x.worse for x in g.values()):
+            self.say(f"diagnose: {tr.name} fits ({d0:.3f} -> {d1:.3f}) but fails the gates")
+            return False
+        self.say(f"diagnose: the image has {tr.name} (distance {d0:.3f} -> {d1:.3f})")
+        self.images.append(ImageCause(tr.family, tr.name, named, {k: g[k] for k in named}))
+        if tr.undo is not None:
+            t.set_test(tr.undo(t.target.test))
+        else:
+            t.set_values(tr)
+        return True
+
+    def _transform_gates(self, render: F32, tr: transforms.Transform) -> dict[str, Gate]:
+        """gates.py for begin's render as it is and transformed, judged at pixel centres."""
+        t = self.trials
+        test, enc, masks = t.target.test, t.target.image.encoding, t.target.masks
+        shown = tr.apply(render)
+        e0 = exact_match([render], test, enc, model="start", masks=masks)
+        e1 = exact_match([shown], test, enc, model=tr.name, masks=masks)
+        flips = tuple(
+            flip_crops.cropped_ldr_flip(metrics.display(r), metrics.display(test))
+            for r in (render, shown)
+        )
+        none = np.zeros(test.shape[:2], bool)
+        return gates(e0, e1, none, (flips[0], flips[1]), masks)
 
     def mirrored(self, cands: list[Candidate]) -> str:
         """ "" or the MIRRORS word for the flip that fits the nearest candidate far better
@@ -464,8 +509,10 @@ class Search:
         for sw, after in path:
             change = sw.change(self.scene, or_more=or_more)
             explains = tuple(k for k in masks if k in needs[sw])
+            cause = sw.cause(or_more=or_more)
+            before, now = per(cur), per(after)
             steps.append(
-                Step(change, sw.cause(or_more=or_more), after.name, per(cur), per(after), explains)
+                Step(change, cause, after.name, before, now, explains, sw.cause_kind, sw.step)
             )
             cur = after
         return steps

@@ -21,6 +21,38 @@ BACKGROUNDS: tuple[RGB, ...] = ((1.0, 1.0, 1.0), (2.0, 2.0, 2.0))  # black: blac
 IORS = (1.1, 1.2, 1.33, 1.5)
 # The kinds whose switch sets a value (any value of one kind sets the same thing).
 VALUED = ("depth", "background", "ior")
+# The step of the algorithm each quirk, mistake and effect lives in (what a student reads).
+QUIRK_STEPS = {
+    1: "intersection (the tca < 0 test and the offset of secondary rays)",
+    2: "refraction leaving glass (the index ratio)",
+    3: "refraction (total internal reflection)",
+    4: "shadow rays (one factor for all lights)",
+    5: "shadow rays (where they stop)",
+    6: "recursion at the depth limit",
+    7: "direct light (the 1/pi and distance falloff)",
+    8: "Fresnel (its curve)",
+    9: "shadow rays through glass",
+    10: "the camera (rays per pixel)",
+    11: "direct light (where the sum starts)",
+    12: "direct light (the Lambert cosine)",
+    13: "emission of a light sphere",
+}
+MISTAKE_STEPS = {
+    "no_offset": "secondary and shadow rays (their offset from the surface)",
+    "no_inside_flip": "refraction leaving glass (the normal inside)",
+    "eta_inverted": "refraction (the index ratio)",
+    "shadow_past_light": "shadow rays (where they stop)",
+    "fresnel_missing": "Fresnel (no weight)",
+    "fresnel_constant": "Fresnel (a constant weight)",
+    "fresnel_exponent": "Fresnel (its exponent)",
+    "black_background": "rays that miss (the background colour)",
+    "flipped_normal": "the normal (its sign)",
+    "half_pixel_offset": "the camera (pixel centres)",
+    "double_gamma": "image writing (the encoding)",
+    "depth_cut": "recursion (the depth test)",
+    "no_shadows": "shadow rays",
+}
+EFFECT_STEPS = {"shadows": "shadow rays", "reflection": "reflection", "refraction": "refraction"}
 
 
 def glass_iors(scene: Scene) -> set[float]:
@@ -51,6 +83,25 @@ class Switch:
     def _rgb(self) -> RGB:
         r, g, b = (float(v) for v in self.key.split(","))
         return (r, g, b)
+
+    @property
+    def cause_kind(self) -> str:
+        """What kind of cause it is: quirk, mistake, camera, image, step or constant."""
+        if self.kind == "mistake":
+            return {"half_pixel_offset": "camera", "double_gamma": "image"}.get(self.key, "mistake")
+        return {"quirk": "quirk", "effect": "step"}.get(self.kind, "constant")
+
+    @property
+    def step(self) -> str:
+        """The step of the algorithm it changes, in words."""
+        if self.kind == "quirk":
+            return QUIRK_STEPS.get(int(self.key), "")
+        if self.kind == "mistake":
+            return MISTAKE_STEPS.get(self.key, catalogue()[self.key].explanation)
+        if self.kind == "effect":
+            return EFFECT_STEPS[self.key]
+        return {"depth": "recursion (the depth limit)", "background": "the background colour",
+                "ior": "refraction (the glass index)"}[self.kind]  # fmt: skip
 
     def sets_same(self, other: Switch) -> bool:
         """Whether both set the same thing (a depth, a background, an ior, or one quirk,

@@ -5,6 +5,7 @@ verdict judges a model) that its claims are made of.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 
@@ -14,6 +15,7 @@ from compare.diagnosis import kept as diagnose_kept
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.flip import Flips, Means
 from compare.diagnosis.score import Codes, Renderer, Score, Store, Target
+from compare.diagnosis.transforms import Transform
 from compare.judge import flip_crops, metrics
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL
@@ -43,6 +45,7 @@ class Trials:
         self.target, self.render, self.parallel = target, render, parallel
         self.turns, self.grows = list(render.turns), list(render.grows)
         self.skipped: dict[Candidate, str] = {}  # candidates over the time limit: why
+        self.values: Transform | None = None  # the writer's value transform (set_values)
         # One thread for the work a claim needs later (FLIP, exact matches), begun early.
         self.background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose")
         self.store = store
@@ -53,6 +56,22 @@ class Trials:
         self.exact_memo: dict[Candidate, Future[ExactMatch]] = {}
         self.pairs: dict[Candidate, tuple[Bounds, Bounds]] = {}  # bounds of each exact match
         self.flip_maps: dict[Candidate, F32] = {}  # the FLIP maps the gates average
+
+    def _made(self, c: Candidate, *, passing: bool = False) -> Image:
+        """c's render as the image's writer would have stored it: with the fitted value
+        transform (set_values) applied, where there is one."""
+        im = self.render.passing(c) if passing else self.render(c)
+        if self.values is None:
+            return im
+        return dataclasses.replace(im, rgb=self.values.apply(im.rgb))
+
+    def set_values(self, t: Transform) -> None:
+        """Judge every render through t from now on (a writer's transform of the values):
+        the kept renders are transformed and scored again, everything else dropped."""
+        self.values = t
+        self.kept = {c: dataclasses.replace(im, rgb=t.apply(im.rgb)) for c, im in self.kept.items()}
+        self.scores = {c: self.target.score(im.rgb) for c, im in self.kept.items()}
+        self.target.reference = None
 
     def set_test(self, rgb: F32) -> None:
         """Judge against `rgb` from now on: every kept render is scored again, every other
@@ -75,7 +94,7 @@ class Trials:
 
     def centre_once(self, c: Candidate) -> Image:
         """c's render at pixel centres, kept or rendered (not kept for later)."""
-        return self.kept[c] if c in self.kept else self.render(c)
+        return self.kept[c] if c in self.kept else self._made(c)
 
     def evaluate(self, cands: Sequence[Candidate]) -> None:
         todo = [c for c in dict.fromkeys(cands) if c not in self.scores]
@@ -102,7 +121,7 @@ class Trials:
         # A render only scored, its codes kept: the renderer need not keep it (passing).
         passing = name is not None and c not in self.keep
         try:
-            im = self.render.passing(c) if passing else self.render(c)
+            im = self._made(c, passing=passing)
         except RenderTimeLimit as e:
             return None, self.skip(c, str(e))
         if t.regions is None:
@@ -168,12 +187,12 @@ class Trials:
 
     def render_all(self, cands: Sequence[Candidate]) -> list[Image]:
         with ThreadPoolExecutor(max_workers=max(1, self.parallel)) as pool:
-            return list(pool.map(self.render, cands))
+            return list(pool.map(self._made, cands))
 
     def centre(self, c: Candidate) -> Image:
         """c's render at pixel centres (kept, or rendered again: the cache has it)."""
         if c not in self.kept:
-            self.kept[c] = self.render(c)
+            self.kept[c] = self._made(c)
         return self.kept[c]
 
     def flip_soon(self, c: Candidate) -> None:
@@ -245,7 +264,9 @@ class Trials:
         return self.target.exact(c, pair, 1 + len(perturbed))
 
     def _kept_name(self, kind: str, c: Candidate, *more: object) -> str:
-        return diagnose_kept.kept_name(kind, self.store.identity if self.store else "", c, *more)
+        values = self.values.name if self.values is not None else ""
+        identity = self.store.identity if self.store else ""
+        return diagnose_kept.kept_name(kind, identity, c, values, *more)
 
     def close(self) -> None:
         """Waits for the background work still running (a start the search left behind)."""
