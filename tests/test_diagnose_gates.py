@@ -48,6 +48,10 @@ def test_a_change_that_makes_the_glass_worse_is_not_named(rtdemo: str, tmp_path:
     assert d.start == "classic" and d.effects["refraction"].state == "as start"
     assert {"direct", "reflection"} <= set(d.unexplained)
     assert d.effects["direct"].final_differing == 943  # every lit ground pixel, still named
+    # Where the error lives: the JSON's localisation, the lit ground below the horizon.
+    where = {u["effect"]: u for u in d.as_dict()["unexplained_where"]}
+    assert where["direct"]["differing"] == 943 and where["direct"]["against"] == "classic"
+    assert where["direct"]["box"][1] >= H // 2  # measured: rows 82 to 118 of 120
 
 
 # --- a noisy candidate and a smooth error, with an injected renderer ------------------------

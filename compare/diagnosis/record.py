@@ -54,6 +54,8 @@ class EffectFinding:
     matched: bool  # the diagnosis reproduces it: an exact match
     state: str  # "as start" | "explained" | "partly explained" | "unexplained"
     sentence: str
+    # Where the pixels still differing lie: x0, y0, x1, y1 (inclusive), None when none do.
+    box: tuple[int, int, int, int] | None = None
 
     @property
     def fixed_share(self) -> float:
@@ -125,6 +127,17 @@ class Diagnosis:
         d.pop("candidate")
         d.pop("candidates")
         d["causes"] = d.pop("cause_list")
+        d["unexplained_where"] = [
+            {
+                "effect": k,
+                "differing": self.effects[k].final_differing,
+                "pixels": self.effects[k].pixels,
+                "share": self.effects[k].final_differing / max(1, self.effects[k].pixels),
+                "box": self.effects[k].box,
+                "against": self.result,
+            }
+            for k in self.unexplained
+        ]
         d["reason"] = self.reason()
         for k, f in self.effects.items():
             d["effects"][k]["fixed_share"] = f.fixed_share
@@ -152,6 +165,7 @@ class Diagnosis:
                 **{
                     **{n: v for n, v in e.items() if n != "fixed_share"},
                     "explained_by": tuple(e["explained_by"]),
+                    "box": None if e.get("box") is None else tuple(e["box"]),
                 }
             )
             for k, e in d["effects"].items()
@@ -221,6 +235,7 @@ class Evidence:
     distances: tuple[float, float]  # mean 8-bit levels beyond one: start, result
     near: tuple[int, float]  # (candidates tried, the best share of start's differing matched)
     gate: Gate | None = None  # the result against the start (gates.py); None: as start
+    box: tuple[int, int, int, int] | None = None  # where the result's differing pixels lie
 
 
 def finding(k: str, found: Found, ev: Evidence) -> EffectFinding:
@@ -254,6 +269,7 @@ def finding(k: str, found: Found, ev: Evidence) -> EffectFinding:
         e1.passed,
         state,
         _sentence(k, state, by, found.begin, ev),
+        ev.box,
     )
 
 

@@ -541,9 +541,18 @@ class Search:
                 (t.scores[begin].pixels[k], t.scores[final].pixels[k]),
                 (len(t.scores), t.best_fixed(begin, k)),
                 passed.get(k) if final != begin else None,
+                _box(~exact[final].matches & t.target.masks[k]),
             )
             findings[k] = finding(k, found, ev)
         return findings, summary(found, findings, exact[begin])
+
+
+def _box(where: BOOL) -> tuple[int, int, int, int] | None:
+    """x0, y0, x1, y1 (inclusive) of the True pixels; None for none."""
+    ys, xs = np.nonzero(where)
+    if not len(ys):
+        return None
+    return int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max())
 
 
 def _starts(start: TargetModel | Candidate | None) -> list[Candidate]:
