@@ -5,6 +5,7 @@ reproduces a mechanism by which the diagnosis once named a false cause."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -149,3 +150,27 @@ def test_close_modes_are_both_searched_and_the_better_told() -> None:
     assert d.mode_objectives["physical"] < d.mode_objectives["classic"], d.mode_objectives
     assert d.start == "classic" and d.result == "classic --mistake black_background", d.sentences
     assert d.causes == ["black_background"] and d.exact and d.unexplained == []
+
+
+def test_two_constants_of_the_programs_own_are_not_told_as_quirks(
+    rtdemo: str, tmp_path: Path
+) -> None:
+    # CAPBenchmarks' RT kernel: classic with MAX_RAY_DEPTH 10 and a bias of 1e-3. Before:
+    # "-Q6, -Q1" (measured at 160x120), though the program has both quirks. Now the bias is
+    # found as the constant it is, and the depth limit, which the image cannot tell from -Q6
+    # (both reproduce it exactly), is said beside it.
+    raw = json.loads(CLASSIC.read_text())
+    raw["max_depth"], raw["bias"] = 10, 1e-3
+    own = tmp_path / "own.json"
+    own.write_text(json.dumps(raw))
+    image = render_demo(rtdemo, own, tmp_path / "own.ppm", "-q", "--mode", "classic",
+                        size=(W, H))  # fmt: skip
+    with CandidateRenderer(CLASSIC, W, H, threads=1, cache=tmp_path / "cache") as render:
+        d = diagnose(image, load_scene(CLASSIC), render, DiagnoseOptions(parallel=2))
+    assert "bias 0.001" in d.causes and "-Q1" not in d.causes and d.exact, d.sentences
+    assert d.scene_changes["bias"] == 1e-3
+    for st in d.steps:
+        if st.kind == "quirk":  # never a quirk alone where a depth fits as well
+            assert any(a.startswith("max depth 7") for a in st.alternatives), d.sentences
+    causes = d.as_dict()["causes"]
+    assert {c["kind"] for c in causes} <= {"constant", "quirk"}

@@ -37,6 +37,7 @@ class Candidate:
     mistakes: frozenset[str] = field(default_factory=frozenset)
     background: RGB | None = None  # None: the scene's
     ior: float | None = None  # every glass sphere's; None: the scene's
+    bias: float | None = None  # the offset of secondary rays; None: the scene's
     turn: tuple[float, float] | None = None  # camera turned by (dx, dy) pixels
     grow: int | None = None  # every sphere grown by this many float32 ulps (models.grown_scene)
 
@@ -67,6 +68,8 @@ class Candidate:
             parts.append(f"[background {rgb_text(self.background)}]")
         if self.ior is not None:
             parts.append(f"[ior {self.ior:g}]")
+        if self.bias is not None:
+            parts.append(f"[bias {self.bias:g}]")
         if self.turn is not None:
             parts.append(f"[camera turned {self.turn[0]:+g}, {self.turn[1]:+g} px]")
         if self.grow is not None:
@@ -94,6 +97,8 @@ class Candidate:
             out["background"] = list(self.background)
         if self.ior is not None:
             out["ior"] = self.ior
+        if self.bias is not None:
+            out["bias"] = self.bias
         return out
 
     def with_quirk(self, quirk: int, present: bool) -> Candidate:
@@ -125,6 +130,9 @@ class Candidate:
 
     def with_ior(self, ior: float | None) -> Candidate:
         return dataclasses.replace(self, ior=ior)
+
+    def with_bias(self, bias: float | None) -> Candidate:
+        return dataclasses.replace(self, bias=bias)
 
     def turned(self, turn: tuple[float, float] | None) -> Candidate:
         return dataclasses.replace(self, turn=turn)

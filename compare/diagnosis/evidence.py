@@ -96,6 +96,8 @@ def render_command(d: Diagnosis, scene_file: str | Path) -> str:
         words.append("background " + ", ".join(f"{v:g}" for v in changes["background"]))
     if "ior" in changes:
         words.append(f"ior {changes['ior']:g} for every glass sphere")
+    if "bias" in changes:
+        words.append(f"bias {changes['bias']:g}")
     scene = f"{scene_file}" + (f" (a copy with {' and '.join(words)})" if words else "")
     text = f"rtdemo render {scene} {' '.join(d.rtdemo_args)}"
     if d.mirrored:

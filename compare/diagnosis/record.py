@@ -36,6 +36,8 @@ class Step:
     explains: tuple[str, ...]  # effects whose pixels it makes match (and that are explained)
     kind: str = "step"  # Switch.cause_kind: quirk, mistake, camera, image, step, constant
     step: str = ""  # Switch.step: the step of the algorithm it changes
+    # Other changes the image cannot tell from this one (a constant in place of a quirk).
+    alternatives: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -159,7 +161,16 @@ class Diagnosis:
         fields = {f.name for f in dataclasses.fields(Diagnosis)} - {"candidate", "candidates"}
         d = {k: raw[k] for k in fields - {"cause_list"}}
         d["cause_list"] = list(raw["causes"])
-        d["steps"] = [Step(**{**st, "explains": tuple(st["explains"])}) for st in d["steps"]]
+        d["steps"] = [
+            Step(
+                **{
+                    **st,
+                    "explains": tuple(st["explains"]),
+                    "alternatives": tuple(st.get("alternatives", ())),
+                }
+            )
+            for st in d["steps"]
+        ]
         d["effects"] = {
             k: EffectFinding(
                 **{
@@ -183,6 +194,7 @@ def _candidate_fields(c: Candidate) -> dict[str, Any]:
         "mistakes": sorted(c.mistakes),
         "background": list(c.background) if c.background is not None else None,
         "ior": c.ior,
+        "bias": c.bias,
     }
 
 
@@ -196,6 +208,7 @@ def _candidate(raw: dict[str, Any]) -> Candidate:
         frozenset(str(m) for m in raw["mistakes"]),
         None if bg is None else (float(bg[0]), float(bg[1]), float(bg[2])),
         None if raw["ior"] is None else float(raw["ior"]),
+        None if raw.get("bias") is None else float(raw["bias"]),
     )
 
 
@@ -335,7 +348,7 @@ def summary(found: Found, findings: dict[str, EffectFinding], start: ExactMatch)
             for k in st.explains
             if k in findings
         )
-        text += f"; explained by {st.change}" + (f": {nums}" if nums else "")
+        text += f"; explained by {st.change}" + _alike(st) + (f": {nums}" if nums else "")
     partly = [k for k, f in findings.items() if f.state == "partly explained"]
     if partly:
         text += "; still differing: " + ", ".join(
@@ -377,7 +390,8 @@ def cause_list(found: Found, findings: dict[str, EffectFinding]) -> list[dict[st
             for k in st.explains
             if k in findings
         }
-        out.append(_cause(st.cause, st.kind, st.step or st.change, ev, st.change))
+        cause = _cause(st.cause, st.kind, st.step or st.change, ev, st.change + _alike(st))
+        out.append(cause | {"alternatives": list(st.alternatives)})
     return out
 
 
@@ -393,6 +407,12 @@ def _cause(name: str, kind: str, step: str, ev: dict[str, Any], change: str = ""
         "evidence": ev,
         "sentence": "; ".join(words),
     }
+
+
+def _alike(st: Step) -> str:
+    if not st.alternatives:
+        return ""
+    return f" (or, as well: {' or '.join(st.alternatives)}; the image cannot tell them apart)"
 
 
 def _sentences(found: Found, findings: dict[str, EffectFinding], text: str) -> list[str]:

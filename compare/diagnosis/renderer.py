@@ -234,6 +234,8 @@ class CandidateRenderer:
         raw = json.loads(text)
         if c.background is not None:
             raw["background"] = list(c.background)
+        if c.bias is not None:
+            raw["bias"] = c.bias
         if c.ior is not None:
             for sphere in raw["spheres"]:
                 if sphere.get("transparency", 0) > 0:

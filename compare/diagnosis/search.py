@@ -58,6 +58,7 @@ from compare.diagnosis.score import (
 )
 from compare.diagnosis.switches import (
     MAX_SEARCH_DEPTH,
+    VALUED,
     Switch,
     differences,
     simplest,
@@ -511,11 +512,36 @@ class Search:
             explains = tuple(k for k in masks if k in needs[sw])
             cause = sw.cause(or_more=or_more)
             before, now = per(cur), per(after)
+            alike = self.alike(begin, path[-1][1], sw) if sw.kind == "quirk" else ()
             steps.append(
-                Step(change, cause, after.name, before, now, explains, sw.cause_kind, sw.step)
+                Step(
+                    change, cause, after.name, before, now, explains, sw.cause_kind, sw.step, alike
+                )
             )
             cur = after
         return steps
+
+    def alike(self, begin: Candidate, final: Candidate, sw: Switch) -> tuple[str, ...]:
+        """Constants (a depth, background, ior or bias) that, in place of the quirk toggle sw,
+        give an image the image cannot tell from final's: both are said, since naming the
+        quirk alone could be false (a program with a deeper limit of its own is not -Q6)."""
+        without = undone(final, begin, [sw], self.scene)
+        options = [o for o in switches(without, self.scene, (), full=True) if o.kind in VALUED]
+        cands = [o.apply(without, self.scene) for o in options]
+        t = self.trials
+        t.evaluate(cands)
+        alike = [
+            o
+            for o, c in zip(options, cands, strict=True)
+            if t.fits_as_well(c, final) and t.fits_as_well(final, c)
+        ]
+        depths = sorted((o for o in alike if o.kind == "depth"), key=lambda o: int(o.key))
+        # Depths that all fit are one finding: the shallowest, "or more" when the deepest fits.
+        more = bool(depths) and int(depths[-1].key) == MAX_SEARCH_DEPTH and len(depths) > 1
+        told = [o.change(self.scene) for o in alike if o.kind != "depth"]
+        if depths:
+            told.insert(0, depths[0].change(self.scene, or_more=more))
+        return tuple(told)
 
     def report(self, found: Found) -> tuple[dict[str, EffectFinding], str]:
         """Per effect: the exact match of the start and of the result, as the verdict judges
