@@ -151,7 +151,7 @@ class Search:
         modes = {c.name: float(t.whole_differing(c)) for c in starts}
         # Where two modes come close, each is searched and the better explanation told: a
         # classic program with one shading bug may be a hair nearer physical by count.
-        found = min((self.explain(b, mirrored) for b in begins), key=self.left_over)
+        found = min(self._explained(begins, mirrored), key=self.left_over)
         skipped = tuple(f"{c.name} ({why})" for c, why in t.skipped.items())
         found = dataclasses.replace(found, skipped=skipped, images=tuple(self.images))
         if len(begins) > 1:
@@ -168,6 +168,17 @@ class Search:
         return diagnosis(self.scene, self.image.path, found, findings, text, facts)
 
     # --- where to begin ------------------------------------------------------------------
+
+    def _explained(self, begins: list[Candidate], mirrored: str) -> list[Found]:
+        """The explanation from each begin, while the search has time (SEARCH_SECONDS): the
+        first always."""
+        out = [self.explain(begins[0], mirrored)]
+        for b in begins[1:]:
+            if time.perf_counter() - self.t0 > SEARCH_SECONDS:
+                self.say(f"diagnose: no time left to search from {b.name} too")
+                break
+            out.append(self.explain(b, mirrored))
+        return out
 
     def left_over(self, found: Found) -> tuple[int, int]:
         """How much an explanation leaves: pixels still differing from its result (the
