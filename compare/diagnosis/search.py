@@ -1,22 +1,19 @@
 """Explains a foreign image as the nearest demo model: which mode, which quirks present or
 absent, which effects switched off, which recursion depth, which scene constants (background,
-glass ior) and which named mistakes (mistakes.json) reproduce it, effect by effect.
+glass ior, bias), which named mistakes (mistakes.json) and which transforms of the image's
+writer (transforms.py) reproduce it, effect by effect (docs/diagnosis.md).
 
-The search renders candidates through an injected `render` (this module starts no process)
-and scores each against the image per effect (diagnose_score.py; diagnose_trials.py keeps
-them). It first decides whether the image is mirrored (left-right or upside down: a program
-that draws its columns or rows the wrong way round) and un-mirrors it. Then it starts from the mode that matches most pixels of
-the whole image, tries one switch at a time (diagnose_switches.py: a quirk toggled, an effect
-off, another depth, background or ior, a mistake added or removed), keeps the one that lowers
-the summed per-effect distance most and clearly helps some effect, and repeats with the
-switches that helped, instead of all 2^13 quirk combinations. The result is retold from the
-mode it differs least from in the quirks this scene shows, and every switch that makes no
-effect's pixels match is dropped: an effect counts as explained only when the result makes at
-least EXPLAINED_SHARE of the pixels that differed from the start match (README, "What does this
-image implement?"). Claims of a match are the exact match of the candidate's renders with the
-camera turned as exact matching turns a model (`turns`), so they agree with the verdict. FLIP
-(metrics.flip_ldr_map) gives the report's numbers for the start and the result
-(diagnose_report.py writes them).
+The search renders candidates through an injected Renderer (score.Renderer; this module starts
+no process) and scores each against the image per effect (score.py; trials.py keeps them). It
+starts from the mode that matches most pixels of the whole image, and from every mode within a
+clear margin of it; decides whether the image is mirrored and fits the writer's transforms;
+then tries one switch at a time (switches.py), keeps the one that lowers the summed per-effect
+distance most, clearly helps some effect and makes no other clearly worse, and repeats with the
+switches that helped. The result is retold from the simplest mode, and a switch is named only
+for effects that pass every gate (gates.py): the verdict's exact match of the pixels that
+differed (not through a spread wider than the start's), FLIP over them halved, no effect worse.
+A quirk toggle that a constant reproduces as well is told with it. Every candidate's render has
+a time limit from the start's cost (trials.limit_time); one over it is skipped and said.
 """
 
 from __future__ import annotations
