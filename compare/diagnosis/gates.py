@@ -74,10 +74,10 @@ class Gate:
 
     @property
     def flip_falls(self) -> bool:
-        if self.flips[0] <= VISIBLE * self.floor:  # FLIP cannot judge what it does not see
-            return True
         if self.claimed >= WHOLE_MATCH * self.differed:  # the verdict's own rule: FLIP's
             return True  # spatial filter carries neighbouring 1-level noise onto each pixel
+        if self.flips[0] <= VISIBLE * self.floor:  # FLIP cannot judge what it does not see
+            return True
         return self.flips[1] <= max(FLIP_FALL * self.flips[0], FLOOR_FACTOR * self.floor)
 
     @property
@@ -143,24 +143,27 @@ def gates(
     start: ExactMatch,
     cand: ExactMatch,
     absorbed: BOOL,
-    flips: tuple[F32, F32],
+    flips: Callable[[], tuple[F32, F32]],
     masks: dict[str, BOOL],
 ) -> dict[str, Gate]:
     """Per effect, the gates of `cand` against `start` (both the verdict's exact match);
-    `flips`: the FLIP maps of the image against each."""
+    `flips` makes the FLIP maps of the image against each, called only where the FLIP gate
+    decides (a match of half to WHOLE_MATCH of D): elsewhere the numbers are NaN."""
     out = {}
+    maps: list[tuple[F32, F32]] = []
     for k, mask in masks.items():
         if k not in start.per_effect or k not in cand.per_effect:
             continue
         d = ~start.matches & mask
         e0, e1 = start.per_effect[k], cand.per_effect[k]
+        n, matched, lost = int(d.sum()), int((d & cand.matches).sum()), int((d & absorbed).sum())
+        nan = float("nan")
+        f0 = f1 = floor = nan
+        if EXPLAINED_SHARE * n <= matched - lost < WHOLE_MATCH * n:
+            maps = maps or [flips()]
+            f0, f1 = _mean(maps[0][0], d), _mean(maps[0][1], d)
+            floor = _mean(maps[0][1], mask & ~d & cand.matches)
         out[k] = Gate(
-            k,
-            int(d.sum()),
-            int((d & cand.matches).sum()),
-            int((d & absorbed).sum()),
-            (_mean(flips[0], d), _mean(flips[1], d)),
-            _mean(flips[1], mask & ~d & cand.matches),
-            e1.differing - e0.differing > e1.allowed,
+            k, n, matched, lost, (f0, f1), floor, e1.differing - e0.differing > e1.allowed
         )
     return out

@@ -241,7 +241,13 @@ class Search:
             for r in (render, shown)
         )
         none = np.zeros(test.shape[:2], bool)
-        return gates(e0, e1, none, (flips[0], flips[1]), masks)
+        out = gates(e0, e1, none, lambda: (flips[0], flips[1]), masks)
+        # The cause's evidence: FLIP over the pixels that differed, whichever gate decided.
+        for k, g in out.items():
+            d = ~e0.matches & masks[k]
+            means = tuple(float(f[d].mean()) if d.any() else 0.0 for f in flips)
+            out[k] = dataclasses.replace(g, flips=(means[0], means[1]))
+        return out
 
     def mirrored(self, cands: list[Candidate]) -> str:
         """ "" or the MIRRORS word for the flip that fits the nearest candidate far better
@@ -458,8 +464,9 @@ class Search:
             lambda: t.produced(final),
             t.target.values_judged,
         )
-        flips = (t.flip_map(begin), t.flip_map(final))
-        self.gated[begin, final] = gates(e0, e1, absorbed, flips, t.target.masks)
+        self.gated[begin, final] = gates(
+            e0, e1, absorbed, lambda: (t.flip_map(begin), t.flip_map(final)), t.target.masks
+        )
         return self.gated[begin, final]
 
     def undo_effects(
