@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -464,9 +465,14 @@ class Search:
             lambda: t.produced(final),
             t.target.values_judged,
         )
-        self.gated[begin, final] = gates(
-            e0, e1, absorbed, lambda: (t.flip_map(begin), t.flip_map(final)), t.target.masks
-        )
+
+        def maps() -> tuple[F32, F32]:
+            # Both at once: flip-evaluator lets go of the GIL.
+            with ThreadPoolExecutor(max_workers=2) as pool:
+                first = pool.submit(t.flip_map, begin)
+                return first.result(), t.flip_map(final)
+
+        self.gated[begin, final] = gates(e0, e1, absorbed, maps, t.target.masks)
         return self.gated[begin, final]
 
     def undo_effects(
