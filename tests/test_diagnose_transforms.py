@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from helpers import SCENES, render_demo
 
+from compare.diagnosis.evidence import diagnose_image
 from compare.diagnosis.renderer import CandidateRenderer
 from compare.diagnosis.search import DiagnoseOptions, diagnose
 from compare.judge.images import linear_to_srgb, read_image
@@ -76,3 +77,22 @@ def test_a_right_image_has_no_transform(classic: np.ndarray, tmp_path: Path) -> 
     with CandidateRenderer(CLASSIC, W, H, threads=1, cache=tmp_path / "cache") as render:
         d = diagnose(read_image(ppm), load_scene(CLASSIC), render, DiagnoseOptions(parallel=2))
     assert d.image_transforms == [] and d.causes == [] and d.exact
+
+
+def test_the_evidence_shows_candidates_through_the_writers_transform(
+    classic: np.ndarray, tmp_path: Path
+) -> None:
+    # The student page's pictures: the candidate as the writer would have stored it, so the
+    # difference that the diagnosis explains is gone from them (x 8: one level shows as 8).
+    write, words = WRITERS["scale_0.8"]
+    ppm = tmp_path / "dim.ppm"
+    ppm.write_bytes(f"P6\n{W} {H}\n255\n".encode() + write(classic).tobytes())
+    out = diagnose_image(read_image(ppm), CLASSIC, tmp_path / "cache", tmp_path / "pages")
+    assert out["image_transforms"] == [words]
+    assert out["causes"][0]["kind"] == "image" and "then every value" in out["command"]
+    diff = linear_to_srgb(read_image(tmp_path / "pages" / out["evidence"][0]["diff"]).rgb)
+    shown = linear_to_srgb(read_image(ppm).rgb)
+    raw = np.clip(8 * np.abs(shown - linear_to_srgb(classic.astype(np.float32))), 0, 1)
+    # Measured at 160x120: a mean of 0.020 (the truncating writer's last level, x 8 in the
+    # dark) against 0.235 for the render shown as it is.
+    assert float(diff.mean()) < 0.2 * float(raw.mean())

@@ -20,6 +20,7 @@ import numpy as np
 from compare.diagnosis.mistakes import catalogue
 from compare.diagnosis.renderer import CandidateRenderer
 from compare.diagnosis.search import DiagnoseOptions, Diagnosis, FlipSeed, diagnose, unmirror
+from compare.diagnosis.transforms import of_spec
 from compare.judge.images import Image, linear_to_srgb
 from compare.judge.png import FAST, write_display_png
 from compare.judge.quirks import QUIRKS
@@ -117,6 +118,12 @@ class _Evidence:
     ) -> None:
         self.d, self.render, self.folder, self.prefix = d, render, folder, prefix
         rgb = unmirror(image.rgb, d.mirrored)
+        # The writer's transforms as the search judged them: the image undone where they
+        # move pixels, every candidate shown through them where they change values.
+        found = [of_spec(spec) for spec in d.image_transform_specs]
+        for t in found:
+            rgb = t.undo(rgb) if t.undo is not None else rgb
+        self.values = [t for t in found if t.undo is None]
         self.test = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
         self.shown: dict[str, tuple[str, str]] = {}  # candidate name -> (its PNG, its diff)
 
@@ -125,7 +132,10 @@ class _Evidence:
         if name not in self.shown:
             c = self.d.candidates[name]
             i = len(self.shown)
-            disp = linear_to_srgb(np.nan_to_num(self.render(c).rgb, nan=0.0, posinf=1.0))
+            shown = self.render(c).rgb
+            for t in self.values:
+                shown = t.apply(shown)
+            disp = linear_to_srgb(np.nan_to_num(shown, nan=0.0, posinf=1.0))
             diff = np.abs(self.test - disp) * DIFF_GAIN
             for kind, data in (("candidate", disp), ("diff", diff)):
                 path = self.folder / f"{self.prefix}-{kind}-{i}.png"

@@ -101,6 +101,7 @@ class Diagnosis:
     skipped: list[str] = field(default_factory=list)
     # What the image's writer did to the values or pixels, fitted on the image (transforms.py).
     image_transforms: list[str] = field(default_factory=list)
+    image_transform_specs: list[list[Any]] = field(default_factory=list)  # of_spec's
     # The causes as the JSON's `causes` list: name, kind, effects, evidence, sentence.
     cause_list: list[dict[str, Any]] = field(default_factory=list)
 
@@ -220,6 +221,7 @@ class ImageCause:
     name: str  # in words: "channels written as B, G, R (not R, G, B)"
     effects: tuple[str, ...]  # the effects it explains
     gates: dict[str, Gate]  # their evidence: pixels and FLIP before and after
+    spec: list[str | float] = field(default_factory=list)  # transforms.of_spec makes it again
 
 
 @dataclass(frozen=True)
@@ -478,5 +480,6 @@ def diagnosis(
         candidates=facts["candidates"],
         skipped=list(found.skipped),
         image_transforms=[c.name for c in found.images],
+        image_transform_specs=[list(c.spec) for c in found.images],
         cause_list=cause_list(found, findings),
     )

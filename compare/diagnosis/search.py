@@ -223,7 +223,7 @@ class Search:
             self.say(f"diagnose: {tr.name} fits ({d0:.3f} -> {d1:.3f}) but fails the gates")
             return False
         self.say(f"diagnose: the image has {tr.name} (distance {d0:.3f} -> {d1:.3f})")
-        self.images.append(ImageCause(tr.family, tr.name, named, {k: g[k] for k in named}))
+        self.images.append(ImageCause(tr.family, tr.name, named, {k: g[k] for k in named}, tr.spec))
         if tr.undo is not None:
             t.set_test(tr.undo(t.target.test))
         else:

@@ -48,6 +48,12 @@ class Transform:
     name: str  # for a student: "channels written as B, G, R"
     apply: Callable[[F32], F32]
     undo: Callable[[F32], F32] | None = None
+    value: float = 0.0  # its parameter: the factor, the power, the channel order as digits
+
+    @property
+    def spec(self) -> list[str | float]:
+        """What of_spec makes it again from (a diagnosis record keeps it)."""
+        return [self.family, self.value, self.name]
 
     @property
     def moves_pixels(self) -> bool:
@@ -62,6 +68,7 @@ def _perm(order: tuple[int, int, int]) -> Transform:
         f"channels written as {words} (not R, G, B)",
         lambda rgb: np.ascontiguousarray(rgb[..., list(order)]),
         lambda rgb: np.ascontiguousarray(rgb[..., list(inverse)]),
+        float(order[0] * 100 + order[1] * 10 + order[2]),
     )
 
 
@@ -74,7 +81,7 @@ def _transposed() -> Transform:
 
 def _scale(s: float, name: str) -> Transform:
     f = np.float32(s)
-    return Transform("scale", name, lambda rgb: (rgb * f).astype(np.float32))
+    return Transform("scale", name, lambda rgb: (rgb * f).astype(np.float32), value=s)
 
 
 def _gamma(p: float) -> Transform:
@@ -83,7 +90,7 @@ def _gamma(p: float) -> Transform:
             out: F32 = np.power(np.maximum(rgb, np.float32(0.0)), np.float32(p))
         return out.astype(np.float32)
 
-    return Transform("gamma", f"every value raised to the power {_power_text(p)}", apply)
+    return Transform("gamma", f"every value raised to the power {_power_text(p)}", apply, value=p)
 
 
 def _power_text(p: float) -> str:
@@ -139,6 +146,24 @@ def _fitted_powers(image: F32, render: F32) -> list[Transform]:
     # The plainest value first: of powers that fit alike, 2.2 is named, not 2.21.
     ordered = sorted(snapped, key=lambda q: (len(f"{q:g}"), q))
     return [_gamma(q) for q in ordered if abs(q - DOUBLE_GAMMA) > 0.01 and q > 0]
+
+
+def of_spec(spec: list[str | float]) -> Transform:
+    """The transform a spec names (Transform.spec); ValueError for one that is none."""
+    family, value, name = str(spec[0]), float(spec[1]), str(spec[2])
+    if family == "channels":
+        digits = f"{int(value):03d}"
+        return _perm((int(digits[0]), int(digits[1]), int(digits[2])))
+    made = {
+        "transposed": _transposed,
+        "scale": lambda: _scale(value, name),
+        "gamma": lambda: _gamma(value),
+        "srgb": _srgb,
+        "wrap": _wrap,
+    }
+    if family not in made:
+        raise ValueError(f"no image transform {family!r}")
+    return made[family]()
 
 
 def candidates(image: F32, render: F32) -> list[Transform]:
