@@ -124,7 +124,7 @@ def spread_width(pair: Pair) -> np.ndarray:
 def absorbed_pixels(
     start: tuple[ExactMatch, Pair],
     cand: tuple[ExactMatch, Pair],
-    produced: Callable[[], BOOL],
+    produced: Callable[[BOOL], BOOL],
     float_image: bool,
 ) -> BOOL:
     """H x W: pixels that differ from the start and that the candidate matches only within a
@@ -135,7 +135,7 @@ def absorbed_pixels(
     slack = SPREAD_SLACK / 255.0 if float_image else SPREAD_SLACK
     out: BOOL = ~e0.matches & e1.unstable & (spread_width(p1) > spread_width(p0) + slack)
     if out.any():
-        out &= ~produced()
+        out &= ~produced(out)
     return out
 
 

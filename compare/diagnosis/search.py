@@ -462,7 +462,7 @@ class Search:
         absorbed = absorbed_pixels(
             (e0, t.pairs[begin]),
             (e1, t.pairs[final]),
-            lambda: t.produced(final),
+            lambda where: t.produced(final, where),
             t.target.values_judged,
         )
 

@@ -238,13 +238,17 @@ class Trials:
     def _perturbed(self, c: Candidate) -> list[Candidate]:
         return [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
 
-    def produced(self, c: Candidate) -> BOOL:
-        """H x W: pixels whose value in the image one of c's renders (centre or perturbed)
-        stores by itself, not only the interval between them (gates.absorbed_pixels)."""
+    def produced(self, c: Candidate, where: BOOL) -> BOOL:
+        """H x W: pixels of `where` whose value in the image one of c's renders (centre or
+        perturbed) stores by itself, not only the interval between them
+        (gates.absorbed_pixels); False elsewhere."""
         t = self.target
         out: BOOL = np.zeros(t.test.shape[:2], bool)
+        test = t.test[where]
+        found = np.zeros(len(test), bool)
         for im in self.render_all([c, *self._perturbed(c)]):
-            out |= channel_matches(im.rgb, t.test, t.image.encoding)
+            found |= channel_matches(im.rgb[where], test, t.image.encoding)
+        out[where] = found
         return out
 
     def _exact(self, c: Candidate) -> ExactMatch:
