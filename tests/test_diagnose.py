@@ -19,7 +19,13 @@ from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.evidence import render_command, short_reason
 from compare.diagnosis.mistakes import catalogue, parse_mistakes
 from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import Diagnosis, diagnose, unmirror
+from compare.diagnosis.search import (
+    DiagnoseOptions,
+    Diagnosis,
+    FunctionRenderer,
+    diagnose,
+    unmirror,
+)
 from compare.judge.images import Image, read_image
 from compare.judge.target_model import TargetModel, parse_model
 from scene_model.scene import load_scene
@@ -123,6 +129,9 @@ def _toy_render(c: TargetModel | Candidate) -> Image:
     return Image(rgb=rgb, aovs={"id": ids, "depth": depth})
 
 
+TOY = FunctionRenderer(_toy_render)
+
+
 def _toy_image(glass: np.ndarray | float, gold: float = 0.5) -> Image:
     ids, _ = _toy()
     rgb = np.ones((32, 32, 3), np.float32)
@@ -134,7 +143,7 @@ def _toy_image(glass: np.ndarray | float, gold: float = 0.5) -> Image:
 
 def test_search_finds_the_one_change_and_names_the_invisible_quirks() -> None:
     scene = load_scene(CLASSIC)
-    d = diagnose(_toy_image(0.5), scene, _toy_render, start=Candidate.of_mode("classic"))
+    d = diagnose(_toy_image(0.5), scene, TOY, DiagnoseOptions(start=Candidate.of_mode("classic")))
     assert d.result == "classic+Q2" and d.quirks_present == [2]
     assert d.causes == ["+Q2"] and d.reason() == "looks like classic+Q2 (+Q2)"
     assert d.effects["refraction"].state == "explained" and d.exact
@@ -152,7 +161,7 @@ def test_search_finds_the_one_change_and_names_the_invisible_quirks() -> None:
 def test_search_says_when_nothing_explains_a_region() -> None:
     scene = load_scene(CLASSIC)
     noise = np.random.default_rng(3).uniform(0, 0.6, (16, 16, 3))  # mean 0.3: Q2 cannot help
-    d = diagnose(_toy_image(noise), scene, _toy_render, start=Candidate.of_mode("classic"))
+    d = diagnose(_toy_image(noise), scene, TOY, DiagnoseOptions(start=Candidate.of_mode("classic")))
     # The glass and the silhouette pixels around it hold the noise.
     assert d.unexplained == ["refraction", "edges"] and not d.exact
     assert d.effects["background"].state == "as start"
@@ -166,7 +175,7 @@ def test_a_change_that_only_comes_nearer_is_not_named_and_the_mode_follows_the_i
     # 0.6. Paper (Q2, Q4 and Q9) is nearer in the glass alone, and the old per-effect sum
     # chose it (glass 4 levels off, gold 75: 158 against classic's 162); but paper's gold
     # differs too, while classic matches every pixel outside the glass.
-    d = diagnose(_toy_image(0.65, gold=0.5), load_scene(CLASSIC), _toy_render)
+    d = diagnose(_toy_image(0.65, gold=0.5), load_scene(CLASSIC), TOY)
     assert d.start == "classic" and d.mode_objectives["paper"] > d.mode_objectives["classic"]
     assert d.result == "classic" and d.steps == [] and d.causes == [] and d.mistakes == []
     refraction = d.effects["refraction"]
@@ -199,7 +208,7 @@ def _diagnose(path: Path) -> Diagnosis:
     scene = load_scene(CLASSIC)
     image = read_image(path)
     with CandidateRenderer(CLASSIC, W, H, threads=1) as render:
-        return diagnose(image, scene, render, parallel=2)
+        return diagnose(image, scene, render, DiagnoseOptions(parallel=2))
 
 
 def _names(d: Diagnosis, cause: str) -> bool:
@@ -329,7 +338,7 @@ def test_a_symmetric_scene_is_never_called_mirrored(rtdemo: str, tmp_path: Path)
                             size=(W, H))  # fmt: skip
         assert np.array_equal(image.rgb, image.rgb[:, ::-1])
         with CandidateRenderer(scene_file, W, H, threads=1) as render:
-            d = diagnose(image, load_scene(scene_file), render, parallel=2)
+            d = diagnose(image, load_scene(scene_file), render, DiagnoseOptions(parallel=2))
         assert d.mirrored == "" and "mirrored" not in d.mistakes, d.sentences
         assert d.mistakes == ([mistake] if mistake else []) and d.exact, d.sentences
 
@@ -369,7 +378,7 @@ def test_q11_to_q13_are_searched_where_rtdemo_renders_them(rtdemo: str, tmp_path
         ppm = tmp_path / "q11.ppm"
         image = render_demo(rtdemo, scene_file, ppm, "-q", "--mode", "classic", "--quirk",
                             "Q11", size=(W, H))  # fmt: skip
-        d = diagnose(image, load_scene(scene_file), render, parallel=2)
+        d = diagnose(image, load_scene(scene_file), render, DiagnoseOptions(parallel=2))
     assert d.causes == ["+Q11"] and d.mode == "classic" and d.exact, d.sentences
     assert d.quirks_untested == []
 
@@ -421,7 +430,7 @@ def test_several_causes_from_a_far_start_are_retold_from_the_simplest_mode(
     image = render_demo(rtdemo, scene_file, png, "-q", "--mode", "paper", "--fix", "Q8",
                         "--mistake", "double_gamma", size=(W, H))  # fmt: skip
     with CandidateRenderer(scene_file, W, H, threads=1) as render:
-        d = diagnose(image, load_scene(scene_file), render, parallel=2)
+        d = diagnose(image, load_scene(scene_file), render, DiagnoseOptions(parallel=2))
     assert d.result == "physical+Q2 --mistake double_gamma", d.sentences
     assert sorted(d.causes) == ["+Q2", "double_gamma"] and d.exact
 

@@ -16,7 +16,7 @@ from helpers import SCENES, diagnosed, render_demo, run
 from compare.diagnosis import flip as diagnose_flip
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.renderer import CandidateRenderer, forget_recent
-from compare.diagnosis.search import diagnose
+from compare.diagnosis.search import DiagnoseOptions, diagnose
 from compare.judge.images import Image
 from compare.judge.target_model import parse_model
 from compare.render import jobs
@@ -147,10 +147,12 @@ def test_only_plain_models_keep_their_aovs_and_a_switched_start_is_rendered_with
     scene = load_scene(CLASSIC)
     forget_recent()
     with CandidateRenderer(CLASSIC, W, H, cache=tmp_path / "d") as render:
-        switched = diagnose(image, scene, render, start=shadowless)
+        switched = diagnose(image, scene, render, DiagnoseOptions(start=shadowless))
     assert switched.result == "classic --no-shadows"
     with CandidateRenderer(CLASSIC, W, H, cache=tmp_path / "e") as render:
-        assert diagnose(image, scene, render, start=classic).result == switched.result
+        assert (
+            diagnose(image, scene, render, DiagnoseOptions(start=classic)).result == switched.result
+        )
 
 
 def test_rtval_diagnose_renders_nothing_the_cache_has(tmp_path: Path, rtdemo: str) -> None:

@@ -12,7 +12,7 @@ import pytest
 from helpers import SCENES, run
 
 from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.search import DiagnoseError, NoFinitePixels, diagnose
+from compare.diagnosis.search import DiagnoseError, FunctionRenderer, NoFinitePixels, diagnose
 from compare.judge.images import Image, write_exr
 from compare.judge.target_model import TargetModel
 from scene_model.scene import load_scene
@@ -39,7 +39,7 @@ def _never(c: TargetModel | Candidate) -> Image:
 def test_no_finite_pixel_is_one_clear_finding(kind: str) -> None:
     image = Image(rgb=_nonfinite(kind), encoding="float", path=f"{kind}.exr")
     with pytest.raises(NoFinitePixels, match=rf"{kind}\.exr: no finite pixel"):
-        diagnose(image, load_scene(CLASSIC), _never)
+        diagnose(image, load_scene(CLASSIC), FunctionRenderer(_never))
     assert issubclass(NoFinitePixels, DiagnoseError)  # grade and report say it in the cell
 
 
@@ -58,4 +58,4 @@ def test_one_finite_pixel_is_still_diagnosed() -> None:
     rgb[0, 0] = 0.5
     # No error before the search: the search itself then runs (and needs a renderer).
     with pytest.raises(AssertionError, match="rendered"):
-        diagnose(Image(rgb=rgb, encoding="float"), load_scene(CLASSIC), _never)
+        diagnose(Image(rgb=rgb, encoding="float"), load_scene(CLASSIC), FunctionRenderer(_never))

@@ -95,7 +95,7 @@ def test_student_page_shows_the_diagnosis_and_its_evidence(graded: tuple[Path, P
     assert all((page_dir / s).is_file() for s in shown), shown
     result = json.loads((out / "results" / "eta.json").read_text())
     detail = result["scenes"][0]["diagnosis_detail"]
-    assert detail["causes"] == ["+Q2"] and detail["result"] == "classic+Q2"
+    assert [c["name"] for c in detail["causes"]] == ["+Q2"] and detail["result"] == "classic+Q2"
     step = detail["evidence"][0]
     assert step["cause"] == "+Q2" and "refraction" in step["flip"]
     before, after = step["flip"]["refraction"]

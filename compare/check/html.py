@@ -16,7 +16,7 @@ import numpy as np
 
 from compare.check.run import CaseResult
 from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import diagnose
+from compare.diagnosis.search import DiagnoseOptions, diagnose
 from compare.judge.images import Image
 from compare.judge.png import display_values, write_display_png
 from compare.judge.tolerances import diff_image
@@ -49,9 +49,8 @@ def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> list[str] | Non
     h, w = image.shape
     try:
         with CandidateRenderer(case.scene_file, w, h) as render:
-            found = diagnose(
-                image, load_scene(case.scene_file), render, max_renders=DIAGNOSE_RENDERS
-            )
+            how = DiagnoseOptions(max_renders=DIAGNOSE_RENDERS)
+            found = diagnose(image, load_scene(case.scene_file), render, how)
     except Exception as e:  # an optional slot: its failure must not lose the page
         message = f"no diagnosis for {case.name}: {type(e).__name__}: {e}"
         note(message)

@@ -17,7 +17,12 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from compare.diagnosis.candidate import Candidate
     from compare.diagnosis.evidence import render_command
     from compare.diagnosis.renderer import CandidateRenderer
-    from compare.diagnosis.search import DiagnoseError, NoFinitePixels, diagnose
+    from compare.diagnosis.search import (
+        DiagnoseError,
+        DiagnoseOptions,
+        NoFinitePixels,
+        diagnose,
+    )
     from compare.errors import ToolError
     from compare.judge.images import ImageError, read_image
     from compare.judge.target_model import parse_model
@@ -48,9 +53,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
     try:
         threads = 1 if args.parallel > 1 else 0
         with CandidateRenderer(scene_file, w, h, threads=threads, cache=args.cache) as r:
-            result = diagnose(
-                image, scene, r, start=start, progress=progress, parallel=args.parallel
-            )
+            how = DiagnoseOptions(start=start, progress=progress, parallel=args.parallel)
+            result = diagnose(image, scene, r, how)
     except NoFinitePixels as e:  # an input with nothing to judge: as an unusable image
         raise ImageError(str(e)) from None
     except DiagnoseError as e:

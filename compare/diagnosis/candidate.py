@@ -49,6 +49,8 @@ class Candidate:
         The background colour a program hard-codes; default None: the scene's.
     ior : float or None
         Every glass sphere's index of refraction; default None: the scene's.
+    bias : float or None
+        The offset of secondary rays a program hard-codes; default None: the scene's.
     turn : tuple[float, float] or None
         The camera turned by (dx, dy) pixels: not an explanation but a way to judge one;
         default None.
@@ -68,6 +70,7 @@ class Candidate:
     mistakes: frozenset[str] = field(default_factory=frozenset)
     background: RGB | None = None
     ior: float | None = None
+    bias: float | None = None
     turn: tuple[float, float] | None = None
     grow: int | None = None
 
@@ -98,6 +101,8 @@ class Candidate:
             parts.append(f"[background {rgb_text(self.background)}]")
         if self.ior is not None:
             parts.append(f"[ior {self.ior:g}]")
+        if self.bias is not None:
+            parts.append(f"[bias {self.bias:g}]")
         if self.turn is not None:
             parts.append(f"[camera turned {self.turn[0]:+g}, {self.turn[1]:+g} px]")
         if self.grow is not None:
@@ -125,6 +130,8 @@ class Candidate:
             out["background"] = list(self.background)
         if self.ior is not None:
             out["ior"] = self.ior
+        if self.bias is not None:
+            out["bias"] = self.bias
         return out
 
     def with_quirk(self, quirk: int, present: bool) -> Candidate:
@@ -156,6 +163,9 @@ class Candidate:
 
     def with_ior(self, ior: float | None) -> Candidate:
         return dataclasses.replace(self, ior=ior)
+
+    def with_bias(self, bias: float | None) -> Candidate:
+        return dataclasses.replace(self, bias=bias)
 
     def turned(self, turn: tuple[float, float] | None) -> Candidate:
         return dataclasses.replace(self, turn=turn)

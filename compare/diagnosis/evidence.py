@@ -11,6 +11,7 @@ processes and on Dask workers alike.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +19,8 @@ import numpy as np
 
 from compare.diagnosis.mistakes import catalogue
 from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import Diagnosis, FlipSeed, diagnose, unmirror
+from compare.diagnosis.search import DiagnoseOptions, Diagnosis, FlipSeed, diagnose, unmirror
+from compare.diagnosis.transforms import of_spec
 from compare.judge.images import Image, linear_to_srgb
 from compare.judge.png import FAST, write_display_png
 from compare.judge.quirks import QUIRKS
@@ -95,10 +97,14 @@ def render_command(d: Diagnosis, scene_file: str | Path) -> str:
         words.append("background " + ", ".join(f"{v:g}" for v in changes["background"]))
     if "ior" in changes:
         words.append(f"ior {changes['ior']:g} for every glass sphere")
+    if "bias" in changes:
+        words.append(f"bias {changes['bias']:g}")
     scene = f"{scene_file}" + (f" (a copy with {' and '.join(words)})" if words else "")
     text = f"rtdemo render {scene} {' '.join(d.rtdemo_args)}"
     if d.mirrored:
         text += f", then mirrored {d.mirrored}"
+    for transform in d.image_transforms:
+        text += f", then {transform}"
     return text
 
 
@@ -112,6 +118,12 @@ class _Evidence:
     ) -> None:
         self.d, self.render, self.folder, self.prefix = d, render, folder, prefix
         rgb = unmirror(image.rgb, d.mirrored)
+        # The writer's transforms as the search judged them: the image undone where they
+        # move pixels, every candidate shown through them where they change values.
+        found = [of_spec(spec) for spec in d.image_transform_specs]
+        for t in found:
+            rgb = t.undo(rgb) if t.undo is not None else rgb
+        self.values = [t for t in found if t.undo is None]
         self.test = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0))
         self.shown: dict[str, tuple[str, str]] = {}  # candidate name -> (its PNG, its diff)
 
@@ -120,7 +132,10 @@ class _Evidence:
         if name not in self.shown:
             c = self.d.candidates[name]
             i = len(self.shown)
-            disp = linear_to_srgb(np.nan_to_num(self.render(c).rgb, nan=0.0, posinf=1.0))
+            shown = self.render(c).rgb
+            for t in self.values:
+                shown = t.apply(shown)
+            disp = linear_to_srgb(np.nan_to_num(shown, nan=0.0, posinf=1.0))
             diff = np.abs(self.test - disp) * DIFF_GAIN
             for kind, data in (("candidate", disp), ("diff", diff)):
                 path = self.folder / f"{self.prefix}-{kind}-{i}.png"
@@ -173,42 +188,49 @@ class _Evidence:
         }
 
 
+@dataclass(frozen=True)
+class EvidenceOptions:
+    """How diagnose_image runs and names what it writes: `prefix` of the evidence PNGs, `href`
+    before their names in the dict, `assigned` the model the image was judged against (the
+    gradebook cell names the mode when it differs), `parallel` renders at once, `progress`
+    where progress lines go, `flip_seed` diagnose's."""
+
+    prefix: str = "diagnosis"
+    href: str = ""
+    assigned: str | None = None
+    parallel: int = 1
+    progress: Callable[[str], None] | None = None
+    flip_seed: FlipSeed | None = None
+
+
 def diagnose_image(
     image: Image,
     scene_file: str | Path,
     cache: RenderCache | str | Path,
     evidence_dir: str | Path,
-    *,
-    prefix: str = "diagnosis",
-    href: str = "",
-    assigned: str | None = None,
-    parallel: int = 1,
-    progress: Callable[[str], None] | None = None,
-    flip_seed: FlipSeed | None = None,
+    options: EvidenceOptions | None = None,
 ) -> dict[str, Any]:
     """The diagnosis of `image` (a render of `scene_file`) as a JSON-ready dict: Diagnosis
     .as_dict() plus `short` (the gradebook cell), `evidence` (pictures per explaining change,
     written to evidence_dir as PREFIX-*.png, named href + file in the dict) and the cache's
     renders and hits. `cache`: the render cache the candidates are rendered through (or its
-    folder); `flip_seed`: diagnose's. Raises DiagnoseError or ToolError when the image cannot
-    be diagnosed."""
+    folder). Raises DiagnoseError or ToolError when the image cannot be diagnosed."""
+    o = options or EvidenceOptions()
     scene = load_scene(scene_file)
     h, w = image.shape
     folder = Path(evidence_dir)
     folder.mkdir(parents=True, exist_ok=True)
-    with CandidateRenderer(
-        scene_file, w, h, threads=1 if parallel > 1 else 0, cache=cache
-    ) as render:
-        d = diagnose(
-            image, scene, render, progress=progress, parallel=parallel, flip_seed=flip_seed
-        )
-        evidence = _Evidence(image, d, render, folder, prefix).entries(href)
+    threads = 1 if o.parallel > 1 else 0
+    with CandidateRenderer(scene_file, w, h, threads=threads, cache=cache) as render:
+        how = DiagnoseOptions(progress=o.progress, parallel=o.parallel, flip_seed=o.flip_seed)
+        d = diagnose(image, scene, render, how)
+        evidence = _Evidence(image, d, render, folder, o.prefix).entries(o.href)
         out = d.as_dict()
         out |= {
-            "short": short_reason(d, assigned),
+            "short": short_reason(d, o.assigned),
             "command": render_command(d, Path(scene_file).name),
             "evidence": evidence,
-            "assigned": assigned,
+            "assigned": o.assigned,
             "cache": {"rendered": render.rendered, "hits": render.cache_hits},
         }
     result: dict[str, Any] = json_safe(out)

@@ -11,17 +11,17 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.gates import EXPLAINED_SHARE, Gate
 from compare.diagnosis.switches import aliases
 from compare.judge.exact_match import ExactMatch
 from compare.judge.target_model import QUIRK_COUNT, SWITCHABLE_EFFECTS
 from scene_model.scene import Scene
 
-# An effect is explained when the result makes at least this share of the pixels that differed
-# from the start match. Measured (tests/test_diagnose.py, 160x120 and 640x480): every named
-# cause of the student variants makes 93-100 % match; the best candidates for programs nothing
-# explains make 0-19 % match (glass never multiplied by its colour; a refracted ray that hits
-# nothing): half is far from both.
-EXPLAINED_SHARE = 0.5
+# EXPLAINED_SHARE (gates.py): an effect is explained when the result makes at least this share
+# of the pixels that differed from the start match. Measured (tests/test_diagnose.py, 160x120
+# and 640x480): every named cause of the student variants makes 93-100 % match; the best
+# candidates for programs nothing explains make 0-19 % match (glass never multiplied by its
+# colour; a refracted ray that hits nothing): half is far from both.
 
 
 @dataclass(frozen=True)
@@ -34,6 +34,10 @@ class Step:
     before: dict[str, float]
     after: dict[str, float]
     explains: tuple[str, ...]  # effects whose pixels it makes match (and that are explained)
+    kind: str = "step"  # Switch.cause_kind: quirk, mistake, camera, image, step, constant
+    step: str = ""  # Switch.step: the step of the algorithm it changes
+    # Other changes the image cannot tell from this one (a constant in place of a quirk).
+    alternatives: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -52,6 +56,8 @@ class EffectFinding:
     matched: bool  # the diagnosis reproduces it: an exact match
     state: str  # "as start" | "explained" | "partly explained" | "unexplained"
     sentence: str
+    # Where the pixels still differing lie: x0, y0, x1, y1 (inclusive), None when none do.
+    box: tuple[int, int, int, int] | None = None
 
     @property
     def fixed_share(self) -> float:
@@ -91,6 +97,13 @@ class Diagnosis:
     candidate: Candidate = field(repr=False)
     # The start, every step's candidate and the result, by name (the evidence pictures').
     candidates: dict[str, Candidate] = field(default_factory=dict, repr=False)
+    # Candidates not judged: their render ran past the time limit, "NAME: why".
+    skipped: list[str] = field(default_factory=list)
+    # What the image's writer did to the values or pixels, fitted on the image (transforms.py).
+    image_transforms: list[str] = field(default_factory=list)
+    image_transform_specs: list[list[Any]] = field(default_factory=list)  # of_spec's
+    # The causes as the JSON's `causes` list: name, kind, effects, evidence, sentence.
+    cause_list: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def exact(self) -> bool:
@@ -100,7 +113,7 @@ class Diagnosis:
     def causes(self) -> list[str]:
         """What differs from the start mode, shortly: ["+Q2"], ["mirrored left-right"], []."""
         head = [f"mirrored {self.mirrored}"] if self.mirrored else []
-        return head + [s.cause for s in self.steps]
+        return head + self.image_transforms + [s.cause for s in self.steps]
 
     def reason(self) -> str:
         """One line for a gradebook: "looks like classic+Q2 (+Q2)", with the regions that
@@ -116,7 +129,18 @@ class Diagnosis:
         d = asdict(self)
         d.pop("candidate")
         d.pop("candidates")
-        d["causes"] = self.causes
+        d["causes"] = d.pop("cause_list")
+        d["unexplained_where"] = [
+            {
+                "effect": k,
+                "differing": self.effects[k].final_differing,
+                "pixels": self.effects[k].pixels,
+                "share": self.effects[k].final_differing / max(1, self.effects[k].pixels),
+                "box": self.effects[k].box,
+                "against": self.result,
+            }
+            for k in self.unexplained
+        ]
         d["reason"] = self.reason()
         for k, f in self.effects.items():
             d["effects"][k]["fixed_share"] = f.fixed_share
@@ -136,13 +160,24 @@ class Diagnosis:
         is not one)."""
         cands = {k: _candidate(v) for k, v in raw["record_candidates"].items()}
         fields = {f.name for f in dataclasses.fields(Diagnosis)} - {"candidate", "candidates"}
-        d = {k: raw[k] for k in fields}
-        d["steps"] = [Step(**{**st, "explains": tuple(st["explains"])}) for st in d["steps"]]
+        d = {k: raw[k] for k in fields - {"cause_list"}}
+        d["cause_list"] = list(raw["causes"])
+        d["steps"] = [
+            Step(
+                **{
+                    **st,
+                    "explains": tuple(st["explains"]),
+                    "alternatives": tuple(st.get("alternatives", ())),
+                }
+            )
+            for st in d["steps"]
+        ]
         d["effects"] = {
             k: EffectFinding(
                 **{
                     **{n: v for n, v in e.items() if n != "fixed_share"},
                     "explained_by": tuple(e["explained_by"]),
+                    "box": None if e.get("box") is None else tuple(e["box"]),
                 }
             )
             for k, e in d["effects"].items()
@@ -160,6 +195,7 @@ def _candidate_fields(c: Candidate) -> dict[str, Any]:
         "mistakes": sorted(c.mistakes),
         "background": list(c.background) if c.background is not None else None,
         "ior": c.ior,
+        "bias": c.bias,
     }
 
 
@@ -173,7 +209,19 @@ def _candidate(raw: dict[str, Any]) -> Candidate:
         frozenset(str(m) for m in raw["mistakes"]),
         None if bg is None else (float(bg[0]), float(bg[1]), float(bg[2])),
         None if raw["ior"] is None else float(raw["ior"]),
+        None if raw.get("bias") is None else float(raw["bias"]),
     )
+
+
+@dataclass(frozen=True)
+class ImageCause:
+    """A transform of the image's writer, fitted and gated (search.transformed)."""
+
+    family: str  # transforms.Transform.family
+    name: str  # in words: "channels written as B, G, R (not R, G, B)"
+    effects: tuple[str, ...]  # the effects it explains
+    gates: dict[str, Gate]  # their evidence: pixels and FLIP before and after
+    spec: list[str | float] = field(default_factory=list)  # transforms.of_spec makes it again
 
 
 @dataclass(frozen=True)
@@ -188,6 +236,8 @@ class Found:
     or_more: bool  # the result's depth: every deeper limit fits as well
     mirrored: str
     candidates: dict[str, Candidate]  # the start, each step's and the result, by name
+    skipped: tuple[str, ...] = ()  # candidates over the time limit, with why
+    images: tuple[ImageCause, ...] = ()  # the writer's transforms found (transforms.py)
 
 
 @dataclass(frozen=True)
@@ -199,6 +249,8 @@ class Evidence:
     flips: tuple[float, float]  # mean FLIP in the effect: start, result
     distances: tuple[float, float]  # mean 8-bit levels beyond one: start, result
     near: tuple[int, float]  # (candidates tried, the best share of start's differing matched)
+    gate: Gate | None = None  # the result against the start (gates.py); None: as start
+    box: tuple[int, int, int, int] | None = None  # where the result's differing pixels lie
 
 
 def finding(k: str, found: Found, ev: Evidence) -> EffectFinding:
@@ -208,11 +260,15 @@ def finding(k: str, found: Found, ev: Evidence) -> EffectFinding:
     # An effect no single step is needed for, but that the result fixes, is the steps' work
     # together.
     by = tuple(st.change for st in steps if k in st.explains) or tuple(st.change for st in steps)
-    fixed = e0.differing - e1.differing >= EXPLAINED_SHARE * e0.differing > 0
-    if e1.passed:
-        state = "as start" if e0.passed else "explained"
+    # A cause is named only where every gate holds (gates.py): the result matches the pixels
+    # that differed, not through its own noise, FLIP halves, no effect got worse.
+    named = ev.gate is not None and ev.gate.passed and bool(steps)
+    if e0.passed:
+        state = "as start"
+    elif e1.passed:
+        state = "explained" if named else "unexplained"
     else:
-        state = "partly explained" if fixed and steps else "unexplained"
+        state = "partly explained" if named else "unexplained"
     return EffectFinding(
         k,
         e1.pixels,
@@ -228,6 +284,7 @@ def finding(k: str, found: Found, ev: Evidence) -> EffectFinding:
         e1.passed,
         state,
         _sentence(k, state, by, found.begin, ev),
+        ev.box,
     )
 
 
@@ -237,7 +294,7 @@ def _sentence(k: str, state: str, by: tuple[str, ...], begin: Candidate, ev: Evi
     start_differing, final = ev.start.per_effect[k].differing, ev.final
     if state == "as start":
         return f"{k}: as {begin.name} (FLIP {f1:.3f})"
-    if state == "unexplained" and start_differing <= final.per_effect[k].allowed:
+    if state == "unexplained" and start_differing <= ev.start.per_effect[k].allowed:
         return (
             f"{k}: matches {begin.name}, but {final.sentence(k)}: the changes that explain the "
             "other effects cost it"
@@ -252,9 +309,11 @@ def _sentence(k: str, state: str, by: tuple[str, ...], begin: Candidate, ev: Evi
             f"{k}: partly explained by {' and '.join(by)}: {final.sentence(k)} "
             f"({start_differing:,} from {begin.name}); FLIP {f0:.3f} -> {f1:.3f}"
         )
+    why = ev.gate.why_not() if ev.gate is not None else ""
+    against = final if not final.per_effect[k].passed else ev.start
     return (
-        f"{k}: not explained: {final.sentence(k)}; FLIP {f1:.3f}; {_nearest(ev.near)}: a new "
-        "bug, not a quirk or a named mistake"
+        f"{k}: not explained: {against.sentence(k)}; FLIP {f1:.3f}; "
+        f"{why or _nearest(ev.near)}: a new bug, not a quirk or a named mistake"
     )
 
 
@@ -276,6 +335,8 @@ def summary(found: Found, findings: dict[str, EffectFinding], start: ExactMatch)
     nothing explains."""
     begin, mirrored = found.begin, found.mirrored
     head = f"mirrored {mirrored} (diagnosed un-mirrored); " if mirrored else ""
+    for cause in found.images:
+        head += f"the image was written with {cause.name} (diagnosed through it); "
     off = [k for k in findings if not start.per_effect[k].passed]
     if not off:
         text = f"matches {begin.name} in every effect (exact match)"
@@ -289,7 +350,7 @@ def summary(found: Found, findings: dict[str, EffectFinding], start: ExactMatch)
             for k in st.explains
             if k in findings
         )
-        text += f"; explained by {st.change}" + (f": {nums}" if nums else "")
+        text += f"; explained by {st.change}" + _alike(st) + (f": {nums}" if nums else "")
     partly = [k for k, f in findings.items() if f.state == "partly explained"]
     if partly:
         text += "; still differing: " + ", ".join(
@@ -309,12 +370,64 @@ def summary(found: Found, findings: dict[str, EffectFinding], start: ExactMatch)
     return head + text
 
 
+def cause_list(found: Found, findings: dict[str, EffectFinding]) -> list[dict[str, Any]]:
+    """Every cause named, as the JSON's `causes`: the mirror, the writer's transforms, then
+    each step, with the effects it explains and their evidence (pixels differing and FLIP,
+    before and after), and a sentence naming the step of the algorithm."""
+    out = []
+    if found.mirrored:
+        out.append(_cause(f"mirrored {found.mirrored}", "image", "image writing (pixel order)", {}))
+    for c in found.images:
+        ev = {
+            k: {"differing": [g.differed, g.differed - g.claimed], "flip": list(g.flips)}
+            for k, g in c.gates.items()
+        }
+        out.append(_cause(c.name, "image", "image writing", ev))
+    for st in found.steps:
+        ev = {
+            k: {
+                "differing": [findings[k].start_differing, findings[k].final_differing],
+                "flip": [findings[k].start_flip, findings[k].final_flip],
+            }
+            for k in st.explains
+            if k in findings
+        }
+        cause = _cause(st.cause, st.kind, st.step or st.change, ev, st.change + _alike(st))
+        out.append(cause | {"alternatives": list(st.alternatives)})
+    return out
+
+
+def _cause(name: str, kind: str, step: str, ev: dict[str, Any], change: str = "") -> dict[str, Any]:
+    words = [f"{step}: {change or name}"]
+    for k, e in ev.items():
+        (n0, n1), (f0, f1) = e["differing"], e["flip"]
+        words.append(f"{k} {n0:,} px differed, {n1:,} after; FLIP {f0:.3f} -> {f1:.3f}")
+    return {
+        "name": name,
+        "kind": kind,
+        "effects": list(ev),
+        "evidence": ev,
+        "sentence": "; ".join(words),
+    }
+
+
+def _alike(st: Step) -> str:
+    if not st.alternatives:
+        return ""
+    return f" (or, as well: {' or '.join(st.alternatives)}; the image cannot tell them apart)"
+
+
 def _sentences(found: Found, findings: dict[str, EffectFinding], text: str) -> list[str]:
     out = [text] + [f.sentence for f in findings.values()]
     if found.invisible:
         out.append(
             "not visible in this scene (toggling them changes no pixel): "
             + ", ".join(f"Q{q}" for q in sorted(found.invisible))
+        )
+    if found.skipped:
+        out.append(
+            f"skipped ({len(found.skipped)} candidates ran past their time limit, so they "
+            "were not judged): " + "; ".join(found.skipped)
         )
     if found.untested:
         out.append(
@@ -365,4 +478,8 @@ def diagnosis(
         seconds=facts["seconds"],
         candidate=c,
         candidates=facts["candidates"],
+        skipped=list(found.skipped),
+        image_transforms=[c.name for c in found.images],
+        image_transform_specs=[list(c.spec) for c in found.images],
+        cause_list=cause_list(found, findings),
     )

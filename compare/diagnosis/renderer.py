@@ -184,6 +184,10 @@ class CandidateRenderer:
         self.rendered = 0
         self.cache_hits = 0  # renders not made: read from the cache, or from memory
         self.memory_hits = 0  # ... the renders this process had read already (_RECENT)
+        # Seconds a candidate's render may take (diagnose sets it from the start's cost; None:
+        # no limit), and what each render took, by candidate name.
+        self.time_limit: float | None = None
+        self.costs: dict[str, float] = {}
         self.turns = exact_turns()  # read by diagnose: how exact matching renders a model
         self.grows = list(SPHERE_ULPS)  # and its spheres grown and shrunk
         later = ",".join(f"Q{q}" for q in LATER_QUIRKS)
@@ -230,6 +234,8 @@ class CandidateRenderer:
         raw = json.loads(text)
         if c.background is not None:
             raw["background"] = list(c.background)
+        if c.bias is not None:
+            raw["bias"] = c.bias
         if c.ior is not None:
             for sphere in raw["spheres"]:
                 if sphere.get("transparency", 0) > 0:
@@ -247,7 +253,20 @@ class CandidateRenderer:
 
     def job(self, what: TargetModel | Candidate, *, aovs: bool = False) -> RenderJob:
         c = what if isinstance(what, Candidate) else Candidate.from_model(what)
-        return candidate_job(c, self._scene_for(c), self.width, self.height, aovs=aovs)
+        job = candidate_job(c, self._scene_for(c), self.width, self.height, aovs=aovs)
+        job.time_limit = self.time_limit
+        return job
+
+    def cost(self, what: TargetModel | Candidate) -> float:
+        """Seconds the render of `what` took when it was made (0 when not known)."""
+        c = what if isinstance(what, Candidate) else Candidate.from_model(what)
+        with self._lock:
+            return self.costs.get(c.name, 0.0)
+
+    def _cost(self, c: Candidate, job: RenderJob) -> None:
+        seconds = job.seconds or float(job.info.get("seconds", 0.0) or 0.0)
+        with self._lock:
+            self.costs[c.name] = seconds
 
     def with_aovs(self, what: TargetModel | Candidate) -> Image:
         """The render with its id and depth AOVs (read by diagnose for the effect masks)."""
@@ -271,6 +290,7 @@ class CandidateRenderer:
         except ImageError:  # a cached entry whole by its sha256 but unreadable: made again
             return self(c)
         self._count(hit=hit)
+        self._cost(c, job)
         return image
 
     def _seen(self, what: TargetModel | Candidate) -> Candidate:
@@ -301,6 +321,7 @@ class CandidateRenderer:
             return recent
         extra = self._extra()
         hit = render_one(job, self.cache, extra_args=extra)
+        self._cost(c, job)
         try:
             image = read_image(job.exr(self.cache), aovs=KEPT_AOVS)
         except ImageError:  # whole by its sha256 but unreadable: render it again

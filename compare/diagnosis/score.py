@@ -10,7 +10,7 @@ score and judges the ones a claim is made of exactly, as the verdict does.
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
 
@@ -25,7 +25,6 @@ from compare.judge.images import Image, linear_to_srgb
 from compare.judge.target_model import TargetModel
 from scene_model.scene import Scene
 
-Renderer = Callable[[TargetModel | Candidate], Image]
 I16 = NDArray[np.int16]
 Px = TypeVar("Px", np.float32, np.int16)
 
@@ -58,6 +57,44 @@ class Store(Protocol):
     def get_bytes(self, name: str, max_bytes: int) -> bytes | None: ...
 
     def put_bytes(self, name: str, data: bytes) -> None: ...
+
+
+class Renderer(Protocol):
+    """What renders the diagnosis's candidates at the image's size (CandidateRenderer, or a
+    FunctionRenderer around an injected function): the render itself, and what the search
+    needs to know of it."""
+
+    # Seconds one candidate's render may take before it is stopped and skipped (the search
+    # sets it from the start's cost); None: no limit.
+    time_limit: float | None
+
+    @property
+    def turns(self) -> Sequence[tuple[float, float]]:
+        """The camera turns (in pixels) exact matching renders a model with."""
+
+    @property
+    def grows(self) -> Sequence[int]:
+        """The sphere growths (float32 ulps) exact matching renders a model with."""
+
+    @property
+    def search_quirks(self) -> tuple[int, ...]:
+        """The quirks this renderer can toggle."""
+
+    @property
+    def store(self) -> Store | None:
+        """Where FLIP numbers, kept codes and diagnoses live between runs (None: nowhere)."""
+
+    def __call__(self, what: TargetModel | Candidate) -> Image:
+        """The candidate's render (with its id and depth AOVs for a plain model)."""
+
+    def passing(self, what: TargetModel | Candidate) -> Image:
+        """The render of a candidate scored once and dropped."""
+
+    def with_aovs(self, what: TargetModel | Candidate) -> Image:
+        """The render with its id and depth AOVs."""
+
+    def cost(self, what: TargetModel | Candidate) -> float:
+        """Seconds its render took when made (0 when not known)."""
 
 
 class DiagnoseError(ValueError):
@@ -151,6 +188,12 @@ def _bits_changed(a: F32, b: F32) -> NDArray[np.intp]:
 def _flip_codes(target: I16, key: str) -> I16:
     out = target[:, ::-1] if "lr" in key else target
     return out[::-1] if "ud" in key else out
+
+
+def code_distance(enc: I16, target: I16) -> float:
+    """How far a render's codes lie from the image's: the share of all pixels off by more
+    than one level, plus their mean excess / LEVELS_PER_UNIT."""
+    return _mirror_distance(enc, target)
 
 
 def _mirror_distance(enc: I16, target: I16) -> float:
@@ -299,6 +342,18 @@ def explained(
         k
         for k in before
         if k in open_effects and before[k] - after[k] > max(EXPLAINS, 0.1 * before[k])
+    )
+
+
+def worsened(before: Score, after: Score, allowance: dict[str, int]) -> tuple[str, ...]:
+    """The effects a change makes clearly worse: more pixels differing than before beyond the
+    exact-match allowance, and a distance up by EXPLAINS and 10 % (explained's mirror)."""
+    b, a = before.per_effect(), after.per_effect()
+    return tuple(
+        k
+        for k in b
+        if after.differing[k] - before.differing[k] > allowance.get(k, 0)
+        and a[k] - b[k] > max(EXPLAINS, 0.1 * b[k])
     )
 
 

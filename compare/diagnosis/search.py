@@ -1,39 +1,41 @@
 """Explains a foreign image as the nearest demo model: which mode, which quirks present or
 absent, which effects switched off, which recursion depth, which scene constants (background,
-glass ior) and which named mistakes (mistakes.json) reproduce it, effect by effect.
+glass ior, bias), which named mistakes (mistakes.json) and which transforms of the image's
+writer (transforms.py) reproduce it, effect by effect (docs/diagnosis.md).
 
-The search renders candidates through an injected `render` (this module starts no process)
-and scores each against the image per effect (diagnose_score.py; diagnose_trials.py keeps
-them). It first decides whether the image is mirrored (left-right or upside down: a program
-that draws its columns or rows the wrong way round) and un-mirrors it. Then it starts from the mode that matches most pixels of
-the whole image, tries one switch at a time (diagnose_switches.py: a quirk toggled, an effect
-off, another depth, background or ior, a mistake added or removed), keeps the one that lowers
-the summed per-effect distance most and clearly helps some effect, and repeats with the
-switches that helped, instead of all 2^13 quirk combinations. The result is retold from the
-mode it differs least from in the quirks this scene shows, and every switch that makes no
-effect's pixels match is dropped: an effect counts as explained only when the result makes at
-least EXPLAINED_SHARE of the pixels that differed from the start match (README, "What does this
-image implement?"). Claims of a match are the exact match of the candidate's renders with the
-camera turned as exact matching turns a model (`turns`), so they agree with the verdict. FLIP
-(metrics.flip_ldr_map) gives the report's numbers for the start and the result
-(diagnose_report.py writes them).
+The search renders candidates through an injected Renderer (score.Renderer; this module starts
+no process) and scores each against the image per effect (score.py; trials.py keeps them). It
+starts from the mode that matches most pixels of the whole image, and from every mode within a
+clear margin of it; decides whether the image is mirrored and fits the writer's transforms;
+then tries one switch at a time (switches.py), keeps the one that lowers the summed per-effect
+distance most, clearly helps some effect and makes no other clearly worse, and repeats with the
+switches that helped. The result is retold from the simplest mode, and a switch is named only
+for effects that pass every gate (gates.py): the verdict's exact match of the pixels that
+differed (not through a spread wider than the start's), FLIP over them halved, no effect worse.
+A quirk toggle that a constant reproduces as well is told with it. Every candidate's render has
+a time limit from the start's cost (trials.limit_time); one over it is skipped and said.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 import numpy as np
 
+from compare.diagnosis import transforms
 from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
 from compare.diagnosis.memo import keep, load, record_name
 from compare.diagnosis.record import (
-    EXPLAINED_SHARE,
     Diagnosis,
     EffectFinding,
     Evidence,
     Found,
+    ImageCause,
     Step,
     diagnosis,
     finding,
@@ -44,14 +46,17 @@ from compare.diagnosis.score import (
     DiagnoseError,
     NoFinitePixels,
     Renderer,
+    Store,
     Target,
     check_finite,
     explained,
     objective,
     unmirror,
+    worsened,
 )
 from compare.diagnosis.switches import (
     MAX_SEARCH_DEPTH,
+    VALUED,
     Switch,
     differences,
     simplest,
@@ -59,8 +64,10 @@ from compare.diagnosis.switches import (
     undone,
 )
 from compare.diagnosis.trials import Trials
+from compare.judge import flip_crops, metrics
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL, EFFECTS
+from compare.judge.exact_match import exact_match
 from compare.judge.images import Image
 from compare.judge.target_model import QUIRK_COUNT, TargetModel
 from scene_model.scene import Scene
@@ -73,9 +80,11 @@ __all__ = [
     "MAX_SEARCH_DEPTH",
     "SEARCH_QUIRKS",
     "DiagnoseError",
+    "DiagnoseOptions",
     "Diagnosis",
     "EffectFinding",
     "FlipSeed",
+    "FunctionRenderer",
     "NoFinitePixels",
     "Renderer",
     "Step",
@@ -91,6 +100,9 @@ SEARCH_QUIRKS = BASE_QUIRKS + LATER_QUIRKS
 MIN_GAIN = 1e-3
 MAX_RENDERS = 200  # no new full sweep of every switch starts beyond this many renders
 MAX_ROUNDS = 40
+# No new full sweep starts after this many seconds of search: with the time limit of each
+# render (trials.TIME_LIMIT_MAX) a 640x480 diagnosis ends within 30 s, whatever the image.
+SEARCH_SECONDS = 15.0
 # Mistakes that move every pixel's tone: the nearest mode is chosen with and without them, so
 # that a gamma-encoded paper image is not taken for physical mode (it starts from paper).
 TONE_MISTAKES = ("double_gamma",)
@@ -101,6 +113,10 @@ MODE_MATCH_MIN = 0.05
 # symmetric about the flip gives both the same distance, so it can never trigger.
 MIRROR_RATIO = 0.5
 MIRROR_MIN = 0.02
+# The nearest mode wins outright only by a clear margin: more than MODE_CLOSE_SHARE of all
+# pixels and MODE_CLOSE_RATIO of its own count; a mode within it is searched from as well.
+MODE_CLOSE_SHARE = 0.02
+MODE_CLOSE_RATIO = 0.1
 MODES = ("classic", "paper", "physical")
 FlipSeed = tuple[F32, F32, BOOL]  # a render, its LDR-FLIP map against the image, where it holds
 
@@ -121,14 +137,23 @@ class Search:
         self.t0 = time.perf_counter()
         self.image, self.scene, self.trials = image, scene, trials
         self.quirks, self.max_renders, self.say = tuple(quirks), max_renders, say
+        self.gated: dict[tuple[Candidate, Candidate], dict[str, Gate]] = {}
+        self.images: list[ImageCause] = []  # the writer's transforms found (transformed)
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
-        mirrored, begin = self.begin(starts)
-        t.flip_soon(begin)  # the start's FLIP and exact match while the search runs
-        t.exact_soon(begin)
+        mirrored, begins = self.begin(starts)
+        for b in begins:
+            t.flip_soon(b)  # the start's FLIP and exact match while the search runs
+            t.exact_soon(b)
         modes = {c.name: float(t.whole_differing(c)) for c in starts}
-        found = self.explain(begin, mirrored)
+        # Where two modes come close, each is searched and the better explanation told: a
+        # classic program with one shading bug may be a hair nearer physical by count.
+        found = min(self._explained(begins, mirrored), key=self.left_over)
+        skipped = tuple(f"{c.name} ({why})" for c, why in t.skipped.items())
+        found = dataclasses.replace(found, skipped=skipped, images=tuple(self.images))
+        if len(begins) > 1:
+            self.say(f"diagnose: told from {found.begin.name}, the better explanation")
         findings, text = self.report(found)
         seconds = time.perf_counter() - self.t0
         self.say(f"diagnose: {found.result.name} after {len(t.scores)} renders in {seconds:.1f} s")
@@ -142,7 +167,24 @@ class Search:
 
     # --- where to begin ------------------------------------------------------------------
 
-    def begin(self, starts: list[Candidate]) -> tuple[str, Candidate]:
+    def _explained(self, begins: list[Candidate], mirrored: str) -> list[Found]:
+        """The explanation from each begin, while the search has time (SEARCH_SECONDS): the
+        first always."""
+        out = [self.explain(begins[0], mirrored)]
+        for b in begins[1:]:
+            if time.perf_counter() - self.t0 > SEARCH_SECONDS:
+                self.say(f"diagnose: no time left to search from {b.name} too")
+                break
+            out.append(self.explain(b, mirrored))
+        return out
+
+    def left_over(self, found: Found) -> tuple[int, int]:
+        """How much an explanation leaves: pixels still differing from its result (the
+        verdict's exact match), then its number of steps."""
+        left = sum(self.trials.exact_differing(found.result).values())
+        return left, len(found.steps)
+
+    def begin(self, starts: list[Candidate]) -> tuple[str, list[Candidate]]:
         """Renders the starts (each also with the tone mistakes), decides whether the image is
         mirrored (judging the un-mirrored image from then on) and picks the nearest start."""
         toned = [c.with_mistake(m, True) for c in starts for m in TONE_MISTAKES]
@@ -152,10 +194,61 @@ class Search:
         )
         self.trials.keep.update(starts + toned)
         self.trials.evaluate(starts + toned)
+        limit = self.trials.limit_time(starts + toned)
+        if limit is not None:
+            self.say(f"diagnose: each candidate may render for {limit:.1f} s")
         mirrored = self.mirrored(starts + toned)
-        begin = self.nearest(starts)
-        self.trials.keep_only({begin})
-        return mirrored, begin
+        begins = self.nearest(starts)
+        if self.transformed(begins):  # the modes are judged again through it
+            begins = self.nearest(starts)
+        self.trials.keep_only(set(begins))
+        return mirrored, begins
+
+    def transformed(self, begins: list[Candidate]) -> bool:
+        """Fits the writer's transforms (transforms.py) on the image against each begin's
+        render; the best that passes the gates is named and the search judges through it
+        from then on."""
+        t = self.trials
+        fits = [
+            (fit, t.centre(b).rgb)
+            for b in begins
+            if (fit := transforms.best(t.target.test, t.centre(b).rgb, t.target.codes))
+        ]
+        if not fits:
+            return False
+        (tr, d0, d1), render = min(fits, key=lambda f: f[0][2])
+        g = self._transform_gates(render, tr)
+        named = tuple(k for k in t.target.masks if k in g and g[k].passed)
+        if not named or any(x.worse for x in g.values()):
+            self.say(f"diagnose: {tr.name} fits ({d0:.3f} -> {d1:.3f}) but fails the gates")
+            return False
+        self.say(f"diagnose: the image has {tr.name} (distance {d0:.3f} -> {d1:.3f})")
+        self.images.append(ImageCause(tr.family, tr.name, named, {k: g[k] for k in named}, tr.spec))
+        if tr.undo is not None:
+            t.set_test(tr.undo(t.target.test))
+        else:
+            t.set_values(tr)
+        return True
+
+    def _transform_gates(self, render: F32, tr: transforms.Transform) -> dict[str, Gate]:
+        """gates.py for begin's render as it is and transformed, judged at pixel centres."""
+        t = self.trials
+        test, enc, masks = t.target.test, t.target.image.encoding, t.target.masks
+        shown = tr.apply(render)
+        e0 = exact_match([render], test, enc, model="start", masks=masks)
+        e1 = exact_match([shown], test, enc, model=tr.name, masks=masks)
+        flips = tuple(
+            flip_crops.cropped_ldr_flip(metrics.display(r), metrics.display(test))
+            for r in (render, shown)
+        )
+        none = np.zeros(test.shape[:2], bool)
+        out = gates(e0, e1, none, lambda: (flips[0], flips[1]), masks)
+        # The cause's evidence: FLIP over the pixels that differed, whichever gate decided.
+        for k, g in out.items():
+            d = ~e0.matches & masks[k]
+            means = tuple(float(f[d].mean()) if d.any() else 0.0 for f in flips)
+            out[k] = dataclasses.replace(g, flips=(means[0], means[1]))
+        return out
 
     def mirrored(self, cands: list[Candidate]) -> str:
         """ "" or the MIRRORS word for the flip that fits the nearest candidate far better
@@ -176,7 +269,7 @@ class Search:
         toned = [c, *(c.with_mistake(m, True) for m in TONE_MISTAKES)]
         return min(toned, key=self.trials.whole_differing)
 
-    def nearest(self, starts: list[Candidate]) -> Candidate:
+    def nearest(self, starts: list[Candidate]) -> list[Candidate]:
         """The start whose pixels match the image most often, over the whole image: a program
         with one wrong effect is placed by the effects it gets right, not by how near another
         mode comes in the wrong one. Where no start matches MODE_MATCH_MIN of the pixels
@@ -198,7 +291,19 @@ class Search:
             + ("" if by_count else "; none matches, the nearest by how far pixels are off")
             + ")"
         )
-        return nearest
+        close = [c for c in starts if c != nearest and by_count and self._close(counts, c, nearest)]
+        if close:
+            self.say(
+                f"diagnose: {', '.join(c.name for c in close)} as near: searched from each too"
+            )
+        return [nearest, *close]
+
+    def _close(self, counts: dict[Candidate, int], c: Candidate, nearest: Candidate) -> bool:
+        """Whether c's count of differing pixels is within the clear margin of the nearest's."""
+        margin = max(
+            MODE_CLOSE_SHARE * self.trials.total_pixels(), MODE_CLOSE_RATIO * counts[nearest]
+        )
+        return counts[c] - counts[nearest] <= margin
 
     # --- the search ----------------------------------------------------------------------
 
@@ -275,8 +380,14 @@ class Search:
         base, still = t.per(current), t.open_effects(current)
         # Only a switch that clearly explains some effect counts: small drops spread over
         # every effect are noise fitting (e.g. acne patterns that float rounding decides).
+        # One that makes another effect clearly worse is never kept, however much it gains
+        # elsewhere: a sign flip that blackens lit surfaces as the image does, but bends the
+        # glass wrongly, is not the student's mistake.
         gains = [
-            objective(base) - objective(t.per(c)) if explained(base, t.per(c), still) else 0.0
+            objective(base) - objective(t.per(c))
+            if explained(base, t.per(c), still)
+            and not worsened(t.scores[current], t.scores[c], t.target.allowance)
+            else 0.0
             for c in cands
         ]
         return tried, cands, gains
@@ -287,6 +398,9 @@ class Search:
         render budget is spent."""
         t = self.trials
         if len(t.scores) >= self.max_renders or t.matched(current):
+            return True
+        if time.perf_counter() - self.t0 > SEARCH_SECONDS:
+            self.say(f"diagnose: {SEARCH_SECONDS:.0f} s spent: no further sweep")
             return True
         return t.exact_of(current).passed
 
@@ -338,41 +452,71 @@ class Search:
             del remaining[i]
         return out
 
-    def gained(self, begin: Candidate, final: Candidate) -> set[str]:
-        """Effects the final makes at least EXPLAINED_SHARE of the start's differing pixels
-        match (judged exactly, with the turned renders: acne that float rounding decides
-        matches only within the model's own spread)."""
-        d0, d1 = self.trials.exact_differing(begin), self.trials.exact_differing(final)
-        return {k for k in d0 if d0[k] > 0 and d0[k] - d1[k] >= EXPLAINED_SHARE * d0[k]}
+    def gates_of(self, begin: Candidate, final: Candidate) -> dict[str, Gate]:
+        """Per effect, whether final may be named as its cause (gates.py): the verdict's
+        exact match of both, final's spread against begin's, FLIP before and after."""
+        if (begin, final) in self.gated:
+            return self.gated[begin, final]
+        t = self.trials
+        e0, e1 = t.exact_of(begin), t.exact_of(final)
+        absorbed = absorbed_pixels(
+            (e0, t.pairs[begin]),
+            (e1, t.pairs[final]),
+            lambda where: t.produced(final, where),
+            t.target.values_judged,
+        )
 
-    def needed_by(self, begin: Candidate, final: Candidate, sw: Switch) -> set[str]:
-        """Effects whose matching pixels undoing `sw` would lose: more than the exact-match
-        allowance and a tenth of what the final gained over the start."""
+        def maps() -> tuple[F32, F32]:
+            # Both at once: flip-evaluator lets go of the GIL.
+            with ThreadPoolExecutor(max_workers=2) as pool:
+                first = pool.submit(t.flip_map, begin)
+                return first.result(), t.flip_map(final)
+
+        self.gated[begin, final] = gates(e0, e1, absorbed, maps, t.target.masks)
+        return self.gated[begin, final]
+
+    def undo_effects(
+        self, begin: Candidate, final: Candidate, sw: Switch
+    ) -> tuple[set[str], set[str]]:
+        """Effects whose matching pixels undoing `sw` would lose (more than the exact-match
+        allowance and a tenth of what the final gained over the start), and effects it would
+        win back (more than the allowance)."""
         inverse = next(u for u in differences(final, begin, self.scene) if u.sets_same(sw))
         t = self.trials
         d0, d1 = t.exact_differing(begin), t.exact_differing(final)
         dw = t.exact_differing(inverse.apply(final, self.scene))
-        return {k for k in d1 if dw[k] - d1[k] > max(t.allowed(k), 0.1 * max(0, d0[k] - d1[k]))}
+        lose = {k for k in d1 if dw[k] - d1[k] > max(t.allowed(k), 0.1 * max(0, d0[k] - d1[k]))}
+        win = {k for k in d1 if d1[k] - dw[k] > t.allowed(k)}
+        return lose, win
 
     def justified(
         self, begin: Candidate, final: Candidate, or_more: bool
     ) -> tuple[Candidate, list[Step], list[Candidate]]:
-        """The final without every switch that makes no explained effect's pixels match, its
-        steps from begin and the candidate after each: a mistake is named only where it
-        explains pixels."""
+        """The final without every switch that explains no effect that passes the gates
+        (gates.py), and without every switch that makes some effect worse than the start;
+        its steps from begin and the candidate after each: a cause is named only where the
+        image shows it."""
         while True:
             self.trials.evaluate([final])
-            gained = self.gained(begin, final)
+            passed = self.gates_of(begin, final)
+            gained = {k for k, g in passed.items() if g.passed}
+            worse = {k for k, g in passed.items() if g.worse}
             path = self.retell(begin, final)
-            needs = {sw: self.needed_by(begin, final, sw) & gained for sw, _ in path}
-            idle = [sw for sw, eff in needs.items() if not eff]
-            if not idle:
-                break
-            for sw in idle:
+            undo = {sw: self.undo_effects(begin, final, sw) for sw, _ in path}
+            needs = {sw: lose & gained for sw, (lose, _) in undo.items()}
+            drop = [sw for sw, eff in needs.items() if not eff]
+            culprits = [sw for sw, (_, win) in undo.items() if win & worse and sw not in drop]
+            if worse and not culprits:  # together, not one by one: none of them is named
+                culprits = [sw for sw in needs if sw not in drop]
+            for sw in culprits:
                 self.say(
-                    f"diagnose: drop {sw.change(self.scene)}: it makes no effect's pixels match"
+                    f"diagnose: drop {sw.change(self.scene)}: it makes {', '.join(sorted(worse))} worse"
                 )
-            final = undone(final, begin, idle, self.scene)
+            for sw in drop:
+                self.say(f"diagnose: drop {sw.change(self.scene)}: it explains no effect")
+            if not drop + culprits:
+                break
+            final = undone(final, begin, drop + culprits, self.scene)
         return final, self._steps(begin, path, needs, or_more), [after for _, after in path]
 
     def _steps(
@@ -387,11 +531,38 @@ class Search:
         for sw, after in path:
             change = sw.change(self.scene, or_more=or_more)
             explains = tuple(k for k in masks if k in needs[sw])
+            cause = sw.cause(or_more=or_more)
+            before, now = per(cur), per(after)
+            alike = self.alike(begin, path[-1][1], sw) if sw.kind == "quirk" else ()
             steps.append(
-                Step(change, sw.cause(or_more=or_more), after.name, per(cur), per(after), explains)
+                Step(
+                    change, cause, after.name, before, now, explains, sw.cause_kind, sw.step, alike
+                )
             )
             cur = after
         return steps
+
+    def alike(self, begin: Candidate, final: Candidate, sw: Switch) -> tuple[str, ...]:
+        """Constants (a depth, background, ior or bias) that, in place of the quirk toggle sw,
+        give an image the image cannot tell from final's: both are said, since naming the
+        quirk alone could be false (a program with a deeper limit of its own is not -Q6)."""
+        without = undone(final, begin, [sw], self.scene)
+        options = [o for o in switches(without, self.scene, (), full=True) if o.kind in VALUED]
+        cands = [o.apply(without, self.scene) for o in options]
+        t = self.trials
+        t.evaluate(cands)
+        alike = [
+            o
+            for o, c in zip(options, cands, strict=True)
+            if t.fits_as_well(c, final) and t.fits_as_well(final, c)
+        ]
+        depths = sorted((o for o in alike if o.kind == "depth"), key=lambda o: int(o.key))
+        # Depths that all fit are one finding: the shallowest, "or more" when the deepest fits.
+        more = bool(depths) and int(depths[-1].key) == MAX_SEARCH_DEPTH and len(depths) > 1
+        told = [o.change(self.scene) for o in alike if o.kind != "depth"]
+        if depths:
+            told.insert(0, depths[0].change(self.scene, or_more=more))
+        return tuple(told)
 
     def report(self, found: Found) -> tuple[dict[str, EffectFinding], str]:
         """Per effect: the exact match of the start and of the result, as the verdict judges
@@ -405,6 +576,7 @@ class Search:
         exact = {c: t.exact_of(c) for c in both}
         # FLIP alone (the judge's map, metrics.py), not evaluate_pair's SSIM and other maps.
         flip = {c: t.flip_means(c) for c in both}
+        passed = self.gates_of(begin, final)
         findings = {}
         for k in EFFECTS:
             if k not in t.target.masks:
@@ -415,9 +587,19 @@ class Search:
                 (flip[begin][k], flip[final][k]),
                 (t.scores[begin].pixels[k], t.scores[final].pixels[k]),
                 (len(t.scores), t.best_fixed(begin, k)),
+                passed.get(k) if final != begin else None,
+                _box(~exact[final].matches & t.target.masks[k]),
             )
             findings[k] = finding(k, found, ev)
         return findings, summary(found, findings, exact[begin])
+
+
+def _box(where: BOOL) -> tuple[int, int, int, int] | None:
+    """x0, y0, x1, y1 (inclusive) of the True pixels; None for none."""
+    ys, xs = np.nonzero(where)
+    if not len(ys):
+        return None
+    return int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max())
 
 
 def _starts(start: TargetModel | Candidate | None) -> list[Candidate]:
@@ -427,62 +609,86 @@ def _starts(start: TargetModel | Candidate | None) -> list[Candidate]:
     return [start if isinstance(start, Candidate) else Candidate.from_model(start)]
 
 
+@dataclass
+class FunctionRenderer:
+    """A Renderer around a plain function (what tests inject): no store, no costs known."""
+
+    render: Callable[[TargetModel | Candidate], Image]
+    turns: Sequence[tuple[float, float]] = ()
+    grows: Sequence[int] = ()
+    search_quirks: tuple[int, ...] = SEARCH_QUIRKS
+    store: Store | None = None
+    time_limit: float | None = None
+
+    def __call__(self, what: TargetModel | Candidate) -> Image:
+        return self.render(what)
+
+    def passing(self, what: TargetModel | Candidate) -> Image:
+        return self.render(what)
+
+    def with_aovs(self, what: TargetModel | Candidate) -> Image:
+        return self.render(what)
+
+    def cost(self, what: TargetModel | Candidate) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
+class DiagnoseOptions:
+    """How one diagnosis runs. `start`: begin there instead of at the nearest of the three
+    modes; `progress`: where the progress lines go; `parallel`: renders at once (the renderer
+    must then be thread-safe); `max_renders`: no new full sweep of every switch starts past
+    this many renders; `flip_seed`: a FLIP map of the image already computed (the verdict's:
+    a render, the map against the image, where it holds), which the FLIP numbers start from."""
+
+    start: TargetModel | Candidate | None = None
+    progress: Callable[[str], None] | None = None
+    parallel: int = 1
+    max_renders: int = MAX_RENDERS
+    flip_seed: FlipSeed | None = None
+
+
 def diagnose(
-    image: Image,
-    scene: Scene,
-    render: Renderer,
-    *,
-    start: TargetModel | Candidate | None = None,
-    progress: Callable[[str], None] | None = None,
-    parallel: int = 1,
-    max_renders: int = MAX_RENDERS,
-    turns: Sequence[tuple[float, float]] | None = None,
-    search_quirks: Sequence[int] | None = None,
-    flip_seed: FlipSeed | None = None,
+    image: Image, scene: Scene, render: Renderer, options: DiagnoseOptions | None = None
 ) -> Diagnosis:
     """The nearest demo candidate to `image` (linear RGB as read by images.read_image) and
     the evidence per effect. `render` must return the candidate at the image's size with the
-    id and depth AOVs (the first render's give the effect masks). With `start`, the search
-    begins there instead of at the nearest of the three modes. `parallel` renders run at once
-    (render must then be thread-safe). `turns` are the camera turns (in pixels) exact matching
-    renders a model with, and `search_quirks` the quirks the renderer can toggle: both default
-    to the renderer's attributes of those names (CandidateRenderer has them), else to none and
-    SEARCH_QUIRKS; so do `grows` (the sphere growths exact matching renders) and `store`
-    (diagnose_score.Store: where the FLIP numbers of an image and a render, and the
-    diagnosis of an image, are kept; an image diagnosed before is not searched again,
-    diagnose_memo.py). When the switches that helped stop helping and some effect is still not
-    reproduced, every switch is tried once more (while fewer than `max_renders` renders were
-    made). `flip_seed`: a FLIP map of the image already computed (the verdict's: a render,
-    the map against the image, where it holds), which the FLIP numbers start from. Nothing
-    depends on time, so a loaded machine gives the same diagnosis, later.
+    id and depth AOVs (the first render's give the effect masks); its `turns` and `grows` are
+    how exact matching perturbs a model, its `search_quirks` the quirks it can toggle, its
+    `store` where FLIP numbers and diagnoses are kept (an image diagnosed before is not
+    searched again, memo.py), and its `time_limit` is set from the start's cost (a candidate
+    over it is skipped, and the diagnosis says so). When the switches that helped stop
+    helping and some effect is still not reproduced, every switch is tried once more (while
+    fewer than `max_renders` renders were made). Nothing depends on time but the skipped
+    candidates, so a loaded machine gives the same diagnosis, later.
     An image without one finite pixel raises NoFinitePixels before any candidate is
     rendered."""
+    o = options or DiagnoseOptions()
     t0 = time.perf_counter()
     check_finite(image)
-    turns = list(turns if turns is not None else getattr(render, "turns", ()))
-    quirks = tuple(
-        search_quirks
-        if search_quirks is not None
-        else getattr(render, "search_quirks", SEARCH_QUIRKS)
+    turns, grows, quirks, store = (
+        list(render.turns),
+        list(render.grows),
+        render.search_quirks,
+        render.store,
     )
-    grows, store = list(getattr(render, "grows", ())), getattr(render, "store", None)
-    say = progress or (lambda _m: None)
-    starts = _starts(start)
+    say = o.progress or (lambda _m: None)
+    starts = _starts(o.start)
     name = None
     if store is not None:
-        tries = {"quirks": quirks, "turns": turns, "grows": grows, "max_renders": max_renders}
+        tries = {"quirks": quirks, "turns": turns, "grows": grows, "max_renders": o.max_renders}
         name = record_name(image, scene, starts, tries, store.identity)
         known = load(store, name, image, t0)
         if known is not None:
             say(f"diagnose: {known.result}, as an earlier search of {known.renders} renders found")
             return known
-    trials = Trials(Target(image, scene), render, parallel, turns, grows, store)
-    if flip_seed is not None:
-        trials.flips.seed(flip_seed[0], image.rgb, flip_seed[1], flip_seed[2])
+    trials = Trials(Target(image, scene), render, o.parallel, store)
+    if o.flip_seed is not None:
+        trials.flips.seed(o.flip_seed[0], image.rgb, o.flip_seed[1], o.flip_seed[2])
     try:
-        found = Search(image, scene, trials, quirks, max_renders, say).run(starts)
+        found = Search(image, scene, trials, quirks, o.max_renders, say).run(starts)
     finally:
         trials.close()
-    if store is not None and name is not None:
+    if store is not None and name is not None and not found.skipped:  # a later run may judge them
         keep(store, name, found)
     return found

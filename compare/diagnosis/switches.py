@@ -20,7 +20,41 @@ MAX_SEARCH_DEPTH = 32
 BACKGROUNDS: tuple[RGB, ...] = ((1.0, 1.0, 1.0), (2.0, 2.0, 2.0))  # black: black_background
 IORS = (1.1, 1.2, 1.33, 1.5)
 # The kinds whose switch sets a value (any value of one kind sets the same thing).
-VALUED = ("depth", "background", "ior")
+VALUED = ("depth", "background", "ior", "bias")
+# Offsets of secondary rays programs hard-code (the scenes ask 1e-4): CAPBenchmarks' 1e-3.
+BIASES = (1e-5, 1e-3, 1e-2)
+# The step of the algorithm each quirk, mistake and effect lives in (what a student reads).
+QUIRK_STEPS = {
+    1: "intersection (the tca < 0 test and the offset of secondary rays)",
+    2: "refraction leaving glass (the index ratio)",
+    3: "refraction (total internal reflection)",
+    4: "shadow rays (one factor for all lights)",
+    5: "shadow rays (where they stop)",
+    6: "recursion at the depth limit",
+    7: "direct light (the 1/pi and distance falloff)",
+    8: "Fresnel (its curve)",
+    9: "shadow rays through glass",
+    10: "the camera (rays per pixel)",
+    11: "direct light (where the sum starts)",
+    12: "direct light (the Lambert cosine)",
+    13: "emission of a light sphere",
+}
+MISTAKE_STEPS = {
+    "no_offset": "secondary and shadow rays (their offset from the surface)",
+    "no_inside_flip": "refraction leaving glass (the normal inside)",
+    "eta_inverted": "refraction (the index ratio)",
+    "shadow_past_light": "shadow rays (where they stop)",
+    "fresnel_missing": "Fresnel (no weight)",
+    "fresnel_constant": "Fresnel (a constant weight)",
+    "fresnel_exponent": "Fresnel (its exponent)",
+    "black_background": "rays that miss (the background colour)",
+    "flipped_normal": "the normal (its sign)",
+    "half_pixel_offset": "the camera (pixel centres)",
+    "double_gamma": "image writing (the encoding)",
+    "depth_cut": "recursion (the depth test)",
+    "no_shadows": "shadow rays",
+}
+EFFECT_STEPS = {"shadows": "shadow rays", "reflection": "reflection", "refraction": "refraction"}
 
 
 def glass_iors(scene: Scene) -> set[float]:
@@ -46,11 +80,33 @@ class Switch:
             return c.with_background(self._rgb() if self.present else None)
         if self.kind == "ior":
             return c.with_ior(float(self.key) if self.present else None)
+        if self.kind == "bias":
+            return c.with_bias(float(self.key) if self.present else None)
         return c.at_depth(int(self.key), scene)
 
     def _rgb(self) -> RGB:
         r, g, b = (float(v) for v in self.key.split(","))
         return (r, g, b)
+
+    @property
+    def cause_kind(self) -> str:
+        """What kind of cause it is: quirk, mistake, camera, image, step or constant."""
+        if self.kind == "mistake":
+            return {"half_pixel_offset": "camera", "double_gamma": "image"}.get(self.key, "mistake")
+        return {"quirk": "quirk", "effect": "step"}.get(self.kind, "constant")
+
+    @property
+    def step(self) -> str:
+        """The step of the algorithm it changes, in words."""
+        if self.kind == "quirk":
+            return QUIRK_STEPS.get(int(self.key), "")
+        if self.kind == "mistake":
+            return MISTAKE_STEPS.get(self.key, catalogue()[self.key].explanation)
+        if self.kind == "effect":
+            return EFFECT_STEPS[self.key]
+        return {"depth": "recursion (the depth limit)", "background": "the background colour",
+                "ior": "refraction (the glass index)",
+                "bias": "secondary and shadow rays (their offset)"}[self.kind]  # fmt: skip
 
     def sets_same(self, other: Switch) -> bool:
         """Whether both set the same thing (a depth, a background, an ior, or one quirk,
@@ -70,6 +126,8 @@ class Switch:
             return f"background {rgb_text(self._rgb())}" if self.present else "scene background"
         if self.kind == "ior":
             return f"ior {float(self.key):g}" if self.present else "scene ior"
+        if self.kind == "bias":
+            return f"bias {float(self.key):g}" if self.present else "scene bias"
         return f"{'' if self.present else '-'}{self.key}"
 
     def change(self, scene: Scene, *, or_more: bool = False) -> str:
@@ -85,6 +143,10 @@ class Switch:
             return f"{self.key} switched back on"
         if self.kind == "depth":
             return self._depth_change(scene, or_more)
+        if self.kind == "bias":
+            if self.present:
+                return f"bias {float(self.key):g} hard-coded (the scene's is {scene.bias:g})"
+            return f"the scene's bias {scene.bias:g}"
         if self.kind in ("background", "ior"):
             return self._constant_change(scene)
         m = catalogue()[self.key]
@@ -144,6 +206,9 @@ def _constant_switches(c: Candidate, scene: Scene) -> list[Switch]:
             out.append(Switch("background", ",".join(f"{v:g}" for v in rgb), True))
     if c.background is not None:
         out.append(Switch("background", "scene", False))
+    out += [Switch("bias", f"{v:g}", True) for v in BIASES if v not in (scene.bias, c.bias)]
+    if c.bias is not None:
+        out.append(Switch("bias", "scene", False))
     theirs = glass_iors(scene)
     if theirs:
         out += [Switch("ior", f"{v:g}", True) for v in IORS if {v} != theirs and v != c.ior]
@@ -170,6 +235,8 @@ def differences(a: Candidate, b: Candidate, scene: Scene) -> list[Switch]:
         out.append(Switch("background", ",".join(f"{v:g}" for v in rgb), b.background is not None))
     if a.ior != b.ior:
         out.append(Switch("ior", f"{b.ior or a.ior:g}", b.ior is not None))
+    if a.bias != b.bias:
+        out.append(Switch("bias", f"{b.bias or a.bias:g}", b.bias is not None))
     return out
 
 

@@ -5,16 +5,30 @@ verdict judges a model) that its claims are made of.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
+
+import numpy as np
 
 from compare.diagnosis import kept as diagnose_kept
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.flip import Flips, Means
 from compare.diagnosis.score import Codes, Renderer, Score, Store, Target
+from compare.diagnosis.transforms import Transform
+from compare.judge import flip_crops, metrics
 from compare.judge.arrays import F32
-from compare.judge.exact_match import ExactMatch, model_bounds
+from compare.judge.effects import BOOL
+from compare.judge.exact_match import Bounds, ExactMatch, channel_matches, model_bounds
 from compare.judge.images import Image
+from compare.render.jobs import RenderTimeLimit
+
+# A candidate's render may take TIME_FACTOR times the dearest start's (a ray tree that doubles
+# at every glass bounce runs for minutes), within these bounds in seconds: a loaded machine
+# renders the start slowly too, and a 640x480 diagnosis must end within 30 s.
+TIME_FACTOR = 40.0
+TIME_LIMIT_MIN = 2.0
+TIME_LIMIT_MAX = 8.0
 
 
 class Trials:
@@ -26,12 +40,12 @@ class Trials:
         target: Target,
         render: Renderer,
         parallel: int,
-        turns: Sequence[tuple[float, float]],
-        grows: Sequence[int],
         store: Store | None = None,
     ) -> None:
         self.target, self.render, self.parallel = target, render, parallel
-        self.turns, self.grows = list(turns), list(grows)
+        self.turns, self.grows = list(render.turns), list(render.grows)
+        self.skipped: dict[Candidate, str] = {}  # candidates over the time limit: why
+        self.values: Transform | None = None  # the writer's value transform (set_values)
         # One thread for the work a claim needs later (FLIP, exact matches), begun early.
         self.background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose")
         self.store = store
@@ -40,6 +54,24 @@ class Trials:
         self.kept: dict[Candidate, Image] = {}
         self.keep: set[Candidate] = set()
         self.exact_memo: dict[Candidate, Future[ExactMatch]] = {}
+        self.pairs: dict[Candidate, tuple[Bounds, Bounds]] = {}  # bounds of each exact match
+        self.flip_maps: dict[Candidate, F32] = {}  # the FLIP maps the gates average
+
+    def _made(self, c: Candidate, *, passing: bool = False) -> Image:
+        """c's render as the image's writer would have stored it: with the fitted value
+        transform (set_values) applied, where there is one."""
+        im = self.render.passing(c) if passing else self.render(c)
+        if self.values is None:
+            return im
+        return dataclasses.replace(im, rgb=self.values.apply(im.rgb))
+
+    def set_values(self, t: Transform) -> None:
+        """Judge every render through t from now on (a writer's transform of the values):
+        the kept renders are transformed and scored again, everything else dropped."""
+        self.values = t
+        self.kept = {c: dataclasses.replace(im, rgb=t.apply(im.rgb)) for c, im in self.kept.items()}
+        self.scores = {c: self.target.score(im.rgb) for c, im in self.kept.items()}
+        self.target.reference = None
 
     def set_test(self, rgb: F32) -> None:
         """Judge against `rgb` from now on: every kept render is scored again, every other
@@ -62,7 +94,7 @@ class Trials:
 
     def centre_once(self, c: Candidate) -> Image:
         """c's render at pixel centres, kept or rendered (not kept for later)."""
-        return self.kept[c] if c in self.kept else self.render(c)
+        return self.kept[c] if c in self.kept else self._made(c)
 
     def evaluate(self, cands: Sequence[Candidate]) -> None:
         todo = [c for c in dict.fromkeys(cands) if c not in self.scores]
@@ -88,7 +120,10 @@ class Trials:
             return None, t.score_codes(codes)
         # A render only scored, its codes kept: the renderer need not keep it (passing).
         passing = name is not None and c not in self.keep
-        im = getattr(self.render, "passing", self.render)(c) if passing else self.render(c)
+        try:
+            im = self._made(c, passing=passing)
+        except RenderTimeLimit as e:
+            return None, self.skip(c, str(e))
         if t.regions is None:
             self._first_check(c, im)
         else:
@@ -110,14 +145,31 @@ class Trials:
         data = diagnose_kept.read(self.store, name, diagnose_kept.codes_size(pixels))
         return name, diagnose_kept.unpack_codes(data, pixels)
 
+    def skip(self, c: Candidate, why: str) -> Score:
+        """c ran past the time limit: it is skipped (said in the diagnosis), scored as far
+        from the image as any render can be, so that no step keeps it."""
+        self.skipped[c] = why
+        regions = self.target.regions
+        assert regions is not None
+        whole = {k: int(n) for k, n in zip(regions.names, regions.counts, strict=True)}
+        worst = dict.fromkeys(whole, 255.0)
+        return Score(whole, dict.fromkeys(whole, 1.0), worst, worst, b"skipped:" + c.name.encode())
+
+    def limit_time(self, starts: Sequence[Candidate]) -> float | None:
+        """Sets the renderer's time limit from what the starts' renders cost (TIME_FACTOR
+        times the dearest, within TIME_LIMIT_MIN and TIME_LIMIT_MAX); None when no cost is
+        known (a function renderer)."""
+        cost = max((self.render.cost(c) for c in starts), default=0.0)
+        limit = None if cost <= 0 else min(TIME_LIMIT_MAX, max(TIME_LIMIT_MIN, TIME_FACTOR * cost))
+        self.render.time_limit = limit
+        return limit
+
     def _with_aovs(self, c: Candidate, im: Image) -> Image:
         """c's render with the AOVs the first check needs: `im`, or rendered again with them
-        by a renderer that leaves them out of some renders (CandidateRenderer.with_aovs)."""
-        again = getattr(self.render, "with_aovs", None)
-        if again is None or ("id" in im.aovs and "depth" in im.aovs):
+        by a renderer that leaves them out of some renders (CandidateRenderer)."""
+        if "id" in im.aovs and "depth" in im.aovs:
             return im
-        with_aovs: Image = again(c)
-        return with_aovs
+        return self.render.with_aovs(c)
 
     def _first_check(self, c: Candidate, im: Image) -> None:
         """The first render sets the effect masks: the ones kept for it, or found (and kept)."""
@@ -135,12 +187,12 @@ class Trials:
 
     def render_all(self, cands: Sequence[Candidate]) -> list[Image]:
         with ThreadPoolExecutor(max_workers=max(1, self.parallel)) as pool:
-            return list(pool.map(self.render, cands))
+            return list(pool.map(self._made, cands))
 
     def centre(self, c: Candidate) -> Image:
         """c's render at pixel centres (kept, or rendered again: the cache has it)."""
         if c not in self.kept:
-            self.kept[c] = self.render(c)
+            self.kept[c] = self._made(c)
         return self.kept[c]
 
     def flip_soon(self, c: Candidate) -> None:
@@ -159,6 +211,15 @@ class Trials:
         t = self.target
         return self.flips.means(c, self.centre(c).rgb, t.test, t.masks)
 
+    def flip_map(self, c: Candidate) -> F32:
+        """The LDR-FLIP map of the image against c's centre render (metrics.flip_ldr_map's
+        values, computed only around the pixels where they differ), kept for this search."""
+        if c not in self.flip_maps:
+            ref = metrics.display(self.centre(c).rgb)
+            test = metrics.display(self.target.test)
+            self.flip_maps[c] = flip_crops.cropped_ldr_flip(ref, test)
+        return self.flip_maps[c]
+
     def exact_of(self, c: Candidate) -> ExactMatch:
         """The verdict's own judging (exact_match.py) of the image against the candidate,
         rendered at pixel centres, with the camera turned by each turn and its spheres grown
@@ -174,11 +235,27 @@ class Trials:
         if c not in self.exact_memo:
             self.exact_memo[c] = self.background.submit(self._exact, c)
 
+    def _perturbed(self, c: Candidate) -> list[Candidate]:
+        return [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
+
+    def produced(self, c: Candidate, where: BOOL) -> BOOL:
+        """H x W: pixels of `where` whose value in the image one of c's renders (centre or
+        perturbed) stores by itself, not only the interval between them
+        (gates.absorbed_pixels); False elsewhere."""
+        t = self.target
+        out: BOOL = np.zeros(t.test.shape[:2], bool)
+        test = t.test[where]
+        found = np.zeros(len(test), bool)
+        for im in self.render_all([c, *self._perturbed(c)]):
+            found |= channel_matches(im.rgb[where], test, t.image.encoding)
+        out[where] = found
+        return out
+
     def _exact(self, c: Candidate) -> ExactMatch:
         """c's exact match from its bounds: kept in the store, or computed from its renders
         (only then read)."""
         encoding = self.target.image.encoding
-        perturbed = [c.turned(t) for t in self.turns] + [c.grown(g) for g in self.grows]
+        perturbed = self._perturbed(c)
         name = self._kept_name("bounds", c, self.turns, self.grows, encoding)
         shape = self.target.image.rgb.shape
         data = diagnose_kept.read(self.store, name, diagnose_kept.bounds_size(shape))
@@ -187,10 +264,13 @@ class Trials:
             renders = [im.rgb for im in self.render_all([c, *perturbed])]
             pair = model_bounds(renders, encoding)
             diagnose_kept.write(self.store, name, diagnose_kept.pack_bounds(pair))
+        self.pairs[c] = pair
         return self.target.exact(c, pair, 1 + len(perturbed))
 
     def _kept_name(self, kind: str, c: Candidate, *more: object) -> str:
-        return diagnose_kept.kept_name(kind, self.store.identity if self.store else "", c, *more)
+        values = self.values.name if self.values is not None else ""
+        identity = self.store.identity if self.store else ""
+        return diagnose_kept.kept_name(kind, identity, c, values, *more)
 
     def close(self) -> None:
         """Waits for the background work still running (a start the search left behind)."""

@@ -228,7 +228,7 @@ def _diagnose_scene(
 ) -> dict[str, Any]:
     """What a failing submission looks like; a diagnosis that cannot run says why in the
     cell instead of failing the student's grading."""
-    from compare.diagnosis.evidence import diagnose_image
+    from compare.diagnosis.evidence import EvidenceOptions, diagnose_image
     from compare.diagnosis.search import DiagnoseError
     from compare.errors import ToolError
 
@@ -238,10 +238,12 @@ def _diagnose_scene(
             renders.scene_file,
             task.cache_root,
             page_dir,
-            prefix=f"{scene_name}-diagnosis",
-            assigned=renders.model,
-            parallel=task.diagnose,
-            flip_seed=flip_seed,
+            EvidenceOptions(
+                prefix=f"{scene_name}-diagnosis",
+                assigned=renders.model,
+                parallel=task.diagnose,
+                flip_seed=flip_seed,
+            ),
         )
     except (DiagnoseError, ToolError, OSError) as e:
         return {"short": f"no diagnosis: {e}", "sentences": [], "evidence": []}

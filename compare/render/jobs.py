@@ -10,8 +10,11 @@ finished render as JSON lines on stdout (compare/cli/reference_batch.py).
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import shlex
+import signal
 import subprocess
 import sys
 import tempfile
@@ -48,6 +51,9 @@ class RenderJob:
     seconds: float = field(default=0.0, compare=False)  # wall time of the command when run
     cache_key: str = field(default="", compare=False)
     info: dict[str, Any] = field(default_factory=dict, compare=False)  # the cache's facts
+    # Seconds the command may run before its process group is killed (RenderTimeLimit);
+    # None: no limit. Not in the cache key: a render made within it is the same render.
+    time_limit: float | None = field(default=None, compare=False)
 
     def command(self, out: str | Path, scene: str | Path | None = None) -> list[str]:
         values = {"{out}": str(out), "{scene}": str(scene if scene is not None else self.scene)}
@@ -58,6 +64,10 @@ class RenderJob:
 
     def exr(self, cache: RenderCache) -> Path:
         return cache.exr(self.cache_key)
+
+
+class RenderTimeLimit(ToolError):
+    """A render ran past its job's time_limit and was stopped."""
 
 
 def _executable(job: RenderJob) -> str:
@@ -219,13 +229,41 @@ def _run_into(job: RenderJob, out: Path, extra_args: Sequence[str]) -> None:
     cmd = [*job.command(out), *extra_args]
     cmd[0] = _executable(job)
     start = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if job.time_limit is None:
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    else:
+        proc = _run_limited(cmd, job)
     job.seconds = time.perf_counter() - start
     if proc.returncode != 0:
         raise ToolError(
             f"{job.label} failed (exit {proc.returncode}): {job.command_text('OUT.exr')}\n"
             f"{proc.stderr.strip()[-2000:]}"
         )
+
+
+def _run_limited(cmd: list[str], job: RenderJob) -> subprocess.CompletedProcess[str]:
+    """Runs cmd in a process group of its own, killed whole once job.time_limit passes (or
+    when the caller is interrupted)."""
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
+    try:
+        out, err = proc.communicate(timeout=job.time_limit)
+    except BaseException as e:
+        _kill_group(proc)
+        if isinstance(e, subprocess.TimeoutExpired):
+            raise RenderTimeLimit(
+                f"{job.label} stopped after {job.time_limit:.1f} s (its time limit): "
+                f"{job.command_text('OUT.exr')}"
+            ) from None
+        raise
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+
+
+def _kill_group(proc: subprocess.Popen[str]) -> None:
+    with contextlib.suppress(ProcessLookupError):  # already gone
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate()
 
 
 def _facts(job: RenderJob) -> dict[str, Any]:

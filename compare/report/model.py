@@ -7,7 +7,7 @@ from __future__ import annotations
 import itertools
 from typing import Any
 
-from compare.diagnosis.evidence import diagnose_image
+from compare.diagnosis.evidence import EvidenceOptions, diagnose_image
 from compare.diagnosis.search import DiagnoseError
 from compare.errors import ToolError
 from compare.judge.target_model import MODE_QUIRKS, parse_model
@@ -60,10 +60,12 @@ def diagnosis(ctx: ReportContext, assigned: str) -> dict[str, Any]:
             ctx.opts.scene_file,
             ctx.cache,
             ctx.images_dir,
-            prefix="diagnosis",
-            href="images/",
-            assigned=assigned,
-            parallel=max(1, ctx.opts.jobs),
+            EvidenceOptions(
+                prefix="diagnosis",
+                href="images/",
+                assigned=assigned,
+                parallel=max(1, ctx.opts.jobs),
+            ),
         )
     except (DiagnoseError, ToolError) as e:
         return {"error": str(e)}

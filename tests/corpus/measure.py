@@ -34,7 +34,7 @@ def _diagnosis(o: Outcome) -> str:
     d = o.diagnosis
     bits = [f"`{d.get('result', '?')}`"]
     if d.get("causes"):
-        bits.append(f"causes: {', '.join(d['causes'])}")
+        bits.append(f"causes: {', '.join(c['name'] for c in d['causes'])}")
     if d.get("unexplained"):
         bits.append(f"unexplained: {', '.join(d['unexplained'])}")
     return "; ".join(bits)

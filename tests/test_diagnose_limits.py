@@ -1,0 +1,85 @@
+"""No candidate may run away: each render of a search has a time limit derived from the
+start's own cost (trials.limit_time); a candidate over it is stopped (its process group
+killed, jobs.RenderTimeLimit) and skipped, and the diagnosis says so."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import SCENES
+
+from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.renderer import CandidateRenderer
+from compare.diagnosis.search import DiagnoseOptions, FunctionRenderer, diagnose
+from compare.diagnosis.trials import TIME_LIMIT_MAX, TIME_LIMIT_MIN
+from compare.judge.images import Image
+from compare.judge.target_model import TargetModel
+from compare.render.jobs import RenderTimeLimit
+from scene_model.scene import load_scene
+
+CLASSIC = SCENES / "classic.json"
+# The candidate that once held a class's grading for 13 minutes: a ray tree that doubles at
+# every glass bounce.
+RUNAWAY = (
+    Candidate.of_mode("classic")
+    .with_depth(32)
+    .with_mistake("no_inside_flip", True)
+    .with_mistake("black_background", True)
+)
+
+
+def test_a_runaway_render_is_stopped_at_its_time_limit(tmp_path: Path) -> None:
+    with CandidateRenderer(CLASSIC, 640, 480, threads=1, cache=tmp_path) as render:
+        render.time_limit = 0.5
+        t0 = time.perf_counter()
+        with pytest.raises(RenderTimeLimit, match=r"stopped after 0\.5 s \(its time limit\)"):
+            render(RUNAWAY)
+        assert time.perf_counter() - t0 < 5  # stopped, not waited for (it takes minutes)
+        assert render.rendered == 0  # nothing stored for it
+        render.time_limit = None
+        render(Candidate.of_mode("classic"))  # a plain render still renders
+        assert render.cost(Candidate.of_mode("classic")) > 0
+
+
+@dataclass
+class _Slow(FunctionRenderer):
+    """The toy scene: background 1, a glass block 0.3 (0.5 with Q2); the start costs 0.1 s
+    and any candidate deeper than 20 runs past the limit."""
+
+    def __call__(self, what: TargetModel | Candidate) -> Image:
+        c = what if isinstance(what, Candidate) else Candidate.from_model(what)
+        if self.time_limit is not None and c.max_depth is not None and c.max_depth > 20:
+            raise RenderTimeLimit(f"{c.name} stopped after {self.time_limit:.1f} s")
+        return self.render(c)
+
+    def passing(self, what: TargetModel | Candidate) -> Image:
+        return self(what)
+
+    def cost(self, what: TargetModel | Candidate) -> float:
+        return 0.1
+
+
+def _toy(what: TargetModel | Candidate) -> Image:
+    c = what if isinstance(what, Candidate) else Candidate.from_model(what)
+    ids = np.full((32, 32), -1.0, np.float32)
+    ids[8:24, 8:24] = 1.0
+    rgb = np.ones((32, 32, 3), np.float32)
+    rgb[ids == 1] = 0.5 if 2 in c.quirks else 0.3
+    return Image(rgb=rgb, aovs={"id": ids, "depth": np.where(ids >= 0, 20.0, 0.0)})
+
+
+def test_a_candidate_over_the_limit_is_skipped_and_said() -> None:
+    rgb = _toy(Candidate.of_mode("classic").with_quirk(2, True)).rgb
+    image = Image(rgb=np.floor(rgb * 255) / 255, path="toy.ppm", encoding="linear")
+    render = _Slow(_toy)
+    start = Candidate.of_mode("classic")
+    d = diagnose(image, load_scene(CLASSIC), render, DiagnoseOptions(start=start))
+    # 40 x the start's 0.1 s, within the bounds.
+    assert render.time_limit == min(TIME_LIMIT_MAX, max(TIME_LIMIT_MIN, 4.0))
+    assert d.exact and 2 in d.quirks_present, d.sentences  # the search still finds Q2
+    assert d.skipped == ["classic --max-depth 32 (classic --max-depth 32 stopped after 4.0 s)"]
+    assert any(s.startswith(f"skipped ({len(d.skipped)} candidates ran past") for s in d.sentences)
