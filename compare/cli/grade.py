@@ -25,8 +25,9 @@ def run_grade(args: argparse.Namespace) -> int:
     if not args.submissions or not args.scene:
         raise ValueError("grade needs SUBMISSIONS and at least one --scene (or --explain ID)")
     scenes = [Path(s) for s in args.scene]
+    submissions = Path(args.submissions)
     results = grade.run_grading(
-        Path(args.submissions),
+        submissions,
         scenes,
         out,
         rubric_path=args.rubric,
@@ -40,6 +41,7 @@ def run_grade(args: argparse.Namespace) -> int:
         cache_dir=args.cache,
         progress=Progress(sys.stderr),
         program=_program_options(args),
+        test_encoding=args.test_encoding,
     )
     passed = sum(r.status == "pass" for r in results)
     print(f"{passed} passed, {len(results) - passed} failed")
@@ -110,6 +112,16 @@ def _add_program_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--open-files", type=positive_int, metavar="N", help="per process (default 256)")
 
 
+def _add_lms_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--test-encoding",
+        choices=("srgb", "linear"),
+        default=None,
+        help="how 8-bit PNG/PPM codes decode (default: both are tried; an image passes when "
+        "it matches in either, and its row says when it was read against its format's rule)",
+    )
+
+
 def _add_executor_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--executor",
@@ -178,5 +190,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--explain", metavar="ID", help="print how student ID's score came about, then exit"
     )
     _add_program_arguments(p)
+    _add_lms_arguments(p)
     add_cache_argument(p)
     p.set_defaults(func=run_grade)

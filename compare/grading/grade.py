@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from compare.grading.encodings import choose_encoding, with_encoding
 from compare.grading.executors import SCHEDULER_TIMEOUT, Executor, run_tasks
 from compare.grading.gradebook import write_gradebook
 from compare.grading.programs import ProgramJob, ProgramOptions, ProgramSpec, resolve_spec
@@ -79,6 +80,7 @@ class GradeTask:
     # A program submission (compare/grading/programs.py): built and run first, in the sandbox.
     program: ProgramJob | None = None
     scene_problems: dict[str, str] = dataclasses.field(default_factory=dict)  # failed runs
+    test_encoding: str | None = None  # 8-bit images: None judges both (grading/encodings.py)
 
 
 def task_key(task: GradeTask) -> str:
@@ -86,6 +88,7 @@ def task_key(task: GradeTask) -> str:
     h.update((task.problem or "").encode())
     h.update(task.models_key.encode())
     h.update(f"diagnose={bool(task.diagnose)}".encode())
+    h.update(f"encoding={task.test_encoding or 'both'}".encode())
     if task.program is not None:  # its code, commands, limits and scenes
         h.update(task.program.digest().encode())
     for scene in sorted(task.files):
@@ -113,7 +116,8 @@ def _grade_scene(
     img = _read_submission(path, model.reference.shape)
     if isinstance(img, str):
         return SceneResult(scene_name, model_name, "error", 0.0, img)
-    return _judge_scene(scene_name, img, model, task, rubric, page_dir)
+    img = choose_encoding(img, model, rubric, task.test_encoding)
+    return with_encoding(_judge_scene(scene_name, img, model, task, rubric, page_dir), img)
 
 
 def _read_submission(path: str, shape: tuple[int, int]) -> Image | str:
@@ -428,6 +432,7 @@ def run_grading(
     cache_dir: Path | str | None = None,
     progress: Callable[[str], None] = print,
     program: ProgramOptions | None = None,
+    test_encoding: str | None = None,
 ) -> list[StudentResult]:
     """Grades every submission; writes the pages, the results and the gradebook."""
     from compare.render.cache import RenderCache
@@ -440,6 +445,7 @@ def run_grading(
     models = _model_renders(model, scene_files, size, cache, out, progress)
     parallel = 0 if not diagnose else 1 if where.side_by_side else 2
     base = _base_task(models, rubric_text, rubric, out, cache, parallel)
+    base = dataclasses.replace(base, test_encoding=test_encoding)
     tasks = [
         dataclasses.replace(base, **entry._asdict())
         for entry in _entries(submissions, models, spec, size, out, cache.root, progress)
