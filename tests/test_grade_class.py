@@ -8,8 +8,11 @@ classic, made by rtdemo."""
 from __future__ import annotations
 
 import csv
+import html
 import json
+import re
 import shutil
+import statistics
 import sys
 from pathlib import Path
 
@@ -56,6 +59,111 @@ def graded(subs: Path) -> tuple[Path, str]:
 def _book(out: Path) -> dict[str, dict[str, str]]:
     with (out / "gradebook.csv").open() as f:
         return {row["student"]: row for row in csv.DictReader(f)}
+
+
+def test_the_summary_on_stdout_is_the_gradebooks(graded: tuple[Path, str]) -> None:
+    out, stdout = graded
+    book = _book(out)
+    scores = [float(r["score"]) for r in book.values()]
+    passed = sum(r["status"] == "pass" for r in book.values())
+    assert (len(book), passed) == (7, 4)
+    assert (
+        f"7 students: 4 passed, 3 failed; mean score {statistics.fmean(scores):.1f}, "
+        f"median {statistics.median(scores):.1f}"
+    ) in stdout
+    # eve and the formula-named student both hand in paper mode: one cause, two students.
+    assert "  2 students: looks like paper" in stdout
+    assert "  1 student: unreadable image" in stdout
+
+
+def test_class_page_shows_every_student_escaped(graded: tuple[Path, str]) -> None:
+    out, _ = graded
+    page = (out / "index.html").read_text()
+    assert HOSTILE not in page and html.escape(HOSTILE, quote=False) in page
+    rows = re.findall(r"<tr><td class=\"text\">(.*?)</td>", page)
+    ids = {k.removeprefix("'") for k in _book(out)}  # the CSV's inert formula
+    assert sorted(html.unescape(r) for r in rows) == sorted(ids)
+    assert "Mean score" in page and "<b>2 students</b>: looks like paper" in page
+    for link in re.findall(r'<a href="(students/[^"]+)">page</a>', page):
+        assert (out / html.unescape(link)).is_file()
+    # Only the template's own script, allowed by its hash.
+    assert page.count("<script>") == 1 and "script-src 'sha256-" in page
+
+
+def test_effect_points_add_up_to_the_score(graded: tuple[Path, str]) -> None:
+    from compare.grading.class_page import class_rows
+    from compare.grading.results import read_result
+
+    out, _ = graded
+    results = [read_result(p) for p in sorted((out / "results").glob("*.json"))]
+    effects, rows = class_rows([r for r in results if r is not None])
+    assert {"refraction", "shadow", "background"} <= set(effects)
+    for row in rows:
+        if row["points"]:
+            assert sum(row["points"].values()) == pytest.approx(row["score"], abs=1e-6)
+    eve = next(r for r in rows if r["student"] == "eve")
+    assert eve["points"]["shadow"] < 1 and eve["cause"].startswith("looks like paper")
+
+
+def _browser():  # type: ignore[no-untyped-def]
+    from playwright.sync_api import sync_playwright
+
+    chromium = shutil.which("chromium")
+    assert chromium, "Debian's chromium is installed by make setup"
+    p = sync_playwright().start()
+    args = ["--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-sync"]
+    return p, p.chromium.launch(executable_path=chromium, args=args)
+
+
+def _heading(page, name: str):  # type: ignore[no-untyped-def]
+    """A column heading's sort button."""
+    return page.locator("#class-table thead button").filter(has_text=re.compile(f"^{name}$"))
+
+
+def _column(page, n: int) -> list[str]:  # type: ignore[no-untyped-def]
+    return list(
+        page.eval_on_selector_all(
+            f"#class-table tbody tr td:nth-child({n})", "cells => cells.map(c => c.textContent)"
+        )
+    )
+
+
+def test_class_page_sorts_by_mouse_and_keyboard_and_links_work(
+    graded: tuple[Path, str],
+) -> None:
+    out, _ = graded
+    p, browser = _browser()
+    try:
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        errors: list[str] = []
+        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto((out / "index.html").as_uri())
+        _heading(page, "score").click()
+        scores = [float(x) for x in _column(page, 3)]
+        assert scores == sorted(scores) and scores[0] < scores[-1]
+        _heading(page, "score").click()  # again: reversed
+        assert [float(x) for x in _column(page, 3)] == sorted(scores, reverse=True)
+        head = page.locator("#class-table th", has_text="score").first
+        assert head.get_attribute("aria-sort") == "descending"
+        _heading(page, "student").focus()
+        page.keyboard.press("Enter")
+        names = _column(page, 1)
+        assert names == sorted(names, key=str) and HOSTILE in names  # shown as text
+        page.keyboard.press("Tab")  # the next heading, sorted with the space bar
+        page.keyboard.press(" ")
+        assert _column(page, 2) == sorted(_column(page, 2))
+        ARTIFACTS.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(ARTIFACTS / "class.png"), full_page=True)
+        row = page.locator("#class-table tbody tr", has_text="eve").first
+        row.get_by_role("link", name="page").click()
+        page.wait_for_load_state("load")
+        assert page.url.endswith("/students/eve/index.html")
+        assert page.title().startswith("eve: fail")
+    finally:
+        browser.close()
+        p.stop()
+    assert not errors, errors
 
 
 def test_a_png_of_linear_codes_passes_and_says_so(graded: tuple[Path, str]) -> None:

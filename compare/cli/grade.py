@@ -15,6 +15,7 @@ if TYPE_CHECKING:
 
 def run_grade(args: argparse.Namespace) -> int:
     from compare.grading import grade
+    from compare.grading.class_page import summarise, summary_lines
     from compare.grading.gradebook import explain
     from compare.render.progress import Progress
 
@@ -45,7 +46,9 @@ def run_grade(args: argparse.Namespace) -> int:
     )
     passed = sum(r.status == "pass" for r in results)
     print(f"{passed} passed, {len(results) - passed} failed")
+    print("\n".join(summary_lines(summarise(results))))
     print(out / "gradebook.csv")
+    print(out / "index.html")
     return 0
 
 
@@ -150,7 +153,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         description="Grades every submission (an image named after the student, or a folder of "
         "images named after the scenes; with --run, a student's program, built and run in a "
         "sandbox) against a target model (--against) with a rubric; "
-        "writes OUT/gradebook.csv, gradebook.json and OUT/students/ID/index.html. "
+        "writes OUT/index.html (the class page), gradebook.csv, gradebook.json and "
+        "OUT/students/ID/index.html. "
         "Re-runs skip what is done.",
     )
     p.add_argument("submissions", nargs="?", help="folder of submissions")

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from compare.grading.class_page import write_class_page
 from compare.grading.encodings import choose_encoding, with_encoding
 from compare.grading.executors import SCHEDULER_TIMEOUT, Executor, run_tasks
 from compare.grading.gradebook import write_gradebook
@@ -461,6 +462,7 @@ def run_grading(
     results.sort(key=lambda r: r.student)
     elapsed = time.perf_counter() - start
     write_gradebook(results, out, rubric.source, elapsed)
+    write_class_page(results, out, rubric.source)
     progress(
         f"graded {len(results)} in {elapsed:.1f} s ({sum(r.resumed for r in results)} resumed)"
     )
