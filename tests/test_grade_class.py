@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import html
 import json
+import os
 import re
 import shutil
 import statistics
@@ -164,6 +165,79 @@ def test_class_page_sorts_by_mouse_and_keyboard_and_links_work(
         browser.close()
         p.stop()
     assert not errors, errors
+
+
+def test_scores_csv_is_id_and_score_and_inert(graded: tuple[Path, str]) -> None:
+    out, _ = graded
+    book = _book(out)
+    with (out / "scores.csv").open() as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == ["id", "score"] and len(rows) == len(book) + 1
+    scores = dict(rows[1:])
+    assert scores["'" + FORMULA] == book["'" + FORMULA]["score"]  # never a formula
+    assert scores["alice"] == "100.00" and scores["dave"] == "0.00"
+
+
+def test_gradescope_results_per_student_follow_the_format(graded: tuple[Path, str]) -> None:
+    out, _ = graded
+    book = _book(out)
+    for sid in ("alice", "eve", "dave"):
+        data = json.loads((out / "gradescope" / sid / "results.json").read_text())
+        assert data["score"] == pytest.approx(float(book[sid]["score"]), abs=0.005)
+        tests = data["tests"]
+        assert {"score", "max_score", "name", "output", "visibility", "status"} <= set(tests[0])
+        assert sum(t["max_score"] for t in tests) == pytest.approx(100, abs=0.05)
+        assert sum(t["score"] for t in tests) == pytest.approx(data["score"], abs=0.05)
+        assert all(0 <= t["score"] <= t["max_score"] for t in tests)
+    eve = json.loads((out / "gradescope" / "eve" / "results.json").read_text())
+    shadow = next(t for t in eve["tests"] if t["name"] == "classic: shadow")
+    assert shadow["status"] == "failed" and "px (100 %) differ from classic" in shadow["output"]
+    assert "looks like paper" in eve["output"]
+    dave = json.loads((out / "gradescope" / "dave" / "results.json").read_text())
+    assert [t["name"] for t in dave["tests"]] == ["classic: not judged"]
+    assert dave["tests"][0]["output"].startswith("unreadable")
+
+
+def test_gradescope_numbers_are_finite_and_in_range() -> None:
+    from compare.grading.lms import gradescope_json
+    from compare.grading.results import StudentResult
+
+    r = StudentResult("x", "k", "fail", float("nan"), "classic", "", "", (), "r", float("inf"), "")
+    data = json.loads(gradescope_json(r, "hidden"))
+    assert data["score"] == 0.0 and data["execution_time"] == 0 and data["visibility"] == "hidden"
+    with pytest.raises(ValueError, match="visibility"):
+        gradescope_json(r, "public")
+
+
+def test_gradescope_mode_grades_the_autograders_layout(subs: Path, tmp_path: Path) -> None:
+    root = tmp_path / "autograder"
+    (root / "submission").mkdir(parents=True)
+    shutil.copyfile(subs / "carol.png", root / "submission" / "classic.png")
+    os.mkfifo(root / "submission" / "notes.txt")  # never read: a copy would hang on it
+    out = tmp_path / "out"
+    proc = run(
+        [RTVAL, "grade", "--gradescope", "--gradescope-root", str(root), *ARGS, "--out", str(out)],
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads((root / "results" / "results.json").read_text())
+    assert data["score"] == 100.0 and data["output"].startswith("PASS")
+    assert all(t["status"] == "passed" for t in data["tests"])
+    assert str(root / "results" / "results.json") in proc.stdout
+    # A submission with nothing to grade is the student's result (score 0, why).
+    os.unlink(root / "submission" / "classic.png")
+    proc = run(
+        [RTVAL, "grade", "--gradescope", "--gradescope-root", str(root), *ARGS, "--out", str(out)]
+    )
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads((root / "results" / "results.json").read_text())
+    assert data["score"] == 0 and "no image for scene 'classic'" in data["tests"][0]["output"]
+
+
+def test_gradescope_mode_without_the_layout_writes_no_result(tmp_path: Path) -> None:
+    proc = run([RTVAL, "grade", "--gradescope", "--gradescope-root", str(tmp_path), *ARGS])
+    assert proc.returncode != 0 and "no submission folder" in proc.stderr
+    assert not (tmp_path / "results").exists()
 
 
 def test_a_png_of_linear_codes_passes_and_says_so(graded: tuple[Path, str]) -> None:

@@ -38,6 +38,7 @@ from compare.grading.class_page import write_class_page
 from compare.grading.encodings import choose_encoding, with_encoding
 from compare.grading.executors import SCHEDULER_TIMEOUT, Executor, run_tasks
 from compare.grading.gradebook import write_gradebook
+from compare.grading.lms import write_lms_exports
 from compare.grading.programs import ProgramJob, ProgramOptions, ProgramSpec, resolve_spec
 from compare.grading.results import (
     BadResult,
@@ -463,6 +464,7 @@ def run_grading(
     elapsed = time.perf_counter() - start
     write_gradebook(results, out, rubric.source, elapsed)
     write_class_page(results, out, rubric.source)
+    write_lms_exports(results, out)
     progress(
         f"graded {len(results)} in {elapsed:.1f} s ({sum(r.resumed for r in results)} resumed)"
     )
