@@ -1,8 +1,10 @@
 """What a teacher gets beside the gradebook: the class page OUT/index.html (its table sorted
 by mouse and keyboard in Chromium, its links, escaped names, the histogram and the common
 causes), the summary on stdout, the LMS exports (OUT/scores.csv, Gradescope's results.json
-per student and `grade --gradescope` in the autograder's layout), and 8-bit files judged in
-the encoding they were written in (`--test-encoding`). A class of six at 160x120 against
+per student and `grade --gradescope` in the autograder's layout), the student pages (the
+model beside the image with a flip control, the difference's scale, the points, each reason
+once, a glossary, `--handout`), and 8-bit files judged in the encoding they were written in
+(`--test-encoding`). A class of six at 160x120 against
 classic, made by rtdemo."""
 
 from __future__ import annotations
@@ -54,7 +56,7 @@ def _grade(subs: Path, out: Path, *options: str) -> str:
 @pytest.fixture(scope="module")
 def graded(subs: Path) -> tuple[Path, str]:
     out = subs.parent / "grades"
-    return out, _grade(subs, out, "--jobs", "2")
+    return out, _grade(subs, out, "--jobs", "2", "--handout", str(subs.parent / "handout"))
 
 
 def _book(out: Path) -> dict[str, dict[str, str]]:
@@ -260,3 +262,78 @@ def test_test_encoding_fixes_the_encoding(subs: Path, tmp_path: Path) -> None:
     book = _book(tmp_path / "linear")
     assert book["carol"]["status"] == "pass" and book["bob"]["status"] == "fail"
     assert book["alice"]["status"] == "pass"  # a PPM is linear anyway
+
+
+def _links(page: str) -> list[str]:
+    return [html.unescape(x) for x in re.findall(r'(?:href|src|data-[ab])="([^"]*)"', page)]
+
+
+def test_student_pages_teach_and_link_only_inside_their_folder(graded: tuple[Path, str]) -> None:
+    out, _ = graded
+    for folder in (out / "students").iterdir():
+        page = (folder / "index.html").read_text()
+        for link in _links(page):
+            assert link.startswith("#") or ("/" not in link and (folder / link).is_file()), link
+    eve = (out / "students" / "eve" / "index.html").read_text()
+    assert 'src="classic-model.png"' in eve and 'data-b="classic.png"' in eve
+    assert "in display (sRGB) values, ×8" in eve and "No pixel differs" not in eve
+    result = json.loads((out / "results" / "eve.json").read_text())
+    effects = result["scenes"][0]["verdict"]["effects"]
+    for name, e in effects.items():  # each reason once, beside its effect
+        for reason in e["reasons"]:
+            assert eve.count(html.escape(reason, quote=False)) == 1, reason
+        assert f'<a href="#effect-{name}">{name}</a>' in eve and f'id="effect-{name}"' in eve
+    shares = re.findall(r"<td>([0-9.]+) of ([0-9.]+)</td>", eve)
+    assert sum(float(p) for p, _ in shares) == pytest.approx(result["score"], abs=0.1)
+    assert sum(float(m) for _, m in shares) == pytest.approx(100, abs=0.1)
+    assert eve.count("looks like paper") == 1 and 'id="quirk-2"' in eve
+    carol = (out / "students" / "carol" / "index.html").read_text()
+    assert "No pixel differs" in carol and "classic-diff.png" not in carol
+    assert "read as linear: the PNG holds the values a PPM writer stores" in carol
+    assert "gradebook" not in carol  # nothing of the class's
+
+
+def test_the_flip_control_works_by_mouse_and_keyboard(graded: tuple[Path, str]) -> None:
+    out, _ = graded
+    p, browser = _browser()
+    try:
+        page = browser.new_page(viewport={"width": 1200, "height": 900})
+        errors: list[str] = []
+        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto((out / "students" / "eve" / "index.html").as_uri())
+        img, state = page.locator("img.flip"), page.locator(".flip-state")
+        assert img.get_attribute("src") == "classic-model.png"
+        img.hover()
+        assert img.get_attribute("src") == "classic.png" and state.text_content() == "your image"
+        page.mouse.move(1190, 890)
+        assert img.get_attribute("src") == "classic-model.png"
+        img.focus()
+        page.keyboard.press(" ")  # pinned on the student's image
+        assert img.get_attribute("src") == "classic.png"
+        page.keyboard.press("Enter")
+        assert img.get_attribute("src") == "classic-model.png"
+        assert page.evaluate("Array.from(document.images).every(i => i.naturalWidth > 0)")
+        ARTIFACTS.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(ARTIFACTS / "student.png"), full_page=True)
+    finally:
+        browser.close()
+        p.stop()
+    assert not errors, errors
+
+
+def test_handout_folders_are_the_pages_and_all_they_show(
+    subs: Path, graded: tuple[Path, str]
+) -> None:
+    out, stdout = graded
+    handout = subs.parent / "handout"
+    assert str(handout) in stdout
+    assert sorted(f.name for f in handout.iterdir()) == sorted(
+        f.name for f in (out / "students").iterdir()
+    )
+    for folder in handout.iterdir():
+        page = (folder / "index.html").read_text()
+        assert page == (out / "students" / folder.name / "index.html").read_text()
+        assert all(not f.is_symlink() for f in folder.iterdir())
+        for link in _links(page):
+            assert link.startswith("#") or (folder / link).is_file(), link

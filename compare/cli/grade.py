@@ -18,6 +18,7 @@ def run_grade(args: argparse.Namespace) -> int:
     from compare.grading.class_page import summarise, summary_lines
     from compare.grading.gradebook import explain
     from compare.grading.lms import stage_submission, write_autograder_results
+    from compare.grading.student_page import write_handouts
     from compare.render.progress import Progress
 
     out = Path(args.out)
@@ -53,6 +54,9 @@ def run_grade(args: argparse.Namespace) -> int:
     print("\n".join(summary_lines(summarise(results))))
     print(out / "gradebook.csv")
     print(out / "index.html")
+    if args.handout:
+        write_handouts(results, out, Path(args.handout))
+        print(Path(args.handout))
     if args.gradescope:
         print(write_autograder_results(results, root, args.gradescope_visibility))
     return 0
@@ -128,6 +132,11 @@ def _add_lms_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         help="how 8-bit PNG/PPM codes decode (default: both are tried; an image passes when "
         "it matches in either, and its row says when it was read against its format's rule)",
+    )
+    p.add_argument(
+        "--handout",
+        metavar="DIR",
+        help="also copy each student's page folder to DIR/ID/: self-contained, to send as it is",
     )
     g = p.add_argument_group(
         "Gradescope",

@@ -47,9 +47,9 @@ from compare.grading.results import (
     discard_special,
     read_result,
 )
+from compare.grading.student_page import write_student_page
 from compare.grading.submissions import IMAGE_SUFFIXES  # noqa: F401  (re-exported)
 from compare.judge.scoring import student_passes, student_score
-from compare.pages.writer import write_page
 from compare.student_ids import student_slug
 from compare.verdict.against import ModelRenders
 from safe_files.content import sha256_file
@@ -201,12 +201,13 @@ def _verdict(ev: Evaluation, nan: int) -> tuple[dict[str, Any], list[str]]:
 
 
 def _write_scene_pictures(page_dir: Path, scene_name: str, reference: F32, test: F32) -> None:
-    """The submission and |difference| x 8 (display), for the student's page; NaN/Inf pixels
-    in the marker colour (compare/judge/png.py)."""
+    """The submission, the model and |difference| x 8 (display), for the student's page;
+    NaN/Inf pixels in the marker colour (compare/judge/png.py)."""
     from compare.judge.png import FAST, display_values, write_display_png
 
     a, b = display_values(reference), display_values(test)
     write_display_png(page_dir / f"{scene_name}.png", b, compress_level=FAST)
+    write_display_png(page_dir / f"{scene_name}-model.png", a, compress_level=FAST)
     diff = np.clip(np.abs(a - b) * 8, 0, 1)
     write_display_png(page_dir / f"{scene_name}-diff.png", diff, compress_level=FAST)
 
@@ -285,7 +286,7 @@ def grade_one(task: GradeTask) -> StudentResult:
         program=program.info if program is not None else None,
         warnings=warnings,
     )
-    write_page(page_dir / "index.html", "student.html.j2", r=result.to_json())
+    write_student_page(page_dir, result)
     write_atomic(result_path, result.dumps())
     return result
 
