@@ -41,6 +41,7 @@ def subs(tmp_path_factory: pytest.TempPathFactory, rtdemo: str) -> Path:
     render_demo(rtdemo, scene, folder / "eve.ppm", "--mode", "paper", "-q", size=size)
     # The PPM saved as a PNG with the same bytes: linear codes in a PNG.
     PILImage.open(folder / "alice.ppm").save(folder / "carol.png")
+    PILImage.open(folder / "eve.ppm").save(folder / "frank.png")  # paper mode, linear codes
     shutil.copyfile(folder / "alice.ppm", folder / f"{HOSTILE}.ppm")
     shutil.copyfile(folder / "eve.ppm", folder / f"{FORMULA}.ppm")
     (folder / "dave.png").write_bytes(b"not a picture")
@@ -69,13 +70,13 @@ def test_the_summary_on_stdout_is_the_gradebooks(graded: tuple[Path, str]) -> No
     book = _book(out)
     scores = [float(r["score"]) for r in book.values()]
     passed = sum(r["status"] == "pass" for r in book.values())
-    assert (len(book), passed) == (7, 4)
+    assert (len(book), passed) == (8, 4)
     assert (
-        f"7 students: 4 passed, 3 failed; mean score {statistics.fmean(scores):.1f}, "
+        f"8 students: 4 passed, 4 failed; mean score {statistics.fmean(scores):.1f}, "
         f"median {statistics.median(scores):.1f}"
     ) in stdout
-    # eve and the formula-named student both hand in paper mode: one cause, two students.
-    assert "  2 students: looks like paper" in stdout
+    # eve, frank and the formula-named student hand in paper mode: one cause, three students.
+    assert "  3 students: looks like paper" in stdout
     assert "  1 student: unreadable image" in stdout
 
 
@@ -86,7 +87,7 @@ def test_class_page_shows_every_student_escaped(graded: tuple[Path, str]) -> Non
     rows = re.findall(r"<tr><td class=\"text\">(.*?)</td>", page)
     ids = {k.removeprefix("'") for k in _book(out)}  # the CSV's inert formula
     assert sorted(html.unescape(r) for r in rows) == sorted(ids)
-    assert "Mean score" in page and "<b>2 students</b>: looks like paper" in page
+    assert "Mean score" in page and "<b>3 students</b>: looks like paper" in page
     for link in re.findall(r'<a href="(students/[^"]+)">page</a>', page):
         assert (out / html.unescape(link)).is_file()
     # Only the template's own script, allowed by its hash.
@@ -251,6 +252,23 @@ def test_a_png_of_linear_codes_passes_and_says_so(graded: tuple[Path, str]) -> N
     assert bob["status"] == "pass" and bob["reasons"] == ""  # an sRGB PNG: nothing to say
     verdict = json.loads((out / "results" / "carol.json").read_text())["scenes"][0]["verdict"]
     assert verdict["encoding"] == "linear" and verdict["encoding_note"] == note
+
+
+def test_a_failing_png_of_linear_codes_is_diagnosed_as_what_it_is(
+    graded: tuple[Path, str],
+) -> None:
+    """Read as sRGB, paper mode's linear codes look like nothing the demo renders; read as
+    linear they are paper mode, the same diagnosis as eve's PPM of the same pixels."""
+    out, _ = graded
+    book = _book(out)
+    frank, eve = book["frank"], book["eve"]
+    assert frank["status"] == "fail" and frank["score"] == eve["score"]
+    assert frank["diagnosis"] == eve["diagnosis"] and frank["diagnosis"].startswith(
+        "looks like paper"
+    )
+    assert frank["reasons"].startswith("classic: read as linear: the PNG holds")
+    results = json.loads((out / "gradescope" / "carol" / "results.json").read_text())
+    assert "\nNote: classic: read as linear" in results["output"]
 
 
 def test_test_encoding_fixes_the_encoding(subs: Path, tmp_path: Path) -> None:

@@ -81,8 +81,8 @@ def gradescope_results(r: StudentResult, visibility: str = "visible") -> dict[st
         raise ValueError(f"visibility must be one of {', '.join(VISIBILITIES)}")
     tests = [t for s in r.scenes for t in _scene_tests(s, len(r.scenes), visibility)]
     output = f"{r.status.upper()}: score {r.score:.1f} of 100, judged against {r.model}."
-    if r.reasons:
-        output += f"\nWhy: {r.reasons}"
+    if r.reasons:  # a pass's reasons are notes (how its file was read)
+        output += f"\n{'Note' if r.status == 'pass' else 'Why'}: {r.reasons}"
     if r.diagnosis:
         output += f"\nWhat the image implements: {r.diagnosis}"
     return {

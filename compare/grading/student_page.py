@@ -70,6 +70,8 @@ def write_handouts(results: list[StudentResult], out: Path, handout: Path) -> li
     for r in results:
         slug = student_slug(r.student)
         source = out / "students" / slug
+        if not source.is_dir():  # a resumed result whose page was removed: nothing to send
+            continue
         target = own_folder(handout, slug)
         with os.scandir(source) as entries:
             for e in entries:
