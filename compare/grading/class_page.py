@@ -112,7 +112,7 @@ def summary_lines(summary: ClassSummary, most: int = 5) -> list[str]:
     """The summary for a terminal: counts, mean, median, the commonest causes."""
     s = summary
     lines = [
-        f"{s.students} students: {s.passed} passed, {s.students - s.passed} failed; "
+        f"{s.students} student{'' if s.students == 1 else 's'}: {s.passed} passed, {s.students - s.passed} failed; "
         f"mean score {s.mean:.1f}, median {s.median:.1f}"
     ]
     for n, cause in s.causes[:most]:
