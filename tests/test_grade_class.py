@@ -78,6 +78,9 @@ def test_the_summary_on_stdout_is_the_gradebooks(graded: tuple[Path, str]) -> No
     # eve, frank and the formula-named student hand in paper mode: one cause, three students.
     assert "  3 students: looks like paper" in stdout
     assert "  1 student: unreadable image" in stdout
+    # carol's passing PNG and frank's failing one both hold linear codes.
+    note = "read as linear: the PNG holds the values a PPM writer stores"
+    assert f"  note, 2 students: {note}" in stdout
 
 
 def test_class_page_shows_every_student_escaped(graded: tuple[Path, str]) -> None:
@@ -88,6 +91,7 @@ def test_class_page_shows_every_student_escaped(graded: tuple[Path, str]) -> Non
     ids = {k.removeprefix("'") for k in _book(out)}  # the CSV's inert formula
     assert sorted(html.unescape(r) for r in rows) == sorted(ids)
     assert "Mean score" in page and "<b>3 students</b>: looks like paper" in page
+    assert "<b>2 students</b>: read as linear: the PNG holds the values" in page
     for link in re.findall(r'<a href="(students/[^"]+)">page</a>', page):
         assert (out / html.unescape(link)).is_file()
     # Only the template's own script, allowed by its hash.

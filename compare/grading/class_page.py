@@ -41,6 +41,7 @@ class ClassSummary:
     median: float
     histogram: tuple[int, ...]
     causes: tuple[tuple[int, str], ...]
+    notes: tuple[tuple[int, str], ...] = ()  # (students, how their files were read)
 
 
 def effect_weights(scene: SceneResult, scenes: int) -> dict[str, float]:
@@ -98,14 +99,25 @@ def summarise(results: list[StudentResult]) -> ClassSummary:
     for x in scores:
         bins[min(HISTOGRAM_BINS - 1, max(0, int(x // (100 / HISTOGRAM_BINS))))] += 1
     counts = Counter(c for r in results for c in student_causes(r))
+    notes = Counter(
+        n
+        for r in results
+        for n in {str((s.verdict or {}).get("encoding_note", "")) for s in r.scenes}
+    )
+    notes.pop("", None)
     return ClassSummary(
         students=len(results),
         passed=sum(r.status == "pass" for r in results),
         mean=statistics.fmean(scores) if scores else 0.0,
         median=statistics.median(scores) if scores else 0.0,
         histogram=tuple(bins),
-        causes=tuple((n, c) for c, n in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))),
+        causes=_commonest(counts),
+        notes=_commonest(notes),
     )
+
+
+def _commonest(counts: Counter[str]) -> tuple[tuple[int, str], ...]:
+    return tuple((n, c) for c, n in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
 def summary_lines(summary: ClassSummary, most: int = 5) -> list[str]:
@@ -117,6 +129,8 @@ def summary_lines(summary: ClassSummary, most: int = 5) -> list[str]:
     ]
     for n, cause in s.causes[:most]:
         lines.append(f"  {n} student{'s' if n != 1 else ''}: {terminal_text(cause)}")
+    for n, note in s.notes:
+        lines.append(f"  note, {n} student{'s' if n != 1 else ''}: {terminal_text(note)}")
     return lines
 
 
