@@ -19,6 +19,7 @@ import statistics
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from helpers import ROOT, SCENES, render_demo, run
 from PIL import Image as PILImage
@@ -309,6 +310,10 @@ def test_student_pages_teach_and_link_only_inside_their_folder(graded: tuple[Pat
     assert sum(float(p) for p, _ in shares) == pytest.approx(result["score"], abs=0.1)
     assert sum(float(m) for _, m in shares) == pytest.approx(100, abs=0.1)
     assert eve.count("looks like paper") == 1 and 'id="quirk-2"' in eve
+    # The difference lights only the pixels that differ; 8-bit rounding is no difference.
+    lit = np.asarray(PILImage.open(out / "students" / "eve" / "classic-diff.png")).any(axis=2)
+    assert 0 < lit.sum() <= result["scenes"][0]["verdict"]["exact"]["differing"]
+    assert not np.asarray(PILImage.open(out / "students" / "alice" / "classic-diff.png")).any()
     carol = (out / "students" / "carol" / "index.html").read_text()
     assert "No pixel differs" in carol and "classic-diff.png" not in carol
     assert "read as linear: the PNG holds the values a PPM writer stores" in carol

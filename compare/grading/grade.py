@@ -60,6 +60,7 @@ if TYPE_CHECKING:
     from compare.grading.programs import ProgramResult
     from compare.judge.arrays import F32
     from compare.judge.evaluate import Evaluation
+    from compare.judge.exact_match import BOOL
     from compare.judge.images import Image
     from compare.judge.rubric import Rubric
     from compare.judge.target_model import TargetModel
@@ -172,7 +173,8 @@ def _judge_scene(
         diagnosis = _diagnose_scene(img, scene_name, task.models[scene_name], task, page_dir, seed)
         diagnosis["short"] = _beside_verdict(diagnosis, model.renders.model, verdict)
         reasons.append(diagnosis["short"])
-    _write_scene_pictures(page_dir, scene_name, model.reference.rgb, img.rgb)
+    matches = ev.exact.matches if ev.exact is not None else None
+    _write_scene_pictures(page_dir, scene_name, model.reference.rgb, img.rgb, matches)
     return SceneResult(
         scene_name,
         model.renders.model,
@@ -200,15 +202,20 @@ def _verdict(ev: Evaluation, nan: int) -> tuple[dict[str, Any], list[str]]:
     return verdict, reasons
 
 
-def _write_scene_pictures(page_dir: Path, scene_name: str, reference: F32, test: F32) -> None:
+def _write_scene_pictures(
+    page_dir: Path, scene_name: str, reference: F32, test: F32, matches: BOOL | None = None
+) -> None:
     """The submission, the model and |difference| x 8 (display), for the student's page;
-    NaN/Inf pixels in the marker colour (compare/judge/png.py)."""
+    NaN/Inf pixels in the marker colour (compare/judge/png.py). Judged exactly, a pixel that
+    matches is black: what is left of 8-bit rounding there is no difference."""
     from compare.judge.png import FAST, display_values, write_display_png
 
     a, b = display_values(reference), display_values(test)
     write_display_png(page_dir / f"{scene_name}.png", b, compress_level=FAST)
     write_display_png(page_dir / f"{scene_name}-model.png", a, compress_level=FAST)
     diff = np.clip(np.abs(a - b) * 8, 0, 1)
+    if matches is not None:
+        diff = np.where(matches[..., None], np.float32(0), diff)
     write_display_png(page_dir / f"{scene_name}-diff.png", diff, compress_level=FAST)
 
 
