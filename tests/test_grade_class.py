@@ -240,6 +240,14 @@ def test_gradescope_mode_grades_the_autograders_layout(subs: Path, tmp_path: Pat
     assert proc.returncode == 0, proc.stderr
     data = json.loads((root / "results" / "results.json").read_text())
     assert data["score"] == 0 and "no image for scene 'classic'" in data["tests"][0]["output"]
+    # A link is copied as a link, never followed, and refused as in any class.
+    (root / "submission" / "classic.png").symlink_to(subs / "carol.png")
+    proc = run(
+        [RTVAL, "grade", "--gradescope", "--gradescope-root", str(root), *ARGS, "--out", str(out)]
+    )
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads((root / "results" / "results.json").read_text())
+    assert data["score"] == 0 and "symbolic link" in data["tests"][0]["output"]
 
 
 def test_gradescope_mode_without_the_layout_writes_no_result(tmp_path: Path) -> None:
