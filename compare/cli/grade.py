@@ -15,18 +15,25 @@ if TYPE_CHECKING:
 
 def run_grade(args: argparse.Namespace) -> int:
     from compare.grading import grade
+    from compare.grading.class_page import summarise, summary_lines
     from compare.grading.gradebook import explain
+    from compare.grading.lms import stage_submission, write_autograder_results
+    from compare.grading.student_page import write_handouts
     from compare.render.progress import Progress
 
     out = Path(args.out)
     if args.explain:
         print(explain(out, args.explain))
         return 0
-    if not args.submissions or not args.scene:
+    if args.gradescope and args.submissions:
+        raise ValueError("--gradescope reads ROOT/submission: give no SUBMISSIONS folder")
+    if not (args.submissions or args.gradescope) or not args.scene:
         raise ValueError("grade needs SUBMISSIONS and at least one --scene (or --explain ID)")
     scenes = [Path(s) for s in args.scene]
+    root = Path(args.gradescope_root)
+    submissions = stage_submission(root, out) if args.gradescope else Path(args.submissions)
     results = grade.run_grading(
-        Path(args.submissions),
+        submissions,
         scenes,
         out,
         rubric_path=args.rubric,
@@ -40,10 +47,18 @@ def run_grade(args: argparse.Namespace) -> int:
         cache_dir=args.cache,
         progress=Progress(sys.stderr),
         program=_program_options(args),
+        test_encoding=args.test_encoding,
     )
     passed = sum(r.status == "pass" for r in results)
     print(f"{passed} passed, {len(results) - passed} failed")
+    print("\n".join(summary_lines(summarise(results))))
     print(out / "gradebook.csv")
+    print(out / "index.html")
+    if args.handout:
+        write_handouts(results, out, Path(args.handout))
+        print(Path(args.handout))
+    if args.gradescope:
+        print(write_autograder_results(results, root, args.gradescope_visibility))
     return 0
 
 
@@ -110,6 +125,39 @@ def _add_program_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--open-files", type=positive_int, metavar="N", help="per process (default 256)")
 
 
+def _add_lms_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--test-encoding",
+        choices=("srgb", "linear"),
+        default=None,
+        help="how 8-bit PNG/PPM codes decode (default: both are tried; an image passes when "
+        "it matches in either, and its row says when it was read against its format's rule)",
+    )
+    p.add_argument(
+        "--handout",
+        metavar="DIR",
+        help="also copy each student's page folder to DIR/ID/: self-contained, to send as it is",
+    )
+    g = p.add_argument_group(
+        "Gradescope",
+        "Run as Gradescope's autograder (docs/grading.md): the one submission in "
+        "ROOT/submission is graded and its results.json written to ROOT/results/.",
+    )
+    g.add_argument("--gradescope", action="store_true", help="grade ROOT/submission")
+    g.add_argument(
+        "--gradescope-root",
+        default="/autograder",
+        metavar="ROOT",
+        help="the autograder folder (default /autograder)",
+    )
+    g.add_argument(
+        "--gradescope-visibility",
+        choices=("visible", "hidden", "after_due_date", "after_published"),
+        default="visible",
+        help="when students see the tests (default visible)",
+    )
+
+
 def _add_executor_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--executor",
@@ -138,7 +186,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         description="Grades every submission (an image named after the student, or a folder of "
         "images named after the scenes; with --run, a student's program, built and run in a "
         "sandbox) against a target model (--against) with a rubric; "
-        "writes OUT/gradebook.csv, gradebook.json and OUT/students/ID/index.html. "
+        "writes OUT/index.html (the class page), gradebook.csv, gradebook.json, scores.csv "
+        "(id,score), gradescope/ID/results.json and OUT/students/ID/index.html. "
         "Re-runs skip what is done.",
     )
     p.add_argument("submissions", nargs="?", help="folder of submissions")
@@ -178,5 +227,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--explain", metavar="ID", help="print how student ID's score came about, then exit"
     )
     _add_program_arguments(p)
+    _add_lms_arguments(p)
     add_cache_argument(p)
     p.set_defaults(func=run_grade)

@@ -34,8 +34,11 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from compare.grading.class_page import write_class_page
+from compare.grading.encodings import choose_encoding, with_encoding
 from compare.grading.executors import SCHEDULER_TIMEOUT, Executor, run_tasks
 from compare.grading.gradebook import write_gradebook
+from compare.grading.lms import write_lms_exports
 from compare.grading.programs import ProgramJob, ProgramOptions, ProgramSpec, resolve_spec
 from compare.grading.results import (
     BadResult,
@@ -44,9 +47,9 @@ from compare.grading.results import (
     discard_special,
     read_result,
 )
+from compare.grading.student_page import write_student_page
 from compare.grading.submissions import IMAGE_SUFFIXES  # noqa: F401  (re-exported)
 from compare.judge.scoring import student_passes, student_score
-from compare.pages.writer import write_page
 from compare.student_ids import student_slug
 from compare.verdict.against import ModelRenders
 from safe_files.content import sha256_file
@@ -57,6 +60,7 @@ if TYPE_CHECKING:
     from compare.grading.programs import ProgramResult
     from compare.judge.arrays import F32
     from compare.judge.evaluate import Evaluation
+    from compare.judge.exact_match import BOOL
     from compare.judge.images import Image
     from compare.judge.rubric import Rubric
     from compare.judge.target_model import TargetModel
@@ -79,6 +83,7 @@ class GradeTask:
     # A program submission (compare/grading/programs.py): built and run first, in the sandbox.
     program: ProgramJob | None = None
     scene_problems: dict[str, str] = dataclasses.field(default_factory=dict)  # failed runs
+    test_encoding: str | None = None  # 8-bit images: None judges both (grading/encodings.py)
 
 
 def task_key(task: GradeTask) -> str:
@@ -86,6 +91,7 @@ def task_key(task: GradeTask) -> str:
     h.update((task.problem or "").encode())
     h.update(task.models_key.encode())
     h.update(f"diagnose={bool(task.diagnose)}".encode())
+    h.update(f"encoding={task.test_encoding or 'both'}".encode())
     if task.program is not None:  # its code, commands, limits and scenes
         h.update(task.program.digest().encode())
     for scene in sorted(task.files):
@@ -113,7 +119,8 @@ def _grade_scene(
     img = _read_submission(path, model.reference.shape)
     if isinstance(img, str):
         return SceneResult(scene_name, model_name, "error", 0.0, img)
-    return _judge_scene(scene_name, img, model, task, rubric, page_dir)
+    img = choose_encoding(img, model, rubric, task.test_encoding)
+    return with_encoding(_judge_scene(scene_name, img, model, task, rubric, page_dir), img)
 
 
 def _read_submission(path: str, shape: tuple[int, int]) -> Image | str:
@@ -166,7 +173,8 @@ def _judge_scene(
         diagnosis = _diagnose_scene(img, scene_name, task.models[scene_name], task, page_dir, seed)
         diagnosis["short"] = _beside_verdict(diagnosis, model.renders.model, verdict)
         reasons.append(diagnosis["short"])
-    _write_scene_pictures(page_dir, scene_name, model.reference.rgb, img.rgb)
+    matches = ev.exact.matches if ev.exact is not None else None
+    _write_scene_pictures(page_dir, scene_name, model.reference.rgb, img.rgb, matches)
     return SceneResult(
         scene_name,
         model.renders.model,
@@ -194,14 +202,20 @@ def _verdict(ev: Evaluation, nan: int) -> tuple[dict[str, Any], list[str]]:
     return verdict, reasons
 
 
-def _write_scene_pictures(page_dir: Path, scene_name: str, reference: F32, test: F32) -> None:
-    """The submission and |difference| x 8 (display), for the student's page; NaN/Inf pixels
-    in the marker colour (compare/judge/png.py)."""
+def _write_scene_pictures(
+    page_dir: Path, scene_name: str, reference: F32, test: F32, matches: BOOL | None = None
+) -> None:
+    """The submission, the model and |difference| x 8 (display), for the student's page;
+    NaN/Inf pixels in the marker colour (compare/judge/png.py). Judged exactly, a pixel that
+    matches is black: what is left of 8-bit rounding there is no difference."""
     from compare.judge.png import FAST, display_values, write_display_png
 
     a, b = display_values(reference), display_values(test)
     write_display_png(page_dir / f"{scene_name}.png", b, compress_level=FAST)
+    write_display_png(page_dir / f"{scene_name}-model.png", a, compress_level=FAST)
     diff = np.clip(np.abs(a - b) * 8, 0, 1)
+    if matches is not None:
+        diff = np.where(matches[..., None], np.float32(0), diff)
     write_display_png(page_dir / f"{scene_name}-diff.png", diff, compress_level=FAST)
 
 
@@ -281,7 +295,7 @@ def grade_one(task: GradeTask) -> StudentResult:
         program=program.info if program is not None else None,
         warnings=warnings,
     )
-    write_page(page_dir / "index.html", "student.html.j2", r=result.to_json())
+    write_student_page(page_dir, result)
     write_atomic(result_path, result.dumps())
     return result
 
@@ -430,6 +444,7 @@ def run_grading(
     cache_dir: Path | str | None = None,
     progress: Callable[[str], None] = print,
     program: ProgramOptions | None = None,
+    test_encoding: str | None = None,
 ) -> list[StudentResult]:
     """Grades every submission; writes the pages, the results and the gradebook."""
     from compare.render.cache import RenderCache
@@ -442,6 +457,7 @@ def run_grading(
     models = _model_renders(model, scene_files, size, cache, out, progress)
     parallel = 0 if not diagnose else 1 if where.side_by_side else 2
     base = _base_task(models, rubric_text, rubric, out, cache, parallel)
+    base = dataclasses.replace(base, test_encoding=test_encoding)
     tasks = [
         dataclasses.replace(base, **entry._asdict())
         for entry in _entries(submissions, models, spec, size, out, cache.root, progress)
@@ -457,6 +473,8 @@ def run_grading(
     results.sort(key=lambda r: r.student)
     elapsed = time.perf_counter() - start
     write_gradebook(results, out, rubric.source, elapsed)
+    write_class_page(results, out, rubric.source)
+    write_lms_exports(results, out)
     progress(
         f"graded {len(results)} in {elapsed:.1f} s ({sum(r.resumed for r in results)} resumed)"
     )

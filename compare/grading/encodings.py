@@ -1,0 +1,82 @@
+"""8-bit files as students write them. A PNG is sRGB by convention and a PPM linear (the
+codes a PPM writer stores), but students convert one into the other keeping the bytes: a
+correct PPM saved as a PNG holds linear codes. Unless the teacher fixes the encoding
+(`grade --test-encoding`), an 8-bit image is judged in both: it passes when it matches in
+either, and otherwise counts in the one that scores higher. The scene's row says when the
+image was read in the encoding its format does not imply."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING
+
+from compare.judge.images import ImageError, read_image
+from compare.verdict.against import judge_against_model
+
+if TYPE_CHECKING:
+    from compare.grading.results import SceneResult
+    from compare.judge.images import Image
+    from compare.judge.rubric import Rubric
+    from compare.verdict.against import LoadedModel
+
+ENCODINGS = ("srgb", "linear")
+_OTHER = {"srgb": "linear", "linear": "srgb"}
+_NOTES = {
+    ("png", "linear"): "read as linear: the PNG holds the values a PPM writer stores",
+    ("ppm", "srgb"): "read as sRGB: the PPM holds sRGB-encoded values, as a PNG writer stores",
+}
+
+
+def _kind(image: Image) -> str:
+    return "png" if image.path.lower().endswith(".png") else "ppm"
+
+
+def _implied(image: Image) -> str:
+    """The encoding the file's format implies (images.read_image's default)."""
+    return "srgb" if _kind(image) == "png" else "linear"
+
+
+def encoding_note(image: Image) -> str:
+    """The row's words for an image read in the encoding its format does not imply."""
+    if image.encoding not in ENCODINGS or image.encoding == _implied(image):
+        return ""
+    return _NOTES.get((_kind(image), image.encoding), f"read as {image.encoding} (--test-encoding)")
+
+
+def reread(image: Image, encoding: str) -> Image:
+    """The same 8-bit file decoded as `encoding` (a float image is itself)."""
+    if image.encoding not in ENCODINGS or image.encoding == encoding:
+        return image
+    return read_image(image.path, encoding=encoding, expected_size=image.shape)
+
+
+def choose_encoding(image: Image, model: LoadedModel, rubric: Rubric, forced: str | None) -> Image:
+    """The image to judge: decoded as `forced` when the teacher says so; else, for an
+    8-bit file, in whichever encoding passes (the one its format implies first), or the
+    one that scores higher when neither does."""
+    if image.encoding not in ENCODINGS:
+        return image
+    if forced is not None:
+        return reread(image, forced)
+    first = judge_against_model(image, model, rubric).score
+    if first is None or first.status == "pass":
+        return image
+    try:
+        other = reread(image, _OTHER[image.encoding])
+    except ImageError:  # it was readable a moment ago: keep the first reading
+        return image
+    second = judge_against_model(other, model, rubric).score
+    if second is not None and (second.status == "pass" or second.score > first.score):
+        return other
+    return image
+
+
+def with_encoding(result: SceneResult, image: Image) -> SceneResult:
+    """The scene's result naming how its 8-bit image was read: the verdict's `encoding`,
+    and the note in the row's reason when it is not the format's own."""
+    if result.verdict is None or image.encoding not in ENCODINGS:
+        return result
+    note = encoding_note(image)
+    verdict = {**result.verdict, "encoding": image.encoding, "encoding_note": note}
+    reason = "; ".join(x for x in (note, result.reason) if x)
+    return dataclasses.replace(result, verdict=verdict, reason=reason)

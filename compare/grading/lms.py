@@ -1,0 +1,164 @@
+"""Grades for learning-management systems: Gradescope's autograder results.json per
+submission (its "Autograder Specifications": a `tests` list of name, score, max_score,
+status, output, visibility; the top-level score wins over the tests' sum) and a plain
+`id,score` CSV that Moodle's and Canvas's grade imports map onto their columns.
+
+The tests are the effects: an effect's points are its share of the student's score
+(class_page.effect_weights), its max_score the points it gives when it matches fully, so a
+submission's tests add up to its score out of 100. A scene that could not be judged is one
+test worth its whole share, scored 0, whose output says why.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+from compare.grading.class_page import effect_weights
+from compare.grading.csv_safe import csv_text
+from compare.grading.results import SceneResult, StudentResult
+from compare.student_ids import student_slug
+from safe_files.paths import own_folder, write_atomic
+
+VISIBILITIES = ("visible", "hidden", "after_due_date", "after_published")
+
+
+def _points(x: float, top: float) -> float:
+    """A score Gradescope can store: finite, within 0..top, to 1/100 of a point."""
+    if not math.isfinite(x):
+        return 0.0
+    return round(min(max(x, 0.0), top), 2)
+
+
+def _scene_tests(s: SceneResult, scenes: int, visibility: str) -> list[dict[str, Any]]:
+    share = 100.0 / scenes
+    if not s.verdict:
+        return [
+            {
+                "name": f"{s.scene}: not judged",
+                "score": 0.0,
+                "max_score": _points(share, 100.0),
+                "status": "failed",
+                "output": s.reason,
+                "visibility": visibility,
+            }
+        ]
+    effects: dict[str, Any] = s.verdict.get("effects", {})
+    weights = effect_weights(s, scenes)
+    tests = []
+    for name, e in effects.items():
+        tests.append(
+            {
+                "name": f"{s.scene}: {name}",
+                "score": _points(e["score"] * weights[name], 100.0),
+                "max_score": _points(100.0 * weights[name], 100.0),
+                "status": "passed" if e["status"] == "pass" else "failed",
+                "output": _effect_output(e, "; ".join(e.get("reasons") or [])),
+                "visibility": visibility,
+            }
+        )
+    return tests
+
+
+def _effect_output(e: dict[str, Any], reasons: str) -> str:
+    """Why the effect lost points (the verdict's own words), or what it measured."""
+    if reasons:
+        return reasons
+    if e.get("differing") == 0:
+        return f"all {e['pixels']:,} pixels match the model"
+    if e.get("differing") is not None:
+        return f"{e['differing']:,} of {e['pixels']:,} pixels differ, within the allowance"
+    return f"{e['pixels']:,} pixels, score {e['score']:.1f} of 100"
+
+
+def gradescope_results(r: StudentResult, visibility: str = "visible") -> dict[str, Any]:
+    """The results.json of one submission."""
+    if visibility not in VISIBILITIES:
+        raise ValueError(f"visibility must be one of {', '.join(VISIBILITIES)}")
+    tests = [t for s in r.scenes for t in _scene_tests(s, len(r.scenes), visibility)]
+    output = f"{r.status.upper()}: score {r.score:.1f} of 100, judged against {r.model}."
+    if r.reasons:  # a pass's reasons are notes (how its file was read)
+        output += f"\n{'Note' if r.status == 'pass' else 'Why'}: {r.reasons}"
+    if r.diagnosis:
+        output += f"\nWhat the image implements: {r.diagnosis}"
+    return {
+        "score": _points(r.score, 100.0),
+        "execution_time": max(0, round(r.seconds)) if math.isfinite(r.seconds) else 0,
+        "output": output,
+        "output_format": "text",
+        "visibility": visibility,
+        "stdout_visibility": "hidden",  # rtval's progress lines are for the teacher
+        "tests": tests,
+    }
+
+
+def gradescope_json(r: StudentResult, visibility: str = "visible") -> str:
+    return json.dumps(gradescope_results(r, visibility), indent=2, allow_nan=False)
+
+
+def scores_csv(results: list[StudentResult]) -> str:
+    """`id,score`, one row per student (csv_text keeps a formula-like id inert)."""
+    return csv_text([["id", "score"], *[[r.student, f"{r.score:.2f}"] for r in results]])
+
+
+def write_lms_exports(results: list[StudentResult], out: Path) -> None:
+    """OUT/scores.csv and OUT/gradescope/<slug>/results.json for every student."""
+    write_atomic(out / "scores.csv", scores_csv(results))
+    for r in results:
+        folder = own_folder(out, "gradescope", student_slug(r.student))
+        write_atomic(folder / "results.json", gradescope_json(r))
+
+
+# Gradescope's autograder layout: the harness unpacks the student's files into
+# ROOT/submission and uploads ROOT/results/results.json.
+GRADESCOPE_ROOT = Path("/autograder")
+GRADESCOPE_ID = "submission"  # the one student's id in OUT (Gradescope knows who it is)
+
+
+def stage_submission(root: Path, out: Path) -> Path:
+    """A submissions folder holding ROOT/submission as its only entry, copied under
+    OUT/autograder: regular files and folders are copied, a link is copied as a link (so
+    grading refuses it, naming it) and nothing else (a FIFO, a device) is read."""
+    source = root / "submission"
+    if not source.is_dir():
+        raise OSError(f"{source}: no submission folder (is this Gradescope's layout?)")
+    out.mkdir(parents=True, exist_ok=True)
+    staging = own_folder(out, "autograder")
+    target = staging / GRADESCOPE_ID
+    if target.is_symlink() or target.is_file():
+        target.unlink()
+    elif target.exists():
+        shutil.rmtree(target)  # a folder rtval made on an earlier run; links in it are not followed
+    _copy_tree(source, target)
+    return staging
+
+
+def _copy_tree(source: Path, target: Path) -> None:
+    target.mkdir()
+    with os.scandir(source) as entries:
+        for e in entries:
+            dst = target / e.name
+            if e.is_symlink():
+                os.symlink(os.readlink(e.path), dst)
+            elif e.is_dir(follow_symlinks=False):
+                _copy_tree(Path(e.path), dst)
+            elif e.is_file(follow_symlinks=False):
+                shutil.copyfile(e.path, dst, follow_symlinks=False)
+
+
+def write_autograder_results(
+    results: list[StudentResult], root: Path, visibility: str = "visible"
+) -> Path:
+    """ROOT/results/results.json of the one graded submission."""
+    mine = [r for r in results if r.student == GRADESCOPE_ID]
+    if len(mine) != 1:
+        raise OSError(f"expected one graded submission, found {len(results)}")
+    folder = root / "results"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "results.json"
+    write_atomic(path, gradescope_json(mine[0], visibility))
+    return path
