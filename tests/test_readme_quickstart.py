@@ -82,6 +82,7 @@ def test_the_teachers_start(outside: Path) -> None:
     alice = next(row for row in book.splitlines() if row.startswith("alice,"))
     bob = next(row for row in book.splitlines() if row.startswith("bob,"))
     assert "pass" in alice and "fail" in bob and "Q2" in bob
+    assert "bob" in (outside / "grades" / "index.html").read_text()
     assert "alice" in runs[1].stdout
 
 
