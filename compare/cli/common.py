@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from collections.abc import Callable
 from typing import Any
@@ -85,6 +86,17 @@ def resolve_scene_arguments(args: argparse.Namespace) -> None:
             setattr(args, name, str(scene_path(value)))
         elif isinstance(value, list):
             setattr(args, name, [str(scene_path(v)) for v in value])
+
+
+def error_words(e: BaseException) -> str:
+    """An error as a sentence for a person: an OSError as "PATH: reason" (never Python's
+    "[Errno 2] ... 'PATH'"), anything else as its own message."""
+    if isinstance(e, OSError) and e.strerror and e.filename is not None:
+        more = f" -> {os.fsdecode(e.filename2)}" if e.filename2 is not None else ""
+        return f"{os.fsdecode(e.filename)}{more}: {e.strerror}"
+    if isinstance(e, OSError) and e.strerror:
+        return e.strerror
+    return str(e)
 
 
 def stderr_progress(message: str) -> None:
