@@ -22,7 +22,7 @@ PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
     ("name", "content", "needle"),
     [
         ("x.png", bytes(range(7, 250)), "not a PNG: the file holds binary data that begins like no image format"),
-        ("x.ppm", b"hello\n", 'not a PPM: the file holds text ("hello"), not an image'),
+        ("x.ppm", b"hello\n", 'not a PPM: the file holds text ("hello")'),
         ("x.png", b"", "not a PNG: the file holds nothing (it is empty)"),
         ("x.exr", P6, "not an OpenEXR image: the file holds a PPM (P6); name it .ppm"),
         ("x.png", P6, "not a PNG: the file holds a PPM (P6); name it .ppm"),

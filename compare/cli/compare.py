@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from compare.cli.common import add_cache_argument, target_model_type
+from compare.cli.common import add_cache_argument, check_output_folders, target_model_type
 
 if TYPE_CHECKING:
     from compare.judge.tolerances import Tolerances
@@ -35,6 +35,7 @@ def _image_paths(args: argparse.Namespace) -> tuple[str | None, str]:
             ("--aovs", args.aovs),
         ],
     )
+    check_output_folders([("--json", args.json), ("--diff-image", args.diff_image)])
     return ref_path, test_path
 
 

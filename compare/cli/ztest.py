@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from compare.cli.common import positive_int
+from compare.cli.common import check_output_folders, positive_int
 
 if TYPE_CHECKING:
     from compare.judge.images import Image
@@ -69,6 +69,7 @@ def run_ztest(args: argparse.Namespace) -> int:
         [("--json", args.json), ("--pvalue-image", args.pvalue_image)],
         [("REF", args.ref), ("TEST", args.test)],
     )
+    check_output_folders([("--json", args.json), ("--pvalue-image", args.pvalue_image)])
     if not (0 < args.alpha < 1):  # also refuses NaN
         raise ValueError(f"--alpha: expected a number between 0 and 1, got {args.alpha}")
     pair = _load_pair(args)

@@ -76,7 +76,7 @@ def describe(head: bytes) -> str:
         return "binary data that begins like no image format"
     words = " ".join(text.split())
     shown = words if len(words) <= 12 else words[:12] + "…"
-    return f'text ("{shown}"), not an image'
+    return f'text ("{shown}")'
 
 
 def _utf8_text(head: bytes) -> str | None:

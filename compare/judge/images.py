@@ -83,11 +83,13 @@ _PFM_HEADER_MAX = 256  # "PF\n<w> <h>\n<scale>\n" is far shorter
 
 class ImageKindError(ImageError):
     """A file whose first bytes are not the image its suffix promises: another format
-    (`found`, a Kind) or none (`found` None); the message says what it holds."""
+    (`found`, a Kind) or none (`found` None); the message says what it holds (`holds`, in
+    words)."""
 
-    def __init__(self, message: str, found: image_kinds.Kind | None) -> None:
+    def __init__(self, message: str, found: image_kinds.Kind | None, holds: str) -> None:
         super().__init__(message)
         self.found = found
+        self.holds = holds
 
 
 class ImageSizeError(ImageError):
@@ -126,10 +128,9 @@ def _check_kind(path: Path) -> None:
     if found is None and key != "exr":  # the decoder names what it could not read
         return
     hint = f"; name it .{found.key}" if found is not None and found.key else ""
+    holds = image_kinds.describe(head)
     raise ImageKindError(
-        f"{path}: not {image_kinds.EXPECTED[key]}: the file holds "
-        f"{image_kinds.describe(head)}{hint}",
-        found,
+        f"{path}: not {image_kinds.EXPECTED[key]}: the file holds {holds}{hint}", found, holds
     )
 
 
@@ -143,9 +144,8 @@ def _unreadable(path: Path, e: Exception) -> ImageError:
             head = f.read(image_kinds.HEAD_BYTES)
         found = image_kinds.identify(head)
         if found is None or not image_kinds.same_family(path.suffix.lower()[1:], found):
-            return ImageKindError(
-                f"{path}: not {kind}: the file holds {image_kinds.describe(head)}", found
-            )
+            holds = image_kinds.describe(head)
+            return ImageKindError(f"{path}: not {kind}: the file holds {holds}", found, holds)
         text = f"it begins as {found.words} but is damaged or cut short"
     return ImageError(f"{path}: cannot read {kind}: {text}")
 
@@ -255,6 +255,7 @@ def _read_exr_scanlines(
     """The image with the AOVs in `keep` (None: every one), when the file is the plain
     layout exr_scanlines reads (its size checked before its pixels are read); None: OpenEXR
     reads it."""
+    _check_kind(path)
     with _open_regular(path) as f:
         layout = exr_scanlines.read_layout(f)
         if layout is None or not {"R", "G", "B"} <= set(layout.channels):
@@ -391,7 +392,6 @@ def read_image(
             f"{p}: unsupported image type '{suffix}' (expected .exr, .png, .ppm, .pfm)"
         )
     if suffix == ".exr":
-        _check_kind(p)
         fast = _read_exr_scanlines(p, expected_size, aovs)
         if fast is not None:
             return fast
