@@ -5,6 +5,7 @@ its first bytes."""
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 
@@ -137,3 +138,19 @@ def test_a_bad_tolerances_file_is_said_in_words(tmp_path: Path, text: str, said:
     proc = run([RTVAL, "check", "--baseline", str(tmp_path), "--scenes", CLASSIC])
     assert proc.returncode == 4
     assert proc.stderr == f"rtval: error: {tmp_path}/tolerances.json: {said}\n"
+
+
+# grade and diagnose are left to their own modules' tests.
+HELPED = ("report", "export", "reference", "compare", "ztest", "check", "stress", "cache")
+
+
+@pytest.mark.parametrize("command", HELPED)
+def test_help_texts_hold_no_slips(command: str) -> None:
+    """No argparse escape printed as it is, and every file of ours a help names exists."""
+    proc = run([RTVAL, command, "--help"])
+    assert proc.returncode == 0
+    text = " ".join(proc.stdout.split())  # paths may wrap
+    assert "%%" not in text
+    root = SCENES.parent
+    for named in re.findall(r"\b(?:compare|docs|scene_model|demo_cpp)/[\w/.-]*\w", text):
+        assert (root / named).exists(), named

@@ -171,7 +171,10 @@ def _add_case_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--spp", type=positive_int, default=1, help="samples per pixel ({spp})")
     p.add_argument(
-        "--update", action="store_true", help="rewrite new or failing baselines, say which"
+        "--update",
+        action="store_true",
+        help="write the missing baselines and replace the failing ones, saying which "
+        "(those cases count as written or replaced, not as failures)",
     )
 
 

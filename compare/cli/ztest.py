@@ -104,7 +104,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "ztest",
         help="statistical check against a stochastic reference (Mitsuba's Z-test)",
         description="Per-pixel, per-channel Z-test of TEST against REF's mean and per-sample "
-        "variance (var.* channels), Sidak-corrected; passes when >= 99.75 %% of "
+        "variance (var.* channels), Sidak-corrected; passes when >= 99.75 % of "
         "pixels pass. Exit 0 pass, 2 fail, 3 size mismatch, 4 unreadable input.",
     )
     p.add_argument("ref", help="reference EXR with var.R, var.G, var.B (rtval reference --spp N)")
