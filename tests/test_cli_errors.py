@@ -5,6 +5,7 @@ its first bytes."""
 
 from __future__ import annotations
 
+import json
 import re
 import sys
 from pathlib import Path
@@ -154,3 +155,23 @@ def test_help_texts_hold_no_slips(command: str) -> None:
     root = SCENES.parent
     for named in re.findall(r"\b(?:compare|docs|scene_model|demo_cpp)/[\w/.-]*\w", text):
         assert (root / named).exists(), named
+
+
+def test_compare_against_warns_when_the_image_is_not_the_scenes_size(
+    tmp_path: Path, rtdemo: str
+) -> None:
+    scene = json.loads((SCENES / "classic.json").read_text())
+    scene["camera"].update(width=32, height=24)
+    own = tmp_path / "small.json"
+    own.write_text(json.dumps(scene))
+    image = tmp_path / "t.ppm"
+    for w, h in ((32, 24), (24, 18)):
+        made = run([rtdemo, "render", str(own), "-o", str(image), "--mode", "classic", "-q",
+                    "--width", str(w), "--height", str(h)])  # fmt: skip
+        assert made.returncode == 0, made.stderr
+        proc = run(
+            [RTVAL, "compare", str(image), "--against", "classic", "--scene", str(own), "-q"]
+        )
+        assert proc.returncode == 0, proc.stderr
+        warned = f"rtval: warning: {image} is 24x18; {own} renders at 32x24"
+        assert (warned in proc.stderr) == ((w, h) != (32, 24)), proc.stderr

@@ -38,11 +38,13 @@ from compare.errors import ToolError
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL, EFFECTS
 from compare.judge.evaluate import evaluate_pair
+from compare.judge.exact_match import ExactMatch
 from compare.judge.images import (
     Image,
     ImageError,
     ImageKindError,
     image_size,
+    linear_to_srgb,
     read_image,
     write_exr,
 )
@@ -269,6 +271,7 @@ def judge_against(case: CaseResult, test: Image, model: LoadedModel, *, keep: bo
     case.status = score.status
     if exact is not None:
         case.failing_pixels = exact.differing
+        case.max_display_error = _largest_differing_error(ev.ref, ev.test, exact)
     else:
         case.failing_pixels = ev.verdict.failing_pixels
         case.max_display_error = ev.verdict.max_display_error
@@ -286,6 +289,16 @@ def judge_against(case: CaseResult, test: Image, model: LoadedModel, *, keep: bo
         _name_failures(case, whole)
         if keep:
             case.pictures = FailurePictures(ev.ref, ev.test, ev.maps.flip_ldr)
+
+
+def _largest_differing_error(ref: F32, test: F32, exact: ExactMatch) -> float:
+    """The largest display-channel difference from the model's pixel-centre render over the
+    pixels the exact match counts as differing; 0 when none does. The table's "max err" then
+    tells the same story as its failing pixels (the exact verdict has no error of its own)."""
+    differ = ~exact.matches if exact.region is None else ~exact.matches & exact.region
+    if not differ.any():
+        return 0.0
+    return float(np.abs(linear_to_srgb(test[differ]) - linear_to_srgb(ref[differ])).max())
 
 
 @dataclass
