@@ -41,9 +41,9 @@ def test_pfm_both_endiannesses_and_bottom_up_rows(tmp_path: Path) -> None:
     "name,content,needle",
     [
         ("t.pfm", b"PF\n3 2\n-1.0\n" + b"\0" * 10, "truncated"),
-        ("t.exr", b"not an exr", "cannot read EXR"),
-        ("t.png", b"\x89PNG\r\n\x1a\n garbage", "cannot read image"),
-        ("t.ppm", b"P6\n4 4\n255\n\x01\x02", "cannot read image"),
+        ("t.exr", b"not an exr", "not an OpenEXR image"),
+        ("t.png", b"\x89PNG\r\n\x1a\n garbage", "cannot read a PNG"),
+        ("t.ppm", b"P6\n4 4\n255\n\x01\x02", "cannot read a PPM"),
         ("t.tga", b"x", "unsupported image type"),
     ],
 )

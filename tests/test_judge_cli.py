@@ -247,10 +247,10 @@ def test_missing_baseline_fails_and_update_writes_only_what_failed(tmp_path: Pat
     code, out = _check(
         tmp_path, "--scenes", str(SCENES / "classic.json"), "--modes", "paper,classic", "--update"
     )
-    assert code == 0 and "updated baselines: classic/cpu-paper, classic/cpu-classic" in out
+    assert code == 0 and "baselines written: classic/cpu-paper, classic/cpu-classic" in out
     stamp = (tmp_path / "classic" / "paper.exr").stat().st_mtime_ns
     code, out = _check(
         tmp_path, "--scenes", str(SCENES / "classic.json"), "--modes", "paper", "--update"
     )
-    assert code == 0 and "updated" not in out
+    assert code == 0 and "written" not in out and "replaced" not in out
     assert (tmp_path / "classic" / "paper.exr").stat().st_mtime_ns == stamp

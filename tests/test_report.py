@@ -76,7 +76,7 @@ def test_page_loads_without_errors_and_flip_control_works(
         page.on("requestfailed", lambda r: failed.append(r.url))
         page.goto((folder / "index.html").as_uri())
         page.wait_for_load_state("load")
-        for img in page.query_selector_all("img"):
+        for img in page.query_selector_all("img:visible"):  # the print-only pair is hidden
             img.scroll_into_view_if_needed()
         page.wait_for_function("Array.from(document.images).every(i => i.complete)")
         broken = page.evaluate(
@@ -327,7 +327,7 @@ def test_diagnoses_a_student_variant(report: tuple[Path, object], tmp_path: Path
     refr = diag["effects"]["refraction"]
     assert refr["final_flip"] < refr["start_flip"] / 2
     html = (folder / "index.html").read_text()
-    section = html[html.index('id="implements"') : html.index('id="verdict"')]
+    section = html[html.index('id="implements"') : html.index('id="renders"')]  # after verdicts
     assert "looks like classic+Q2" in section and "refraction" in section
     pictures = [e[k] for e in diag["evidence"] for k in ("candidate_png", "diff", "before_diff")]
     assert pictures and all(p.startswith("images/diagnosis-") for p in pictures)

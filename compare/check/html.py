@@ -52,7 +52,7 @@ def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> list[str] | Non
             how = DiagnoseOptions(max_renders=DIAGNOSE_RENDERS)
             found = diagnose(image, load_scene(case.scene_file), render, how)
     except Exception as e:  # an optional slot: its failure must not lose the page
-        message = f"no diagnosis for {case.name}: {type(e).__name__}: {e}"
+        message = f"no diagnosis for {case.name}: {e}"
         note(message)
         return [message]
     return [found.reason(), *found.sentences]

@@ -23,24 +23,42 @@ STATUS = ("pass", "warn", "fail")
 def table(results: list[CaseResult]) -> str:
     width = max([28, *(len(r.name) for r in results)])
     lines = [
-        f"{'case':<{width}} {'status':<7} {'failing px':>10} {'max err':>8} {'SSIM':>8} "
+        f"{'case':<{width}} {'status':<8} {'failing px':>10} {'max err':>8} {'SSIM':>8} "
         f"{'time s':>7}  against"
     ]
     order = sorted(results, key=lambda r: ("fail", "warn", "pass").index(r.status))
     for r in order:
         ssim = f"{r.ssim:.5f}" if r.ssim is not None else "-"
+        # A baseline --update wrote is the case's outcome: it was not judged against itself.
+        status = r.baseline_action or r.status
+        px, err = (
+            ("-", "-")
+            if r.baseline_action == "written"
+            else (str(r.failing_pixels), f"{r.max_display_error:.4f}")
+        )
         lines.append(
-            f"{r.name:<{width}} {r.status:<7} {r.failing_pixels:>10} "
-            f"{r.max_display_error:>8.4f} {ssim:>8} {r.seconds:>7.2f}  {r.against}"
-            + ("  updated" if r.updated else "")
+            f"{r.name:<{width}} {status:<8} {px:>10} {err:>8} {ssim:>8} {r.seconds:>7.2f}  "
+            f"{r.against}"
         )
     failures = [m for r in results if r.status == "fail" and not r.updated for m in r.reasons]
     if failures:
         lines.append("failures:")
         lines += [f"  {m.splitlines()[0]}" for m in failures]
-    n_fail = sum(r.status == "fail" for r in results)
-    lines.append(f"{len(results) - n_fail} passed, {n_fail} failed")
+    lines.append(summary_line(results))
     return "\n".join(lines)
+
+
+def summary_line(results: list[CaseResult]) -> str:
+    """ "3 passed, 1 failed", with the baselines --update wrote or replaced when there are any
+    (those cases are neither passes nor failures)."""
+    judged = [r for r in results if not r.updated]
+    n_fail = sum(r.status == "fail" for r in judged)
+    parts = [f"{len(judged) - n_fail} passed", f"{n_fail} failed"]
+    for action in ("written", "replaced"):
+        n = sum(r.baseline_action == action for r in results)
+        if n:
+            parts.append(f"{n} baseline{'s' if n > 1 else ''} {action}")
+    return ", ".join(parts)
 
 
 def write_json(results: list[CaseResult], path: Path) -> None:
@@ -98,7 +116,7 @@ def write_junit(results: list[CaseResult], path: Path) -> None:
                 first = text.splitlines()[0] if text else ""
                 ET.SubElement(case, "failure", message=first).text = text
             elif status == "warn" or (r.updated and effect == WHOLE_IMAGE):
-                note = "baseline updated" if r.updated else f"warning: {message}"
+                note = f"baseline {r.baseline_action}" if r.updated else f"warning: {message}"
                 ET.SubElement(case, "system-out").text = xml_text(note)
     suite.set("tests", str(tests))
     suite.set("failures", str(failures))
@@ -132,7 +150,7 @@ def markdown_summary(results: list[CaseResult]) -> str:
         flip = f"{r.flip:.4f}" if r.flip is not None else "-"
         failed = ", ".join(r.failed_effects) if r.status == "fail" else ""
         lines.append(
-            f"| {markdown_text(r.name)} | {icon[r.status]} {r.status}{' (updated)' if r.updated else ''} "
+            f"| {markdown_text(r.name)} | {icon[r.status]} {r.status}{f' (baseline {r.baseline_action})' if r.updated else ''} "
             f"| {markdown_text(failed)} | {ssim} | {flip} | {r.seconds:.2f} |"
         )
     failures = [m for r in results if r.status == "fail" and not r.updated for m in r.reasons]

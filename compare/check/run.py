@@ -21,9 +21,11 @@ Tolerances: BASELINE/tolerances.json, overlaid by BASELINE/<renderer-name>/toler
 from __future__ import annotations
 
 import contextlib
+import difflib
 import io
 import json
 import os
+import shutil
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -36,7 +38,16 @@ from compare.errors import ToolError
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL, EFFECTS
 from compare.judge.evaluate import evaluate_pair
-from compare.judge.images import Image, ImageError, image_size, read_image, write_exr
+from compare.judge.exact_match import ExactMatch
+from compare.judge.images import (
+    Image,
+    ImageError,
+    ImageKindError,
+    image_size,
+    linear_to_srgb,
+    read_image,
+    write_exr,
+)
 from compare.judge.target_model import TargetModel
 from compare.judge.tolerances import EXIT_FAIL, EXIT_PASS, EXIT_WARN, Tolerances
 from compare.render import foreign
@@ -89,6 +100,7 @@ class CaseResult:
     seconds: float = 0.0  # the renderer's own time
     overhead_seconds: float = 0.0  # everything else this case cost (masks, reading, judging)
     updated: bool = False
+    baseline_action: str = ""  # with updated: "written" (there was none) or "replaced"
     cached: bool = False  # rtdemo's render came from the shared render cache
     renderer: str = "rtdemo"
     against: str = "baseline"  # what the render was judged against: a target model's name
@@ -128,6 +140,12 @@ _NO_LIMIT = {"fail": 1.0, "warn": 1.0, "failpercent": 100.0, "warnpercent": 100.
 
 
 def _tolerances_of(values: dict[str, Any]) -> Tolerances:
+    fields = DEFAULT_TOLERANCES.as_dict()
+    for key in values:
+        if key not in fields:
+            close = difflib.get_close_matches(key, list(fields), n=1)
+            hint = f"did you mean {close[0]}?" if close else f"expected {', '.join(fields)}"
+            raise TypeError(f"unknown field {key!r} ({hint})")
     given = {k: (_NO_LIMIT[k] if v is None and k in _NO_LIMIT else v) for k, v in values.items()}
     return Tolerances(**{**DEFAULT_TOLERANCES.as_dict(), **given})
 
@@ -155,7 +173,12 @@ def load_tolerances(baseline_dir: Path, renderer: str | None = None) -> dict[str
                     merged[name] = _tolerances_of(values)
                 except (TypeError, ValueError) as e:
                     raise TypeError(f"{name!r}: {e}") from None
-        except (json.JSONDecodeError, TypeError) as e:
+        except json.JSONDecodeError as e:
+            raise TolerancesFileError(
+                f"{path}: invalid tolerances: not JSON: {e.msg.lower()} at line {e.lineno}, "
+                f"column {e.colno}"
+            ) from None
+        except TypeError as e:
             raise TolerancesFileError(f"{path}: invalid tolerances: {e}") from None
     return merged
 
@@ -248,6 +271,7 @@ def judge_against(case: CaseResult, test: Image, model: LoadedModel, *, keep: bo
     case.status = score.status
     if exact is not None:
         case.failing_pixels = exact.differing
+        case.max_display_error = _largest_differing_error(ev.ref, ev.test, exact)
     else:
         case.failing_pixels = ev.verdict.failing_pixels
         case.max_display_error = ev.verdict.max_display_error
@@ -265,6 +289,16 @@ def judge_against(case: CaseResult, test: Image, model: LoadedModel, *, keep: bo
         _name_failures(case, whole)
         if keep:
             case.pictures = FailurePictures(ev.ref, ev.test, ev.maps.flip_ldr)
+
+
+def _largest_differing_error(ref: F32, test: F32, exact: ExactMatch) -> float:
+    """The largest display-channel difference from the model's pixel-centre render over the
+    pixels the exact match counts as differing; 0 when none does. The table's "max err" then
+    tells the same story as its failing pixels (the exact verdict has no error of its own)."""
+    differ = ~exact.matches if exact.region is None else ~exact.matches & exact.region
+    if not differ.any():
+        return 0.0
+    return float(np.abs(linear_to_srgb(test[differ]) - linear_to_srgb(ref[differ])).max())
 
 
 @dataclass
@@ -362,6 +396,7 @@ def run_check(
     settings: CheckSettings, *, progress: Callable[[str], None] = print
 ) -> list[CaseResult]:
     model = _target(settings)
+    _check_inputs(settings)
     cmd = settings.renderer
     tolerances = load_tolerances(settings.baseline_dir, cmd.name if cmd else None)
     cache = settings.cache
@@ -377,15 +412,40 @@ def run_check(
         run = _SceneRun(settings, scene, scene_path, loaded, tol, cache)
         for backend, mode in runs:
             case = _one_case(run, backend, mode)
-            progress(
-                f"{case.name:<28} {case.status.upper():<5}"
-                + (f" against {case.against}" if model else "")
-                + (" (cached render)" if case.cached else "")
-                + (" (baseline updated)" if case.updated else "")
-                + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
-            )
+            progress(_progress_line(case, model is not None))
             results.append(case)
     return results
+
+
+def _check_inputs(settings: CheckSettings) -> None:
+    """Before any render: the baseline folder, rtdemo and the renderer's program are there
+    (else every case would fail alike, one render after another). OSError: exit 4."""
+    baseline = settings.baseline_dir
+    if baseline.exists() and not baseline.is_dir():
+        raise OSError(f"--baseline {baseline}: not a folder")
+    rtdemo = settings.rtdemo
+    if rtdemo and not (Path(rtdemo).is_file() and os.access(rtdemo, os.X_OK)):
+        raise OSError(f"--rtdemo {rtdemo}: no such program (an executable file)")
+    program = settings.renderer.words[0] if settings.renderer else None
+    if program and "{" not in program and shutil.which(program) is None:
+        where = "no such executable file" if os.sep in program else "not found on PATH"
+        raise OSError(f"--renderer: cannot run '{program}': {where}")
+
+
+def _progress_line(case: CaseResult, against_model: bool) -> str:
+    """One case as it finishes. A baseline written by --update is news, not a failure: a new
+    one says so alone; a replaced one keeps the reasons the old one failed for."""
+    cached = " (cached render)" if case.cached else ""
+    if case.baseline_action == "written":
+        return f"{case.name:<28} baseline written{cached}"
+    if case.baseline_action == "replaced":
+        return f"{case.name:<28} baseline replaced{cached}; it failed: {'; '.join(case.reasons)}"
+    return (
+        f"{case.name:<28} {case.status.upper():<5}"
+        + (f" against {case.against}" if against_model else "")
+        + cached
+        + (f"  {'; '.join(case.reasons)}" if case.reasons else "")
+    )
 
 
 @dataclass(frozen=True)
@@ -421,16 +481,29 @@ def _one_case(run: _SceneRun, backend: str, mode: str) -> CaseResult:
         test = _render_case(run, case, backend, sized)
     except (foreign.RenderFailed, ToolError, ImageError) as e:
         case.status, case.failed_effects = "fail", ["render"]
-        case.reasons = [f"{case.label}: render failed: {e}"]
+        case.reasons = [f"{case.label}: render failed: {_render_failure(e, cmd)}"]
         case.overhead_seconds = time.perf_counter() - start - case.seconds
         return case
     case.test_encoding = test.encoding
     _judge_case_image(run, case, test, baseline, sized[0])
     if settings.update and case.status == "fail":
+        had_one = os.path.lexists(baseline)
         _write_baseline(settings.baseline_dir, baseline, test, header=cmd is None)
         case.updated = True
+        case.baseline_action = "replaced" if had_one else "written"
     case.overhead_seconds = time.perf_counter() - start - case.seconds
     return case
+
+
+def _render_failure(e: Exception, cmd: foreign.RendererCommand | None) -> str:
+    """Why a render gave no image. An image of another format than --output-format says so,
+    from its first bytes (the path of the renderer's temporary {out} would help no one)."""
+    # foreign.render raises RenderFailed while handling the reader's error: its context.
+    cause = e.__context__ if isinstance(e, foreign.RenderFailed) else e
+    if cmd is None or not isinstance(cause, ImageKindError):
+        return str(e)
+    hint = f": pass --output-format {cause.found.key}" if cause.found and cause.found.key else ""
+    return f"the renderer wrote {cause.holds} but --output-format is {cmd.output_format}{hint}"
 
 
 def _render_case(

@@ -9,7 +9,13 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from compare.cli.common import add_cache_argument, positive_int, size_type, target_model_type
+from compare.cli.common import (
+    add_cache_argument,
+    check_output_folders,
+    positive_int,
+    size_type,
+    target_model_type,
+)
 
 if TYPE_CHECKING:
     from compare.check.run import CaseResult, CheckSettings
@@ -98,17 +104,17 @@ def run_check(args: argparse.Namespace) -> int:
 
     renderer = _parse_renderer(args)
     html_page = Path(args.html) / "index.html" if args.html else None
-    check_outputs_distinct(
-        [("--json", args.json), ("--junit", args.junit), ("--html", html_page)],
-        [("--scenes", s) for s in args.scenes],
-    )
+    outputs = [("--json", args.json), ("--junit", args.junit), ("--html", html_page)]
+    check_outputs_distinct(outputs, [("--scenes", s) for s in args.scenes])
+    check_output_folders([("--json", args.json), ("--junit", args.junit), ("--html", args.html)])
     results = check.run_check(
         _settings(args, renderer), progress=lambda m: print(m, file=sys.stderr)
     )
     _write_outputs(args, results)
-    updated = [r.name for r in results if r.updated]
-    if updated:
-        print(f"updated baselines: {', '.join(updated)}", file=sys.stderr)
+    for action in ("written", "replaced"):
+        names = [r.name for r in results if r.baseline_action == action]
+        if names:
+            print(f"baselines {action}: {', '.join(names)}", file=sys.stderr)
     return check.exit_code(results)
 
 
@@ -166,7 +172,10 @@ def _add_case_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--spp", type=positive_int, default=1, help="samples per pixel ({spp})")
     p.add_argument(
-        "--update", action="store_true", help="rewrite new or failing baselines, say which"
+        "--update",
+        action="store_true",
+        help="write the missing baselines and replace the failing ones, saying which "
+        "(those cases count as written or replaced, not as failures)",
     )
 
 

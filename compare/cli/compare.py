@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from compare.cli.common import add_cache_argument, target_model_type
+from compare.cli.common import add_cache_argument, check_output_folders, target_model_type
 
 if TYPE_CHECKING:
     from compare.judge.tolerances import Tolerances
@@ -35,6 +35,7 @@ def _image_paths(args: argparse.Namespace) -> tuple[str | None, str]:
             ("--aovs", args.aovs),
         ],
     )
+    check_output_folders([("--json", args.json), ("--diff-image", args.diff_image)])
     return ref_path, test_path
 
 
@@ -59,6 +60,7 @@ def _judge_against(args: argparse.Namespace, test_path: str, tol: Tolerances) ->
     from compare.verdict.pair import load_mask, run_against
 
     test = read_image(test_path, encoding=args.test_encoding)
+    _warn_size(test_path, test.shape, args.scene)
     mask = load_mask(args.mask, test.shape) if args.mask else None
     return run_against(
         test,
@@ -69,6 +71,20 @@ def _judge_against(args: argparse.Namespace, test_path: str, tol: Tolerances) ->
         mask=mask,
         progress=Progress(sys.stderr),
     )
+
+
+def _warn_size(test_path: str, shape: tuple[int, int], scene_file: str) -> None:
+    """The model is rendered at TEST's size; one that is not the scene's own is likely an
+    image made for another scene or a resized copy, so it is said before the verdict."""
+    from scene_model.scene import load_scene
+
+    cam = load_scene(scene_file).camera
+    if (cam.width, cam.height) != (shape[1], shape[0]):
+        print(
+            f"rtval: warning: {test_path} is {shape[1]}x{shape[0]}; {scene_file} renders at "
+            f"{cam.width}x{cam.height}: the model is rendered at {shape[1]}x{shape[0]} to judge it",
+            file=sys.stderr,
+        )
 
 
 def _judge_pair(

@@ -21,7 +21,7 @@ from compare.cli import (
     stress,
     ztest,
 )
-from compare.cli.common import EXIT_USAGE, Parser, resolve_scene_arguments
+from compare.cli.common import EXIT_USAGE, Parser, error_words, resolve_scene_arguments
 from compare.errors import ToolError
 from compare.judge.images import ImageError
 from compare.judge.rubric import RubricError
@@ -74,16 +74,16 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141  # as a shell reports a command ended by SIGPIPE
     except SceneError as e:
-        print(f"rtval: error: {e}", file=sys.stderr)
+        print(f"rtval: error: {error_words(e)}", file=sys.stderr)
         return EXIT_SCENE
     except (ImageError, OSError, RubricError) as e:
-        print(f"rtval: error: {e}", file=sys.stderr)
+        print(f"rtval: error: {error_words(e)}", file=sys.stderr)
         return EXIT_IO
     except ValueError as e:  # invalid combinations of options found below argparse
-        print(f"rtval: error: {e}", file=sys.stderr)
+        print(f"rtval: error: {error_words(e)}", file=sys.stderr)
         return EXIT_USAGE
     except (ToolError, MitsubaUnavailable) as e:
-        print(f"rtval: error: {e}", file=sys.stderr)
+        print(f"rtval: error: {error_words(e)}", file=sys.stderr)
         return 1
     except interrupt.Stopped as e:
         print(f"rtval: interrupted ({signal.Signals(e.signum).name})", file=sys.stderr)

@@ -78,7 +78,7 @@ def run_batch(
             _emit(event="error", job=i, message=f"bad arguments: {' '.join(args)}")
             return 1
         except Exception as e:  # reported per job; the caller names the command
-            print(f"rtval reference: job {i}: {type(e).__name__}: {e}", file=sys.stderr)
+            print(f"rtval reference: job {i}: {e}", file=sys.stderr)
             _emit(event="error", job=i, message=str(e))
             return 1
         _emit(event="done", job=i, seconds=time.perf_counter() - start, output=options.output)

@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from compare.cli.common import positive_int
+from compare.cli.common import check_output_folders, positive_int
 
 if TYPE_CHECKING:
     from compare.judge.images import Image
@@ -69,6 +69,7 @@ def run_ztest(args: argparse.Namespace) -> int:
         [("--json", args.json), ("--pvalue-image", args.pvalue_image)],
         [("REF", args.ref), ("TEST", args.test)],
     )
+    check_output_folders([("--json", args.json), ("--pvalue-image", args.pvalue_image)])
     if not (0 < args.alpha < 1):  # also refuses NaN
         raise ValueError(f"--alpha: expected a number between 0 and 1, got {args.alpha}")
     pair = _load_pair(args)
@@ -103,7 +104,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "ztest",
         help="statistical check against a stochastic reference (Mitsuba's Z-test)",
         description="Per-pixel, per-channel Z-test of TEST against REF's mean and per-sample "
-        "variance (var.* channels), Sidak-corrected; passes when >= 99.75 %% of "
+        "variance (var.* channels), Sidak-corrected; passes when >= 99.75 % of "
         "pixels pass. Exit 0 pass, 2 fail, 3 size mismatch, 4 unreadable input.",
     )
     p.add_argument("ref", help="reference EXR with var.R, var.G, var.B (rtval reference --spp N)")

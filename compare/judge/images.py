@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import stat
 from collections.abc import Collection
 from dataclasses import dataclass, field
@@ -16,7 +17,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from compare.judge import exr_scanlines
+from compare.judge import exr_scanlines, image_kinds
 from compare.judge.arrays import F32
 from safe_files.paths import UnsafePathError, atomic_output, check_regular_input
 
@@ -80,6 +81,17 @@ MAX_PIXELS = 16384 * 16384
 _PFM_HEADER_MAX = 256  # "PF\n<w> <h>\n<scale>\n" is far shorter
 
 
+class ImageKindError(ImageError):
+    """A file whose first bytes are not the image its suffix promises: another format
+    (`found`, a Kind) or none (`found` None); the message says what it holds (`holds`, in
+    words)."""
+
+    def __init__(self, message: str, found: image_kinds.Kind | None, holds: str) -> None:
+        super().__init__(message)
+        self.found = found
+        self.holds = holds
+
+
 class ImageSizeError(ImageError):
     """An image whose declared size is not the one required (found in the header)."""
 
@@ -103,6 +115,41 @@ def _open_regular(path: Path) -> BinaryIO:
     return os.fdopen(fd, "rb")
 
 
+def _check_kind(path: Path) -> None:
+    """Refuses a file whose first bytes announce another format than its suffix (a PNG named
+    out.ppm would be decoded with the PPM's encoding), or, for an EXR, no format at all; the
+    message says what the file holds."""
+    key = path.suffix.lower().lstrip(".")
+    with _open_regular(path) as f:
+        head = f.read(image_kinds.HEAD_BYTES)
+    found = image_kinds.identify(head)
+    if found is not None and image_kinds.same_family(key, found):
+        return
+    if found is None and key != "exr":  # the decoder names what it could not read
+        return
+    hint = f"; name it .{found.key}" if found is not None and found.key else ""
+    holds = image_kinds.describe(head)
+    raise ImageKindError(
+        f"{path}: not {image_kinds.EXPECTED[key]}: the file holds {holds}{hint}", found, holds
+    )
+
+
+def _unreadable(path: Path, e: Exception) -> ImageError:
+    """Pillow's failure in words: what the file holds when Pillow could not tell what it is,
+    else Pillow's own reason without the Python objects it quotes."""
+    kind = image_kinds.EXPECTED.get(path.suffix.lower().lstrip("."), "an image")
+    text = re.sub(r"\s*<[^<>]*>", "", str(e)).strip().rstrip(".")
+    if text.startswith("cannot identify image file") or not text:
+        with _open_regular(path) as f:
+            head = f.read(image_kinds.HEAD_BYTES)
+        found = image_kinds.identify(head)
+        if found is None or not image_kinds.same_family(path.suffix.lower()[1:], found):
+            holds = image_kinds.describe(head)
+            return ImageKindError(f"{path}: not {kind}: the file holds {holds}", found, holds)
+        text = f"it begins as {found.words} but is damaged or cut short"
+    return ImageError(f"{path}: cannot read {kind}: {text}")
+
+
 def _exr_size(path: Path) -> tuple[int, int]:
     import OpenEXR
 
@@ -122,7 +169,7 @@ def _pil_size(path: Path) -> tuple[int, int]:
             with PILImage.open(f) as im:  # reads the header only
                 w, h = im.size
         except Exception as e:
-            raise ImageError(f"{path}: cannot read image: {type(e).__name__}: {e}") from None
+            raise _unreadable(path, e) from None
     return int(h), int(w)
 
 
@@ -155,9 +202,9 @@ def image_size(path: str | Path) -> tuple[int, int]:
     """(height, width) from the file's header, without decoding its pixels."""
     p = Path(path)
     suffix = p.suffix.lower()
+    if suffix in (".exr", ".pfm", ".png", ".ppm", ".pnm"):
+        _check_kind(p)  # also the type check: the EXR binding opens by name
     if suffix == ".exr":
-        with _open_regular(p):  # the type check; the binding opens by name
-            pass
         return _exr_size(p)
     if suffix == ".pfm":
         with _open_regular(p) as f:
@@ -208,6 +255,7 @@ def _read_exr_scanlines(
     """The image with the AOVs in `keep` (None: every one), when the file is the plain
     layout exr_scanlines reads (its size checked before its pixels are read); None: OpenEXR
     reads it."""
+    _check_kind(path)
     with _open_regular(path) as f:
         layout = exr_scanlines.read_layout(f)
         if layout is None or not {"R", "G", "B"} <= set(layout.channels):
@@ -253,7 +301,7 @@ def _read_8bit(path: Path, encoding: str) -> Image:
     except (
         Exception
     ) as e:  # Pillow raises OSError, ValueError, SyntaxError, DecompressionBombError ...
-        raise ImageError(f"{path}: cannot read image: {type(e).__name__}: {e}") from None
+        raise _unreadable(path, e) from None
     rgb = srgb_to_linear(data) if encoding == "srgb" else data
     return Image(rgb=rgb.astype(np.float32), path=str(path), encoding=encoding)
 

@@ -60,33 +60,20 @@ def signed_difference(ref: np.ndarray, test: np.ndarray, path: Path, title: str)
 
 
 def speed_accuracy_chart(rows: list[dict[str, Any]], path: Path) -> None:
+    _save(speed_accuracy_figure(rows), path)
+
+
+def speed_accuracy_figure(rows: list[dict[str, Any]]) -> Any:
+    """Two log-log panels (1 - SSIM and FLIP against time), each point labelled with its spp
+    where no other label or point is; the legend below both, off the data."""
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
     families = sorted({r["family"] for r in rows})
-    markers = "osD^v<>ph*"
     for ax, key, name in (
         (axes[0], "one_minus_ssim", "1 - SSIM"),
         (axes[1], "flip", "mean FLIP (LDR)"),
     ):
-        for i, fam in enumerate(families):
-            sel = [r for r in rows if r["family"] == fam and r[key] > 0 and r["seconds"] > 0]
-            if not sel:
-                continue
-            ax.scatter(
-                [r["seconds"] for r in sel],
-                [r[key] for r in sel],
-                marker=markers[i % len(markers)],
-                label=fam,
-                s=40,
-            )
-            for r in sel:
-                ax.annotate(
-                    f"{r['spp']}",
-                    (r["seconds"], r[key]),
-                    fontsize=7,
-                    xytext=(3, 3),
-                    textcoords="offset points",
-                )
+        points = _scatter_families(ax, rows, families, key)
         front = pareto_front(rows, key)
         if len(front) > 1:
             ax.step(
@@ -103,13 +90,72 @@ def speed_accuracy_chart(rows: list[dict[str, Any]], path: Path) -> None:
         ax.set_xlabel("render time, s (log)")
         ax.set_ylabel(f"{name} vs converged reference (log)")
         ax.grid(True, which="both", alpha=0.3)
-    axes[1].legend(fontsize=7, loc="best")
+        ax.autoscale_view()
+        label_points(ax, points)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(5, len(labels)), fontsize=8)
     fig.suptitle("Speed against accuracy (numbers at points: samples per pixel)", fontsize=11)
-    _save(fig, path)
+    fig.tight_layout(rect=(0, 0.06 + 0.04 * (len(labels) // 5), 1, 1))
+    return fig
+
+
+_MARKERS = "osD^v<>ph*"
+
+
+def _scatter_families(
+    ax: Any, rows: list[dict[str, Any]], families: list[str], key: str
+) -> list[tuple[float, float, str]]:
+    """One marker style per family; the (x, y, spp label) of every point drawn."""
+    points = []
+    for i, fam in enumerate(families):
+        sel = [r for r in rows if r["family"] == fam and r[key] > 0 and r["seconds"] > 0]
+        if sel:
+            xs, ys = [r["seconds"] for r in sel], [r[key] for r in sel]
+            ax.scatter(xs, ys, marker=_MARKERS[i % len(_MARKERS)], label=fam, s=40)
+            points += [(x, y, str(r["spp"])) for x, y, r in zip(xs, ys, sel, strict=True)]
+    return points
+
+
+# Where a point's label may go, in points from the point: right, then the other corners,
+# then further out.
+_LABEL_OFFSETS = [(4, 3), (4, -9), (-10, 3), (-10, -9), (0, 8), (0, -14), (8, 10), (8, -16)]
+
+
+def label_points(ax: Any, points: list[tuple[float, float, str]], fontsize: float = 7) -> None:
+    """Labels each point at the first offset whose box overlaps no label placed before and
+    no marker; a label with no free place is left out (its value is in the page's table)."""
+    scale = ax.figure.dpi / 72  # points to pixels
+    centres = [ax.transData.transform((x, y)) for x, y, _ in points]
+    taken: list[tuple[float, float, float, float]] = [
+        (cx - 5 * scale, cy - 5 * scale, cx + 5 * scale, cy + 5 * scale) for cx, cy in centres
+    ]
+    for (x, y, text), (cx, cy) in zip(points, centres, strict=True):
+        w, h = 0.62 * fontsize * len(text) * scale, fontsize * scale
+        for dx, dy in _LABEL_OFFSETS:
+            box = (cx + dx * scale, cy + dy * scale, cx + dx * scale + w, cy + dy * scale + h)
+            own = (cx - 5 * scale, cy - 5 * scale, cx + 5 * scale, cy + 5 * scale)
+            if not any(_overlap(box, t) for t in taken if t != own):
+                taken.append(box)
+                ax.annotate(
+                    text, (x, y), fontsize=fontsize, xytext=(dx, dy), textcoords="offset points"
+                )
+                break
+
+
+def _overlap(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
 def convergence_chart(rows: list[dict[str, Any]], path: Path) -> dict[str, float]:
     """RMSE (display) against spp, log-log, with the fitted slope per family."""
+    fig, slopes = convergence_figure(rows)
+    _save(fig, path)
+    return slopes
+
+
+def convergence_figure(rows: list[dict[str, Any]]) -> tuple[Any, dict[str, float]]:
+    """The convergence figure and its fitted slopes; the legend beside the axes (lines of
+    equal error would otherwise run under it)."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 4.8))
     slopes = {}
@@ -132,15 +178,20 @@ def convergence_chart(rows: list[dict[str, Any]], path: Path) -> dict[str, float
     ax.set_xlabel("samples per pixel (log)")
     ax.set_ylabel("RMSE (display) vs converged reference (log)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    if slopes:
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title("Convergence (Monte Carlo noise alone gives slope -0.5)", fontsize=10)
-    _save(fig, path)
-    return slopes
+    return fig, slopes
 
 
 def ladder_chart(steps: list[dict[str, Any]], path: Path) -> None:
+    _save(ladder_figure(steps), path)
+
+
+def ladder_figure(steps: list[dict[str, Any]]) -> Any:
     """FLIP and 1 - SSIM per step; a step whose render equals the one before (a quirk with
-    nothing to act on in this scene) is drawn pale and labelled "no change"."""
+    nothing to act on in this scene) is drawn pale and labelled "no change". The legend
+    stands beside the axes, where no bar or time label can be."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(10, 4.2))
     x = np.arange(len(steps))
@@ -169,10 +220,10 @@ def ladder_chart(steps: list[dict[str, Any]], path: Path) -> None:
             xytext=(0, 3),
             textcoords="offset points",
         )
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title(
-        "Ablation ladder: the paper's program with quirks fixed one after another "
+        "Ablation ladder: the paper's program with quirks fixed one after another\n"
         "(pale: the quirk changes nothing in this scene)",
         fontsize=10,
     )
-    _save(fig, path)
+    return fig

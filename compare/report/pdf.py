@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -39,13 +40,22 @@ def write_pdf(html: Path, pdf: Path) -> None:
     # Printed from a script-free copy beside the page (so its relative images resolve).
     copy = html.with_name(f".{html.stem}.{os.getpid()}.print.html")
     try:
-        write_atomic(copy, printable(html.read_text(encoding="utf-8")))
+        write_atomic(copy, printable(opened(html.read_text(encoding="utf-8"))))
         _print_pdf(chromium, copy, tmp)
         check_output_target(pdf)
         tmp.replace(pdf)
     finally:  # never a partial PDF or a stray copy left behind
         tmp.unlink(missing_ok=True)
         copy.unlink(missing_ok=True)
+
+
+_CLOSED_DETAILS = re.compile(r"<details(?![^>]*\bopen\b)([^>]*)>")
+
+
+def opened(html: str) -> str:
+    """Every <details> of the page open: a collapsed section prints with its numbers (the
+    print stylesheet does the same where the browser supports ::details-content)."""
+    return _CLOSED_DETAILS.sub(r"<details open\1>", html)
 
 
 # Runs Chromium in place of itself, set to be killed when rtval ends (PR_SET_PDEATHSIG

@@ -46,7 +46,9 @@ outputs (at least one):
   -o, --output OUT.exr   float32 EXR: R,G,B linear and unclamped; AOVs id (sphere index,
                          -1 on a miss), depth (camera-ray distance, 0 on a miss), N.X N.Y N.Z
                          (normal facing the camera); scene, mode, quirks, time and ray
-                         counts (camera, secondary, shadow) in the header
+                         counts (camera, secondary, shadow) in the header. The name picks
+                         the format: .exr (or no suffix) this EXR, .png as --png, .ppm as
+                         --ppm; any other suffix is refused
   --png OUT.png          8-bit, clamped to [0,1], sRGB-encoded (for people)
   --ppm OUT.ppm          8-bit binary P6, linear, clamped: the paper's own output
   --ppm-rounding R       truncate (default: byte = (unsigned char)(min(1, x) * 255), as the

@@ -1,6 +1,7 @@
 #include "cli/render_args.h"
 
 #include <algorithm>
+#include <cctype>
 #include <iterator>
 #include <map>
 #include <thread>
@@ -89,7 +90,59 @@ void check_complete(const RenderArgs& out, bool output_required) {
                          std::to_string(out.spp));
 }
 
+// The file name's suffix in lower case, with its dot; "" when it has none (".hidden" has none).
+std::string lower_suffix(const std::string& path) {
+    const std::size_t start =
+        path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1;
+    const std::size_t dot = path.find_last_of('.');
+    if (dot == std::string::npos || dot <= start) return "";
+    std::string suffix = path.substr(dot);
+    for (char& c : suffix) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return suffix;
+}
+
+// The image format a suffix names ("" for a suffix that names none).
+std::string format_named_by(const std::string& suffix) {
+    static const std::map<std::string, std::string> formats = {
+        {".exr", "EXR"}, {".png", "PNG"},  {".ppm", "PPM"},   {".pnm", "PPM"},  {".pfm", "PFM"},
+        {".pgm", "PGM"}, {".jpg", "JPEG"}, {".jpeg", "JPEG"}, {".tif", "TIFF"}, {".tiff", "TIFF"},
+        {".bmp", "BMP"}, {".hdr", "HDR"},  {".webp", "WebP"}, {".gif", "GIF"}};
+    const auto f = formats.find(suffix);
+    return f == formats.end() ? "" : f->second;
+}
+
+// --png NAME or --ppm NAME whose suffix names another image format: refused, as a PNG named
+// x.exr would be read as a broken EXR by whatever opens it next.
+void check_named_format(const std::string& option, const std::string& path,
+                        const std::string& format) {
+    if (path.empty()) return;
+    const std::string named = format_named_by(lower_suffix(path));
+    if (!named.empty() && named != format)
+        throw UsageError(option + " " + path + ": writes a " + format + " but the name says " +
+                         named + "; name it ." + (format == "PNG" ? "png" : "ppm") +
+                         " (-o picks the format from the name)");
+}
+
 }  // namespace
+
+void route_outputs_by_name(RenderArgs& a) {
+    check_named_format("--png", a.png, "PNG");
+    check_named_format("--ppm", a.ppm, "PPM");
+    if (a.exr.empty()) return;
+    const std::string suffix = lower_suffix(a.exr);
+    if (suffix.empty() || suffix == ".exr") return;
+    const std::string format = format_named_by(suffix);
+    std::string* target = format == "PNG" ? &a.png : format == "PPM" ? &a.ppm : nullptr;
+    if (target == nullptr)
+        throw UsageError("-o " + a.exr + ": rtdemo writes EXR (.exr), PNG (.png) or PPM (.ppm)" +
+                         (format.empty() ? "" : ", not " + format) +
+                         "; name the output with one of these suffixes");
+    if (!target->empty())
+        throw UsageError("-o " + a.exr + " and " + (format == "PNG" ? "--png " : "--ppm ") +
+                         *target + " both ask for a " + format + "; give one");
+    *target = a.exr;
+    a.exr.clear();
+}
 
 RenderArgs parse_render_args(const std::vector<std::string>& args, bool output_required) {
     RenderArgs out;

@@ -47,6 +47,11 @@ RenderArgs parse_render_args(const std::vector<std::string>& args, bool output_r
 // be lost (exit 2, before anything is rendered).
 void check_distinct_outputs(const RenderArgs& a);
 
+// Each output is written in the format its name says. -o picks it by suffix: .exr (or none) an
+// EXR, .png a PNG (as --png), .ppm or .pnm a PPM (as --ppm); --png and --ppm refuse a name that
+// says another image format. Anything else is a UsageError naming the output and its suffix.
+void route_outputs_by_name(RenderArgs& a);
+
 // The settings for rendering `scene` as `a` asks; throws UsageError for a combination that
 // cannot be rendered (--mistake on GL, --spp > 1 with Q10, an image over kMaxPixels).
 RenderSettings settings_for(const RenderArgs& a, const Scene& scene);

@@ -150,5 +150,42 @@ TEST(RenderArgs, SettingsRefuseWhatCannotBeRendered) {
     EXPECT_GE(s.threads, 1);
 }
 
+// The outputs after -o is routed by its name, or the UsageError's text.
+std::string routed(const std::vector<std::string>& args) {
+    try {
+        RenderArgs a = parse_render_args(args);
+        route_outputs_by_name(a);
+        return "exr=" + a.exr + " png=" + a.png + " ppm=" + a.ppm;
+    } catch (const UsageError& e) {
+        return e.what();
+    }
+}
+
+TEST(RenderArgs, OutputWritesTheFormatItsNameSays) {
+    EXPECT_EQ(routed({"s.json", "-o", "x.png"}), "exr= png=x.png ppm=");
+    EXPECT_EQ(routed({"s.json", "-o", "dir.v2/X.PPM"}), "exr= png= ppm=dir.v2/X.PPM");
+    EXPECT_EQ(routed({"s.json", "-o", "x.pnm"}), "exr= png= ppm=x.pnm");
+    EXPECT_EQ(routed({"s.json", "-o", "x.exr"}), "exr=x.exr png= ppm=");
+    EXPECT_EQ(routed({"s.json", "-o", "dir.v2/x"}), "exr=dir.v2/x png= ppm=");
+    EXPECT_EQ(routed({"s.json", "--png", "a.png", "--ppm", "b"}), "exr= png=a.png ppm=b");
+}
+
+TEST(RenderArgs, OutputNamedForAnotherFormatIsRefused) {
+    EXPECT_EQ(routed({"s.json", "-o", "x.jpg"}),
+              "-o x.jpg: rtdemo writes EXR (.exr), PNG (.png) or PPM (.ppm), not JPEG; name the "
+              "output with one of these suffixes");
+    EXPECT_EQ(routed({"s.json", "-o", "x.json"}),
+              "-o x.json: rtdemo writes EXR (.exr), PNG (.png) or PPM (.ppm); name the output "
+              "with one of these suffixes");
+    EXPECT_EQ(routed({"s.json", "-o", "x.png", "--png", "y.png"}),
+              "-o x.png and --png y.png both ask for a PNG; give one");
+    EXPECT_EQ(routed({"s.json", "--png", "x.exr"}),
+              "--png x.exr: writes a PNG but the name says EXR; name it .png (-o picks the "
+              "format from the name)");
+    EXPECT_EQ(routed({"s.json", "--ppm", "x.png"}),
+              "--ppm x.png: writes a PPM but the name says PNG; name it .ppm (-o picks the "
+              "format from the name)");
+}
+
 }  // namespace
 }  // namespace rt

@@ -211,8 +211,9 @@ std::string out_of_memory(const RenderSettings& settings) {
 }  // namespace
 
 int run_render(const std::vector<std::string>& args) {
-    const RenderArgs a = parse_render_args(args);
-    check_distinct_outputs(a);
+    RenderArgs a = parse_render_args(args);
+    check_distinct_outputs(a);  // first: "names the scene file" says more than its suffix
+    route_outputs_by_name(a);
     for (const std::string* out : {&a.exr, &a.png, &a.ppm})
         if (!out->empty()) check_writable(*out);
     const Scene scene = load_scene_file(a.scene_path);
