@@ -5,6 +5,7 @@ reproduces a mechanism by which the diagnosis once named a false cause."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from helpers import SCENES, render_demo
 
 from compare.diagnosis import transforms
 from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.evidence import short_reason
 from compare.diagnosis.renderer import CandidateRenderer
 from compare.diagnosis.search import DiagnoseOptions, Diagnosis, FunctionRenderer, diagnose
 from compare.judge.effects import effect_masks
@@ -195,3 +197,20 @@ def test_no_offset_does_not_absorb_a_smooth_scale(
         d = diagnose(image, load_scene(CLASSIC), render, DiagnoseOptions(parallel=2))
     assert "no_offset" not in d.mistakes and d.image_transforms == [], d.sentences
     assert {"reflection", "refraction"} <= set(d.unexplained), d.sentences
+
+
+def test_a_mode_the_image_cannot_tell_from_the_assigned_one_is_not_claimed() -> None:
+    # maede97/RayTracer (its lit surfaces black, its materials swapped): physical 187,552 px
+    # differ, classic 194,176, nothing explained. "looks like physical" would tell a classic
+    # program a false thing; the assigned classic is as near.
+    rgb = _modes_render(Candidate.of_mode("classic").with_mistake("black_background", True)).rgb
+    image = Image(rgb=np.floor(rgb * 255) / 255, path="toy.ppm", encoding="linear")
+    d = diagnose(image, load_scene(CLASSIC), FunctionRenderer(_modes_render))
+    tied = dataclasses.replace(
+        d, start="physical", mode_objectives={"classic": 194_176.0, "physical": 187_552.0}
+    )
+    assert tied.modes_as_near() == ["classic"]
+    assert not short_reason(tied, "classic").startswith("looks like physical")
+    apart = dataclasses.replace(tied, mode_objectives={"classic": 250_000.0, "physical": 187_552.0})
+    assert apart.modes_as_near() == []
+    assert short_reason(apart, "classic").startswith("looks like physical")

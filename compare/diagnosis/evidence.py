@@ -65,7 +65,8 @@ def short_reason(d: Diagnosis, assigned: str | None = None) -> str:
     a candidate only for what the candidate explains, and never that the image matches a model
     it does not match exactly (the verdict's judging, compare/judge/exact_match.py)."""
     items = [describe_cause(c) for c in d.causes]
-    if assigned is not None and d.start != assigned:
+    # The start mode is a claim only where the image tells it from the assigned model.
+    if assigned is not None and d.start != assigned and assigned not in d.modes_as_near():
         items.insert(0, d.start)
     text = f"looks like {', '.join(items)}" if items else ""
     partly = [f for f in d.effects.values() if f.state == "partly explained"]

@@ -24,6 +24,13 @@ from scene_model.scene import Scene
 # colour; a refracted ray that hits nothing): half is far from both.
 
 
+# The nearest mode wins outright only by a clear margin: more than MODE_CLOSE_SHARE of all
+# pixels and MODE_CLOSE_RATIO of its own count; a mode within it is searched from as well, and
+# the image cannot tell it from the nearest.
+MODE_CLOSE_SHARE = 0.02
+MODE_CLOSE_RATIO = 0.1
+
+
 @dataclass(frozen=True)
 class Step:
     """A switch of the result, with the distance per effect before and after it."""
@@ -114,6 +121,18 @@ class Diagnosis:
         """What differs from the start mode, shortly: ["+Q2"], ["mirrored left-right"], []."""
         head = [f"mirrored {self.mirrored}"] if self.mirrored else []
         return head + self.image_transforms + [s.cause for s in self.steps]
+
+    def modes_as_near(self) -> list[str]:
+        """The other modes whose renders differ from the image about as much as the start's
+        (within the clear margin): the image cannot tell the start from them."""
+        counts = self.mode_objectives
+        if self.start not in counts:
+            return []
+        total = sum(f.pixels for k, f in self.effects.items() if k != "edges")
+        margin = max(MODE_CLOSE_SHARE * total, MODE_CLOSE_RATIO * counts[self.start])
+        return [
+            m for m, n in counts.items() if m != self.start and n - counts[self.start] <= margin
+        ]
 
     def reason(self) -> str:
         """One line for a gradebook: "looks like classic+Q2 (+Q2)", with the regions that

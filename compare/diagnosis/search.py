@@ -31,6 +31,8 @@ from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
 from compare.diagnosis.memo import keep, load, record_name
 from compare.diagnosis.record import (
+    MODE_CLOSE_RATIO,
+    MODE_CLOSE_SHARE,
     Diagnosis,
     EffectFinding,
     Evidence,
@@ -113,10 +115,6 @@ MODE_MATCH_MIN = 0.05
 # symmetric about the flip gives both the same distance, so it can never trigger.
 MIRROR_RATIO = 0.5
 MIRROR_MIN = 0.02
-# The nearest mode wins outright only by a clear margin: more than MODE_CLOSE_SHARE of all
-# pixels and MODE_CLOSE_RATIO of its own count; a mode within it is searched from as well.
-MODE_CLOSE_SHARE = 0.02
-MODE_CLOSE_RATIO = 0.1
 MODES = ("classic", "paper", "physical")
 FlipSeed = tuple[F32, F32, BOOL]  # a render, its LDR-FLIP map against the image, where it holds
 
