@@ -15,6 +15,7 @@ if TYPE_CHECKING:
 
 def run_grade(args: argparse.Namespace) -> int:
     from compare.grading import grade
+    from compare.grading.executors import Executor
     from compare.grading.gradebook import explain
     from compare.render.progress import Progress
 
@@ -27,15 +28,9 @@ def run_grade(args: argparse.Namespace) -> int:
     scenes = [
         Path(s) if Path(s).suffix == ".json" else Path("scenes") / f"{s}.json" for s in args.scene
     ]
-    results = grade.run_grading(
-        Path(args.submissions),
-        scenes,
-        out,
+    options = grade.GradingRun(
         rubric_path=args.rubric,
-        executor=args.executor,
-        scheduler=args.scheduler,
-        scheduler_timeout=args.scheduler_timeout,
-        jobs=args.jobs,
+        executor=Executor(args.executor, args.scheduler, args.jobs, args.scheduler_timeout),
         size=args.size,
         against=args.against,
         diagnose=not args.no_diagnose,
@@ -43,6 +38,7 @@ def run_grade(args: argparse.Namespace) -> int:
         progress=Progress(sys.stderr),
         program=_program_options(args),
     )
+    results = grade.run_grading(Path(args.submissions), scenes, out, options)
     passed = sum(r.status == "pass" for r in results)
     print(f"{passed} passed, {len(results) - passed} failed")
     print(out / "gradebook.csv")
@@ -60,6 +56,7 @@ def _program_options(args: argparse.Namespace) -> ProgramOptions:
         output=args.output,
         output_format=args.output_format,
         unsandboxed=args.unsandboxed,
+        allow_binaries=args.allow_binaries,
         limits=limits,
     )
 
@@ -96,6 +93,12 @@ def _add_program_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="run the programs with limits but no isolation where no sandbox can be made "
         "(bwrap missing): only for code you trust",
+    )
+    g.add_argument(
+        "--allow-binaries",
+        action="store_true",
+        help="accept prebuilt executables (ELF files) in a submission; by default a "
+        "submission holding one is refused: only what the build makes may run",
     )
     g.add_argument(
         "--build-timeout", type=positive_float, metavar="S", help="per build (default 120)"

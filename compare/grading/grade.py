@@ -34,9 +34,20 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from compare.grading.executors import SCHEDULER_TIMEOUT, Executor, run_tasks
+from compare.diagnosis.evidence import diagnose_image
+from compare.diagnosis.search import DiagnoseError
+from compare.errors import ToolError
+from compare.grading.executors import Executor, run_tasks
 from compare.grading.gradebook import write_gradebook
-from compare.grading.programs import ProgramJob, ProgramOptions, ProgramSpec, resolve_spec
+from compare.grading.programs import (
+    ProgramJob,
+    ProgramOptions,
+    ProgramResult,
+    ProgramSpec,
+    build_and_run,
+    program_entries,
+    resolve_spec,
+)
 from compare.grading.results import (
     BadResult,
     SceneResult,
@@ -44,13 +55,32 @@ from compare.grading.results import (
     discard_special,
     read_result,
 )
-from compare.grading.submissions import IMAGE_SUFFIXES  # noqa: F401  (re-exported)
+from compare.grading.submissions import (
+    IMAGE_SUFFIXES,  # noqa: F401  (re-exported)
+    collect_entries,
+)
+from compare.judge.images import ImageError, ImageSizeError, read_image
+from compare.judge.png import FAST, display_values, write_display_png
+from compare.judge.rubric import parse_rubric, read_rubric
 from compare.judge.scoring import student_passes, student_score
+from compare.judge.sentences import difference_sentences
 from compare.pages.writer import write_page
-from compare.student_ids import student_slug
-from compare.verdict.against import ModelRenders
+from compare.render.cache import RenderCache
+from compare.render.progress import Progress
+from compare.sandbox.bwrap import require_sandbox
+from compare.student_ids import displayable, student_slug
+from compare.verdict.against import (
+    GRADE_DEFAULT,
+    ModelRenders,
+    judge_against_model,
+    load,
+    nan_pixels,
+    prepare,
+    resolve_model,
+)
 from safe_files.content import sha256_file
 from safe_files.paths import atomic_output, own_folder, write_atomic
+from scene_model.scene import load_scene
 
 if TYPE_CHECKING:
     from compare.diagnosis.search import FlipSeed
@@ -60,7 +90,6 @@ if TYPE_CHECKING:
     from compare.judge.images import Image
     from compare.judge.rubric import Rubric
     from compare.judge.target_model import TargetModel
-    from compare.render.cache import RenderCache
     from compare.verdict.against import LoadedModel
 
 
@@ -100,7 +129,6 @@ def _grade_scene(
 ) -> SceneResult:
     """One scene: not judged (with the reason) when there is no image of the right size to
     judge, else judged against the model."""
-    from compare.verdict.against import load
 
     model_name = task.models[scene_name].model
     if scene_name in task.scene_problems:  # the program's run gave no image: why
@@ -119,7 +147,6 @@ def _grade_scene(
 def _read_submission(path: str, shape: tuple[int, int]) -> Image | str:
     """The submitted image, or why it cannot be judged. The size is checked in the header,
     before decoding: memory stays bounded."""
-    from compare.judge.images import ImageError, ImageSizeError, read_image
 
     try:
         return read_image(path, expected_size=shape)
@@ -140,8 +167,6 @@ def _judge_scene(
 ) -> SceneResult:
     """The verdict, the reasons and the sentences of a scene's image; a failing image against
     a demo model is diagnosed. Writes the image and its difference for the page."""
-    from compare.judge.sentences import difference_sentences
-    from compare.verdict.against import judge_against_model, nan_pixels
 
     nan = nan_pixels(img)
     ev = judge_against_model(img, model, rubric)
@@ -197,7 +222,6 @@ def _verdict(ev: Evaluation, nan: int) -> tuple[dict[str, Any], list[str]]:
 def _write_scene_pictures(page_dir: Path, scene_name: str, reference: F32, test: F32) -> None:
     """The submission and |difference| x 8 (display), for the student's page; NaN/Inf pixels
     in the marker colour (compare/judge/png.py)."""
-    from compare.judge.png import FAST, display_values, write_display_png
 
     a, b = display_values(reference), display_values(test)
     write_display_png(page_dir / f"{scene_name}.png", b, compress_level=FAST)
@@ -228,9 +252,6 @@ def _diagnose_scene(
 ) -> dict[str, Any]:
     """What a failing submission looks like; a diagnosis that cannot run says why in the
     cell instead of failing the student's grading."""
-    from compare.diagnosis.evidence import diagnose_image
-    from compare.diagnosis.search import DiagnoseError
-    from compare.errors import ToolError
 
     try:
         return diagnose_image(
@@ -251,7 +272,6 @@ def grade_one(task: GradeTask) -> StudentResult:
     """Grades one student; returns (and stores) the result. Idempotent: a result with the
     same key on disk is returned as is. A stored file that is not a result (truncated, a
     link, a FIFO) is graded again, with a warning naming it."""
-    from compare.judge.rubric import parse_rubric
 
     out = Path(task.out_dir)
     slug = student_slug(task.student)  # the id on disk; the real id stays in the result
@@ -280,8 +300,36 @@ def grade_one(task: GradeTask) -> StudentResult:
         warnings=warnings,
     )
     write_page(page_dir / "index.html", "student.html.j2", r=result.to_json())
-    write_atomic(result_path, result.dumps())
+    if program is None or not program.transient:  # the machine's trouble is never kept
+        write_atomic(result_path, result.dumps())
     return result
+
+
+def grade_safely(task: GradeTask) -> StudentResult:
+    """grade_one, where anything that goes wrong inside one submission's grading (a bug, a
+    tree too deep for some walk, the machine out of memory or descriptors) becomes that
+    student's row, stored nowhere: the next run grades it again. The class goes on."""
+    try:
+        return grade_one(task)
+    except Exception as e:  # one student's failure must not end the class
+        why = displayable(str(e)[:300]) or "an internal error"
+        reason = f"not graded: {why} (grading failed here, not the program; run again)"
+        scenes = tuple(
+            SceneResult(s, task.models[s].model, "error", 0.0, reason) for s in sorted(task.files)
+        )
+        return StudentResult(
+            student=task.student,
+            key="",
+            status="fail",
+            score=0.0,
+            model=", ".join(sorted({s.model for s in scenes})),
+            reasons=reason,
+            diagnosis="",
+            scenes=scenes,
+            rubric=task.rubric_source,
+            seconds=0.0,
+            page=f"students/{student_slug(task.student)}/index.html",
+        )
 
 
 def _stored_result(
@@ -301,9 +349,9 @@ def _stored_result(
 
 def _run_program(task: GradeTask, out: Path, slug: str) -> tuple[GradeTask, ProgramResult]:
     """A program submission built and run in the sandbox: the task, now of its images."""
-    from compare.grading.programs import build_and_run
 
-    program = build_and_run(task.program, own_folder(out, "programs", slug))  # type: ignore[arg-type]
+    assert task.program is not None
+    program = build_and_run(task.program, own_folder(out, "programs", slug))
     task = dataclasses.replace(
         task, files=program.files, problem=program.problem, scene_problems=program.scene_problems
     )
@@ -357,7 +405,6 @@ def collect(
 ) -> list[Submission]:
     """Every id in the submissions folder (see compare/grading/submissions.py: what is a
     submission, and the reasons for what is not)."""
-    from compare.grading.submissions import collect_entries
 
     return [
         Submission(e.student, e.files, "; ".join(e.problems) or None)
@@ -378,8 +425,6 @@ def _entries(
     [program] (compare/grading/programs.py)."""
     if spec is None:
         return collect(submissions, list(models), exclude=[out], notice=progress)
-    from compare.grading.programs import program_entries
-
     found = program_entries(submissions, models, spec, size, out, cache_root, progress)
     return [Submission(*entry) for entry in found]
 
@@ -412,46 +457,44 @@ def _is_regular_file(path: Path) -> bool:
         return False
 
 
+@dataclass(frozen=True)
+class GradingRun:
+    """How a class is graded, besides what and where (run_grading's arguments)."""
+
+    rubric_path: str | None = None
+    executor: Executor = dataclasses.field(default_factory=Executor)
+    size: tuple[int, int] | None = None
+    against: str | None = None
+    diagnose: bool = True
+    cache_dir: Path | str | None = None
+    progress: Callable[[str], None] = print
+    program: ProgramOptions | None = None
+
+
 def run_grading(
-    submissions: Path,
-    scene_files: list[Path],
-    out: Path,
-    *,
-    rubric_path: str | None = None,
-    executor: str = "local",
-    scheduler: str | None = None,
-    scheduler_timeout: float = SCHEDULER_TIMEOUT,
-    jobs: int = 2,
-    size: tuple[int, int] | None = None,
-    against: str | None = None,
-    diagnose: bool = True,
-    cache_dir: Path | str | None = None,
-    progress: Callable[[str], None] = print,
-    program: ProgramOptions | None = None,
+    submissions: Path, scene_files: list[Path], out: Path, options: GradingRun = GradingRun()
 ) -> list[StudentResult]:
     """Grades every submission; writes the pages, the results and the gradebook."""
-    from compare.render.cache import RenderCache
-
-    where = Executor(executor, scheduler, jobs, scheduler_timeout)
+    where, progress = options.executor, options.progress
     where.check()
-    rubric_text, rubric, model, spec = _class_setup(rubric_path, against, program)
+    rubric_text, rubric, model, spec = _class_setup(
+        options.rubric_path, options.against, options.program
+    )
     out.mkdir(parents=True, exist_ok=True)
-    cache = RenderCache(cache_dir)
-    models = _model_renders(model, scene_files, size, cache, out, progress)
-    parallel = 0 if not diagnose else 1 if where.side_by_side else 2
+    cache = RenderCache(options.cache_dir)
+    models = _model_renders(model, scene_files, options.size, cache, out, progress)
+    parallel = 0 if not options.diagnose else 1 if where.side_by_side else 2
     base = _base_task(models, rubric_text, rubric, out, cache, parallel)
-    tasks = [
-        dataclasses.replace(base, **entry._asdict())
-        for entry in _entries(submissions, models, spec, size, out, cache.root, progress)
-    ]
+    found = _entries(submissions, models, spec, options.size, out, cache.root, progress)
+    tasks = [dataclasses.replace(base, **entry._asdict()) for entry in found]
     own_folder(out, "results")  # every folder a task writes, checked here: a planted link
     for t in tasks:  # stops the run before any work
         own_folder(out, "students", student_slug(t.student))
-    progress(f"grading {len(tasks)} submissions against {model.name} ({executor} executor)")
+    progress(f"grading {len(tasks)} submissions against {model.name} ({where.kind} executor)")
     start = time.perf_counter()
     results: list[StudentResult] = []
     arrived = _arrived(results, len(tasks), progress)
-    run_tasks(grade_one, tasks, arrived, where)
+    run_tasks(grade_safely, tasks, arrived, where)
     results.sort(key=lambda r: r.student)
     elapsed = time.perf_counter() - start
     write_gradebook(results, out, rubric.source, elapsed)
@@ -490,16 +533,12 @@ def _class_setup(
 ) -> tuple[str, Rubric, TargetModel, ProgramSpec | None]:
     """The rubric (its text, parsed), the model and the program spec (None: a class of
     images), each checked before any work: a sandboxed class needs a sandbox."""
-    from compare.judge.rubric import parse_rubric, read_rubric
-    from compare.verdict.against import GRADE_DEFAULT, resolve_model
 
     rubric_text, rubric_source = read_rubric(rubric_path)
     rubric = parse_rubric(rubric_text, rubric_source)
     model = resolve_model(against, rubric, GRADE_DEFAULT)
     spec = resolve_spec(program, rubric.program)
     if spec is not None and spec.sandboxed:
-        from compare.sandbox.bwrap import require_sandbox
-
         require_sandbox()  # refuse rather than run students' code bare
     return rubric_text, rubric, model, spec
 
@@ -514,9 +553,6 @@ def _model_renders(
 ) -> dict[str, ModelRenders]:
     """scene name -> the model's renders of it, rendered (or found) in the shared cache and
     copied to OUT/references."""
-    from compare.render.progress import Progress
-    from compare.verdict.against import prepare
-    from scene_model.scene import load_scene
 
     folder = own_folder(out, "references")
     models: dict[str, ModelRenders] = {}

@@ -19,6 +19,7 @@ interrupted class) builds and runs only what changed.
 
 from __future__ import annotations
 
+import contextlib
 import glob
 import hashlib
 import json
@@ -31,25 +32,28 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from compare.grading.submissions import IMAGE_SUFFIXES
+from compare.grading.submissions import IMAGE_SUFFIXES, collect_programs
 from compare.judge.rubric import limit_value
-from compare.render.foreign import PLACEHOLDERS, TemplateError
+from compare.render.foreign import PLACEHOLDERS, TemplateError, _write_xml
 from compare.render.foreign import parse_command as parse_renderer
 from compare.render.placeholders import PLACEHOLDER, fill
 from compare.sandbox.archives import TreeError, TreeLimits, archive_suffix, copy_tree, unpack
 from compare.sandbox.archives import source_digest as tree_digest
 from compare.sandbox.bwrap import Limits, Outcome, Workspace, probe, run_sandboxed
-from compare.sandbox.output import read_output
+from compare.sandbox.output import check_format, read_output
+from compare.sandbox.trees import remove_tree
 from compare.sizes import human_size
-from compare.student_ids import student_slug
+from compare.student_ids import displayable, student_slug
 from safe_files.content import sha256_file
 from safe_files.paths import write_atomic
+from scene_model.scene import load_scene
 
 BUILD_LIMITS = Limits(wall=120.0)
 RUN_LIMITS = Limits(wall=60.0)
 TREE_LIMITS = TreeLimits()
 _FIRST_ERROR = re.compile(r": (?:fatal )?error:|undefined reference|error\[|^error:", re.I)
 _ANY_ERROR = re.compile(r"\berror\b", re.I)
+TRANSIENT = ("sandbox", "busy")  # outcomes the machine caused: never kept
 _CONTROL = re.compile(r"\x1b\[[0-9;]*[A-Za-z]|[\x00-\x08\x0b-\x1f\x7f]")
 
 
@@ -65,6 +69,7 @@ class ProgramSpec:
     run_limits: Limits = RUN_LIMITS
     tree: TreeLimits = TREE_LIMITS
     sandboxed: bool = True
+    allow_binaries: bool = False  # prebuilt ELF files in a submission: refused unless True
 
     def digest(self, *parts: str) -> str:
         h = hashlib.sha256(json.dumps(asdict(self), sort_keys=True, default=str).encode())
@@ -82,6 +87,7 @@ class ProgramOptions:
     output: str | None = None
     output_format: str | None = None
     unsandboxed: bool = False
+    allow_binaries: bool = False
     limits: Mapping[str, Any] = field(default_factory=dict)  # keys of LIMIT_KEYS
 
 
@@ -130,6 +136,7 @@ def resolve_spec(
         build_limits=build_limits,
         run_limits=run_limits,
         sandboxed=not options.unsandboxed,
+        allow_binaries=options.allow_binaries,
     )
 
 
@@ -207,6 +214,7 @@ class ProgramResult:
     problem: str | None = None  # nothing can be graded (the build failed)
     scene_problems: dict[str, str] = field(default_factory=dict)  # this scene's run failed
     info: dict[str, Any] = field(default_factory=dict)
+    transient: bool = False  # the machine failed, not the program: never stored as its result
 
 
 def build_and_run(job: ProgramJob, folder: Path) -> ProgramResult:
@@ -226,12 +234,16 @@ def build_and_run(job: ProgramJob, folder: Path) -> ProgramResult:
         for scene in job.scenes:
             run = _run(job, folder, scene, build["key"])
             result.info["runs"][scene.name] = run
+            result.transient |= run["status"] in TRANSIENT
             if run["reason"]:
                 result.scene_problems[scene.name] = run["reason"]
             else:
                 result.files[scene.name] = str(folder / "runs" / run["image"])
     except (OSError, TreeError) as e:  # the machine's trouble (a full disk), not the student's
-        result.problem = f"could not build or run the program: {e}"
+        result.problem = f"could not build or run the program: {displayable(str(e))[:300]}"
+        result.transient = True
+    if result.info["build"] is not None:
+        result.transient |= result.info["build"]["status"] in TRANSIENT
     return result
 
 
@@ -251,7 +263,7 @@ def _build(job: ProgramJob, folder: Path) -> dict[str, Any]:
     old = _cached(where / "outcome.json", key)
     if old is not None and (old["status"] != "ok" or (where / "tree").is_dir()):
         return {**old, "cached": True}
-    _remove(where)
+    remove_tree(where)
     where.mkdir(parents=True)
     with Workspace() as ws:
         record = _prepare_source(job, ws)
@@ -266,9 +278,12 @@ def _build(job: ProgramJob, folder: Path) -> dict[str, Any]:
             record = {"status": "ok", "reason": "", "command": "", "log": "", "seconds": 0.0}
         if record["status"] == "ok":
             try:
-                copy_tree(ws.work, where / "tree", spec.tree, built=True)
-            except TreeError as e:
-                record |= {"status": "refused", "reason": f"build failed: the build left {e}"}
+                links = copy_tree(ws.work, where / "tree", spec.tree, built=True)
+                write_atomic(where / "links.json", json.dumps(links))
+            except TreeError as e:  # nothing of a refused build stays in OUT
+                remove_tree(where / "tree")
+                reason = f"build failed: the build left {displayable(str(e))}"
+                record |= {"status": "refused", "reason": reason}
     record |= {"key": key, "cached": False}
     _keep(where / "outcome.json", record)
     return record
@@ -280,9 +295,9 @@ def _prepare_source(job: ProgramJob, ws: Workspace) -> dict[str, Any] | None:
     staged = ws.root / "source"
     try:
         if archive_suffix(source.name) and not source.is_dir():
-            unpack(source, staged, job.spec.tree)
+            unpack(source, staged, job.spec.tree, binaries=job.spec.allow_binaries)
         else:
-            copy_tree(source, staged, job.spec.tree)
+            copy_tree(source, staged, job.spec.tree, binaries=job.spec.allow_binaries)
     except TreeError as e:
         return {
             "status": "refused",
@@ -338,8 +353,8 @@ def first_error(log: str) -> str:
     for pattern in (_FIRST_ERROR, _ANY_ERROR):
         hit = next((line for line in lines if pattern.search(line)), None)
         if hit:
-            return hit[:300]
-    return lines[-1][:300] if lines else ""
+            return displayable(hit[:300])
+    return displayable(lines[-1][:300]) if lines else ""
 
 
 def _run(job: ProgramJob, folder: Path, scene: SceneJob, build_key: str) -> dict[str, Any]:
@@ -352,10 +367,11 @@ def _run(job: ProgramJob, folder: Path, scene: SceneJob, build_key: str) -> dict
     old = _cached(where / "outcome.json", key)
     if old is not None and (old["reason"] or (folder / "runs" / old["image"]).is_file()):
         return {**old, "cached": True}
-    _remove(where)
+    remove_tree(where)
     where.mkdir(parents=True)
     with Workspace() as ws:
         copy_tree(folder / "build" / "tree", ws.root / "copy", spec.tree, built=True)
+        _relink(folder / "build" / "links.json", ws.root / "copy")
         ws.work.rmdir()
         (ws.root / "copy").rename(ws.work)
         argv, out_name = _run_argv(spec, scene, ws)
@@ -366,6 +382,7 @@ def _run(job: ProgramJob, folder: Path, scene: SceneJob, build_key: str) -> dict
             root, rel = (ws.work, spec.output) if spec.output else (ws.out, out_name)
             assert rel is not None
             problem, data = read_output(root, rel, scene.width, scene.height)
+            problem = problem or check_format(data, rel)
             if problem:
                 record |= {"status": "output", "reason": problem}
             else:
@@ -379,16 +396,15 @@ def _run(job: ProgramJob, folder: Path, scene: SceneJob, build_key: str) -> dict
 
 def _keep(path: Path, record: dict[str, Any]) -> None:
     """Stores a finished step, last (the mark that it is done). A sandbox that could not
-    start is the machine's trouble, not the program's outcome: it is tried again next time."""
-    if record["status"] != "sandbox":
+    start, or a run the machine starved, is the machine's trouble, not the program's outcome:
+    it is tried again next time."""
+    if record["status"] not in TRANSIENT:
         write_atomic(path, json.dumps(record, indent=1))
 
 
 def _run_argv(spec: ProgramSpec, scene: SceneJob, ws: Workspace) -> tuple[list[str], str]:
     """The run command for one scene, placeholders filled with the paths the program sees;
     also the name {out} has in the out folder."""
-    from scene_model.scene import load_scene
-
     _, inputs, out = ws.seen(spec.sandboxed)
     scene_name = f"{student_slug(scene.name)}.json"
     shutil.copyfile(scene.scene_file, ws.inputs / scene_name)
@@ -403,8 +419,6 @@ def _run_argv(spec: ProgramSpec, scene: SceneJob, ws: Workspace) -> tuple[list[s
         "scene_xml": "",
     }
     if any("{scene_xml}" in w for w in spec.run):
-        from compare.render.foreign import _write_xml
-
         loaded = load_scene(scene.scene_file)
         sized = replace(
             loaded, camera=replace(loaded.camera, width=scene.width, height=scene.height)
@@ -416,11 +430,21 @@ def _run_argv(spec: ProgramSpec, scene: SceneJob, ws: Workspace) -> tuple[list[s
     return [fill(w, values) for w in spec.run], out_name
 
 
-def _remove(path: Path) -> None:
-    if path.is_dir() and not path.is_symlink():
-        shutil.rmtree(path)
-    elif path.exists() or path.is_symlink():
-        path.unlink()
+def _relink(listing: Path, tree: Path) -> None:
+    """The links the build made, made again in a run's private copy (where they only
+    resolve inside the sandbox); OUT keeps them as a list, never as links."""
+    try:
+        links = json.loads(listing.read_text())
+    except (OSError, ValueError):
+        return
+    for entry in links if isinstance(links, list) else []:
+        rel, target = entry if isinstance(entry, list) and len(entry) == 2 else ("", "")
+        if not (isinstance(rel, str) and isinstance(target, str) and rel):
+            continue
+        path = tree / rel
+        if ".." not in rel.split("/") and path.parent.is_dir() and not path.parent.is_symlink():
+            with contextlib.suppress(OSError):
+                os.symlink(target, path)
 
 
 def program_entries(
@@ -434,9 +458,6 @@ def program_entries(
 ) -> list[tuple[str, dict[str, str | None], str | None, ProgramJob | None]]:
     """(student, scene -> file, problem, program) for every program in SUBMISSIONS: each
     renders every scene at the model's size (--size, else the scene's)."""
-    from compare.grading.submissions import collect_programs
-    from scene_model.scene import load_scene
-
     scenes = []
     for name, renders in models.items():
         camera = load_scene(renders.scene_file).camera

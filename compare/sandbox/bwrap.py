@@ -41,6 +41,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from compare.errors import ToolError
+from compare.sandbox.trees import remove_tree
 from compare.sizes import human_size
 
 WORK_DIR = "/sandbox/work"  # the program's copy, its current folder
@@ -184,31 +185,14 @@ class Workspace:
         return str(self.work), str(self.inputs), str(self.out)
 
     def close(self) -> None:
-        if sys.version_info >= (3, 12):
-            shutil.rmtree(self.root, onexc=_make_removable)
-        else:
-            shutil.rmtree(self.root, onerror=lambda f, p, e: _make_removable(f, p, e[1]))
+        """Removes the whole tree, however deep or odd what the program left there."""
+        remove_tree(self.root)
 
     def __enter__(self) -> Workspace:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _make_removable(func: object, path: str, exc: BaseException) -> None:
-    """rmtree's retry for a folder the program made unwritable (chmod 0): only its owner, or
-    root, gets here, and may give itself the permission back."""
-    parent = os.path.dirname(path)
-    with contextlib.suppress(OSError):
-        os.chmod(parent, 0o700)
-    if os.path.isdir(path) and not os.path.islink(path):
-        with contextlib.suppress(OSError):
-            os.chmod(path, 0o700)
-        shutil.rmtree(path, ignore_errors=True)
-    else:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(path)
 
 
 # -- bubblewrap ------------------------------------------------------------------------------
