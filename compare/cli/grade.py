@@ -100,10 +100,23 @@ def _add_program_arguments(p: argparse.ArgumentParser) -> None:
         help="accept prebuilt executables (ELF files) in a submission; by default a "
         "submission holding one is refused: only what the build makes may run",
     )
+    _add_limit_arguments(g)
+
+
+def _add_limit_arguments(g: argparse._ArgumentGroup) -> None:
     g.add_argument(
-        "--build-timeout", type=positive_float, metavar="S", help="per build (default 120)"
+        "--build-timeout",
+        type=positive_float,
+        metavar="S",
+        help="CPU seconds per build, all its processes together (default 120)",
     )
-    g.add_argument("--run-timeout", type=positive_float, metavar="S", help="per run (default 60)")
+    g.add_argument(
+        "--run-timeout",
+        type=positive_float,
+        metavar="S",
+        help="CPU seconds per run, all its processes together (default 60); the wall limit "
+        "is a generous 3 x this + 10 s",
+    )
     g.add_argument(
         "--cpu", type=positive_float, metavar="S", help="CPU seconds per process (default 600)"
     )
@@ -113,6 +126,12 @@ def _add_program_arguments(p: argparse.ArgumentParser) -> None:
         "--processes", type=positive_int, metavar="N", help="processes and threads (default 128)"
     )
     g.add_argument("--open-files", type=positive_int, metavar="N", help="per process (default 256)")
+    g.add_argument(
+        "--disk",
+        metavar="SIZE",
+        help="writable space of each build and run, its work and out folders together "
+        "(default 512M; memory-backed)",
+    )
 
 
 def _add_executor_arguments(p: argparse.ArgumentParser) -> None:

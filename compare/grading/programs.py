@@ -19,7 +19,6 @@ interrupted class) builds and runs only what changed.
 
 from __future__ import annotations
 
-import contextlib
 import glob
 import hashlib
 import json
@@ -39,7 +38,7 @@ from compare.render.foreign import parse_command as parse_renderer
 from compare.render.placeholders import PLACEHOLDER, fill
 from compare.sandbox.archives import TreeError, TreeLimits, archive_suffix, copy_tree, unpack
 from compare.sandbox.archives import source_digest as tree_digest
-from compare.sandbox.bwrap import Limits, Outcome, Workspace, probe, run_sandboxed
+from compare.sandbox.bwrap import Collect, Limits, Outcome, Workspace, probe, run_sandboxed
 from compare.sandbox.output import check_format, read_output
 from compare.sandbox.trees import remove_tree
 from compare.sizes import human_size
@@ -48,8 +47,8 @@ from safe_files.content import sha256_file
 from safe_files.paths import write_atomic
 from scene_model.scene import load_scene
 
-BUILD_LIMITS = Limits(wall=120.0)
-RUN_LIMITS = Limits(wall=60.0)
+BUILD_LIMITS = Limits(time=120.0)
+RUN_LIMITS = Limits(time=60.0)
 TREE_LIMITS = TreeLimits()
 _FIRST_ERROR = re.compile(r": (?:fatal )?error:|undefined reference|error\[|^error:", re.I)
 _ANY_ERROR = re.compile(r"\berror\b", re.I)
@@ -94,8 +93,9 @@ class ProgramOptions:
 # [program.limits] keys (compare/judge/rubric.py checks them; the flags use the same names)
 # -> (the build's limits, the run's, or both; the Limits field)
 LIMIT_KEYS: dict[str, tuple[str, str]] = {
-    "build_timeout": ("build", "wall"),
-    "run_timeout": ("run", "wall"),
+    "build_timeout": ("build", "time"),
+    "run_timeout": ("run", "time"),
+    "disk": ("both", "disk"),
     "cpu": ("both", "cpu"),
     "memory": ("both", "memory"),
     "file_size": ("both", "file_size"),
@@ -267,30 +267,61 @@ def _build(job: ProgramJob, folder: Path) -> dict[str, Any]:
     where.mkdir(parents=True)
     with Workspace() as ws:
         record = _prepare_source(job, ws)
+        built = _Built(where)
         if record is None and spec.build:
-            ws.hand_over()
-            argv = _expand(spec.build, ws.work)
-            outcome = run_sandboxed(
-                argv, ws, spec.build_limits, sandboxed=spec.sandboxed, hide=job.hide
-            )
+            argv = _expand(spec.build, ws.src)
+            outcome = _rerun_if_busy(argv, ws, spec.build_limits, job, built.keep)
             record = _step(outcome, shlex.join(argv), build=True)
-        if record is None:
+        elif record is None:  # nothing to build: the program is its source
             record = {"status": "ok", "reason": "", "command": "", "log": "", "seconds": 0.0}
-        if record["status"] == "ok":
-            try:
-                links = copy_tree(ws.work, where / "tree", spec.tree, built=True)
-                write_atomic(where / "links.json", json.dumps(links))
-            except TreeError as e:  # nothing of a refused build stays in OUT
-                remove_tree(where / "tree")
-                reason = f"build failed: the build left {displayable(str(e))}"
-                record |= {"status": "refused", "reason": reason}
+            built.keep(ws.src, ws.src, spec.tree)
+        if record["status"] == "ok" and built.refused:  # nothing of it stays in OUT
+            record |= {
+                "status": "refused",
+                "reason": f"build failed: the build left {built.refused}",
+            }
+        if record["status"] != "ok":
+            remove_tree(where / "tree")
     record |= {"key": key, "cached": False}
     _keep(where / "outcome.json", record)
     return record
 
 
+class _Built:
+    """What a build left, copied out of its sandbox into OUT/.../build/tree (links listed in
+    links.json, never made), or why not."""
+
+    def __init__(self, where: Path) -> None:
+        self.where = where
+        self.refused = ""
+
+    def keep(self, work: Path, _out: Path, limits: TreeLimits = TREE_LIMITS) -> None:
+        try:
+            links = copy_tree(work, self.where / "tree", limits, built=True)
+            write_atomic(self.where / "links.json", json.dumps(links))
+        except TreeError as e:
+            self.refused = displayable(str(e))
+        except OSError as e:  # its folder replaced by a link, say
+            self.refused = f"no folder to keep ({displayable(e.strerror or str(e))})"
+
+
+def _rerun_if_busy(
+    argv: list[str], ws: Workspace, limits: Limits, job: ProgramJob, collect: Collect
+) -> Outcome:
+    """A run that the machine starved (it waited for a CPU most of its wall time) is not the
+    program's fault: it is tried once more; still starved, it is marked busy (never kept)."""
+    outcome = run_sandboxed(
+        argv, ws, limits, sandboxed=job.spec.sandboxed, hide=job.hide, collect=collect
+    )
+    if outcome.status == "busy":
+        outcome = run_sandboxed(
+            argv, ws, limits, sandboxed=job.spec.sandboxed, hide=job.hide, collect=collect
+        )
+    return outcome
+
+
 def _prepare_source(job: ProgramJob, ws: Workspace) -> dict[str, Any] | None:
-    """The student's files in ws.work; a record of the refusal when they cannot be."""
+    """The student's files in ws.src; a record of the refusal when they cannot be."""
     source = Path(job.source)
     staged = ws.root / "source"
     try:
@@ -306,8 +337,8 @@ def _prepare_source(job: ProgramJob, ws: Workspace) -> dict[str, Any] | None:
             "log": "",
             "seconds": 0.0,
         }
-    ws.work.rmdir()
-    staged.rename(ws.work)  # hand_over() gives it to the sandbox user
+    ws.src.rmdir()
+    staged.rename(ws.src)  # the supervisor copies it into the sandbox's own folder
     return None
 
 
@@ -371,17 +402,20 @@ def _run(job: ProgramJob, folder: Path, scene: SceneJob, build_key: str) -> dict
     where.mkdir(parents=True)
     with Workspace() as ws:
         copy_tree(folder / "build" / "tree", ws.root / "copy", spec.tree, built=True)
-        _relink(folder / "build" / "links.json", ws.root / "copy")
-        ws.work.rmdir()
-        (ws.root / "copy").rename(ws.work)
+        ws.src.rmdir()
+        (ws.root / "copy").rename(ws.src)
+        ws.links = _links(folder / "build" / "links.json")
         argv, out_name = _run_argv(spec, scene, ws)
-        ws.hand_over()
-        outcome = run_sandboxed(argv, ws, spec.run_limits, sandboxed=spec.sandboxed, hide=job.hide)
+        rel = spec.output or out_name
+        read: list[tuple[str, bytes]] = []
+
+        def grab(work: Path, out: Path) -> None:
+            read.append(read_output(work if spec.output else out, rel, scene.width, scene.height))
+
+        outcome = _rerun_if_busy(argv, ws, spec.run_limits, job, grab)
         record = _step(outcome, shlex.join(argv), build=False)
         if outcome.ok:
-            root, rel = (ws.work, spec.output) if spec.output else (ws.out, out_name)
-            assert rel is not None
-            problem, data = read_output(root, rel, scene.width, scene.height)
+            problem, data = read[-1] if read else ("no output: it could not be read back", b"")
             problem = problem or check_format(data, rel)
             if problem:
                 record |= {"status": "output", "reason": problem}
@@ -430,21 +464,17 @@ def _run_argv(spec: ProgramSpec, scene: SceneJob, ws: Workspace) -> tuple[list[s
     return [fill(w, values) for w in spec.run], out_name
 
 
-def _relink(listing: Path, tree: Path) -> None:
-    """The links the build made, made again in a run's private copy (where they only
-    resolve inside the sandbox); OUT keeps them as a list, never as links."""
+def _links(listing: Path) -> list[tuple[str, str]]:
+    """The links a build made (links.json), to be made again inside a run's sandbox only."""
     try:
         links = json.loads(listing.read_text())
     except (OSError, ValueError):
-        return
-    for entry in links if isinstance(links, list) else []:
-        rel, target = entry if isinstance(entry, list) and len(entry) == 2 else ("", "")
-        if not (isinstance(rel, str) and isinstance(target, str) and rel):
-            continue
-        path = tree / rel
-        if ".." not in rel.split("/") and path.parent.is_dir() and not path.parent.is_symlink():
-            with contextlib.suppress(OSError):
-                os.symlink(target, path)
+        return []
+    return [
+        (rel, target)
+        for rel, target in (e for e in links if isinstance(e, list) and len(e) == 2)
+        if isinstance(rel, str) and isinstance(target, str) and ".." not in rel.split("/")
+    ]
 
 
 def program_entries(

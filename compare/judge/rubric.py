@@ -203,6 +203,7 @@ PROGRAM_LIMITS = {
     "file_size": "size",
     "processes": "count",
     "open_files": "count",
+    "disk": "size",
 }
 
 

@@ -34,7 +34,10 @@ def read_output(root: Path, rel: str, width: int, height: int) -> tuple[str, byt
     opened without following a link, and the file must be a regular one of a bounded size:
     a link to /etc/passwd, a FIFO or a 10 GB file are reasons, never read."""
     parts = rel.split("/")
-    fd = os.open(root, os.O_RDONLY | os.O_DIRECTORY)
+    try:  # the folder itself may have been swapped for a link by the program
+        fd = os.open(root, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+    except OSError:
+        return f"no output: its folder {root.name}/ is not a folder", b""
     try:
         for part in parts[:-1]:
             try:
