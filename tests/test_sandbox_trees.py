@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -55,7 +56,17 @@ def test_a_tree_deeper_than_path_max_is_removed(tmp_path: Path) -> None:
     assert not top.exists() and keep.read_text() == "stays"
 
 
-def test_walk_is_bounded_in_depth_and_entries(tmp_path: Path) -> None:
+@pytest.fixture
+def scratch(tmp_path: Path) -> Iterator[Path]:
+    """tmp_path, emptied by remove_tree afterwards: pytest's own clean-up of old temporary
+    folders recurses and would fail on the deep trees made here."""
+    yield tmp_path
+    for entry in tmp_path.iterdir():
+        remove_tree(entry)
+
+
+def test_walk_is_bounded_in_depth_and_entries(scratch: Path) -> None:
+    tmp_path = scratch
     _deep(tmp_path, 100)
     with pytest.raises(TreeError, match="nested over 32 deep"):
         list(walk(tmp_path, 32, 10_000))
@@ -64,7 +75,8 @@ def test_walk_is_bounded_in_depth_and_entries(tmp_path: Path) -> None:
     assert len(list(walk(tmp_path, 1000, 10_000))) == 100 + 1  # the folders and one file
 
 
-def test_copy_and_digest_of_a_1500_deep_folder_say_why(tmp_path: Path) -> None:
+def test_copy_and_digest_of_a_1500_deep_folder_say_why(scratch: Path) -> None:
+    tmp_path = scratch
     src = tmp_path / "src"
     src.mkdir()
     _deep(src, 1500)
@@ -73,7 +85,8 @@ def test_copy_and_digest_of_a_1500_deep_folder_say_why(tmp_path: Path) -> None:
     assert len(source_digest(src)) == 24  # a key, not a RecursionError
 
 
-def test_deep_trees_from_builds_runs_and_submissions_are_rows(tmp_path: Path) -> None:
+def test_deep_trees_from_builds_runs_and_submissions_are_rows(scratch: Path) -> None:
+    tmp_path = scratch
     subs = tmp_path / "subs"
     student(subs / "good")
     build = MAKEFILE + "\tcc -o deep deep.c && ./deep\n"

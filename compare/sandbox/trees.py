@@ -20,6 +20,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+from compare.student_ids import displayable
+
 _DIR_FLAGS = os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW | os.O_CLOEXEC
 
 
@@ -97,7 +99,7 @@ def open_regular(node: Node) -> int:
     fd = os.open(node.name, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK, dir_fd=node.dir_fd)
     if not stat.S_ISREG(os.fstat(fd).st_mode):
         os.close(fd)
-        raise TreeError(f"'{node.rel[:200]}' changed while it was read")
+        raise TreeError(f"'{displayable(node.rel[:200])}' changed while it was read")
     return fd
 
 
