@@ -299,6 +299,12 @@ def copy_tree(
     dropped. Returns the links as (path, target)."""
     writer = _Writer(dest, limits, limits.max_built if built else None)
     writer.refuse_binaries = not binaries
+    nodes = list(walk(src, limits.max_depth, limits.max_entries))  # at most max_entries
+    declared = sum(n.st.st_size for n in nodes if stat.S_ISREG(n.st.st_mode))
+    if declared > writer.max_bytes:  # said before a byte is written (sparse files too)
+        raise TreeError(
+            f"{human_size(declared)} of files, more than {human_size(writer.max_bytes)}"
+        )
     for node in walk(src, limits.max_depth, limits.max_entries):
         _copy_node(node, writer, built)
     return writer.links
