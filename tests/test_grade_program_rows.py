@@ -18,6 +18,8 @@ import pytest
 from helpers import run
 from sandbox_class import MAKEFILE, RTVAL, grade, gradebook, hooks, private_tmp, student
 
+from compare.grading import programs
+
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
 
 SMALL = ["--run-timeout", "4", "--memory", "256M", "--processes", "32"]  # files up to 256M
@@ -29,9 +31,7 @@ FILL = (
     " for (; k < 8; k++) if (fwrite(b, 1, sizeof b, f) != sizeof b) break;"
     " if (fclose(f) != 0 || k < 8) break; } exit(4);"
 )
-BIDI_ERROR = (
-    "\t@printf 'rt.c:1:1: error: \\342\\200\\256ssap :edarg \\302\\233 2J\\n' >&2; false\n"
-)
+BIDI_ERROR = "\t@printf 'rt.c:1:1: error: \\342\\200\\256ssap :edarg \\302\\233 2J\\n' >&2; false\n"
 LINKS = "\tln -s /root/.ssh/id_rsa key\n\tln -s /etc/shadow shadow\n"
 
 
@@ -145,3 +145,17 @@ def test_binaries_are_the_teachers_choice(graded: dict[str, object], tmp_path: P
     proc = grade(subs, tmp_path / "out", "--allow-binaries")
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert gradebook(tmp_path / "out")["prebuilt"]["status"] == "pass"
+
+
+def test_the_machines_failures_are_never_kept(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def full_disk(*_a: object, **_k: object) -> None:
+        raise OSError(28, "No space left on device")
+
+    src = student(tmp_path / "alice")
+    job = programs.ProgramJob(str(src), programs.ProgramSpec(run=("./rt", "{out}")), ())
+    monkeypatch.setattr(programs, "Workspace", full_disk)
+    result = programs.build_and_run(job, tmp_path / "programs")
+    assert result.transient and "No space left on device" in (result.problem or "")
+    assert not (tmp_path / "programs" / "build" / "outcome.json").exists()

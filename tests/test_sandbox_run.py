@@ -185,3 +185,19 @@ def test_nothing_outlives_a_killed_rtval(tmp_path: Path) -> None:
 def test_the_teachers_paths_inside_system_folders_are_covered() -> None:
     assert _hidden(["/usr/share", "/nonexistent", "/tmp"]) == ["--tmpfs", "/usr/share"]
     assert ctypes  # used by the seccomp test's script
+
+
+def test_a_kill_by_the_machines_oom_killer_is_not_the_programs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    counts = iter([7, 8])  # the kernel's oom_kill counter, before and after the run
+    monkeypatch.setattr("compare.sandbox.bwrap._oom_kills", lambda: next(counts))
+    out = _run("kill -KILL $$")
+    assert out.status == "host_oom" and "runs again" in out.reason  # type: ignore[attr-defined]
+    monkeypatch.undo()
+    assert _run("kill -KILL $$").reason == "crashed: SIGKILL"  # type: ignore[attr-defined]
+
+
+def test_rtval_and_rtdemo_are_not_there() -> None:
+    out = _run("command -v rtval rtdemo; ls /work /root 2>&1; true")
+    assert "rtval" not in out.log and "rtdemo" not in out.log  # type: ignore[attr-defined]

@@ -26,6 +26,7 @@ import os
 import re
 import shlex
 import shutil
+import sys
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -52,7 +53,7 @@ RUN_LIMITS = Limits(time=60.0)
 TREE_LIMITS = TreeLimits()
 _FIRST_ERROR = re.compile(r": (?:fatal )?error:|undefined reference|error\[|^error:", re.I)
 _ANY_ERROR = re.compile(r"\berror\b", re.I)
-TRANSIENT = ("sandbox", "busy")  # outcomes the machine caused: never kept
+TRANSIENT = ("sandbox", "busy", "host_oom")  # outcomes the machine caused: never kept
 _CONTROL = re.compile(r"\x1b\[[0-9;]*[A-Za-z]|[\x00-\x08\x0b-\x1f\x7f]")
 
 
@@ -495,7 +496,16 @@ def program_entries(
         scenes.append(SceneJob(name, str(renders.scene_file), w, h))
     # Never visible in a sandbox anyway (only the system is mounted); named so that a copy
     # of them inside a system folder is covered too.
-    hide = (submissions, out, cache_root, Path.home(), Path(__file__).resolve().parents[2])
+    # rtval's environment and its programs too (rtdemo is a renderer a student could call).
+    tools = [Path(p) for p in map(shutil.which, ("rtval", "rtdemo")) if p]
+    hide: tuple[Path, ...] = (
+        submissions,
+        out,
+        cache_root,
+        Path.home(),
+        Path(__file__).resolve().parents[2],
+    )
+    hide += (Path(sys.prefix), *tools)
     rows = []
     for e in collect_programs(submissions, exclude=[out], notice=progress):
         job = None

@@ -113,7 +113,8 @@ class Outcome:
     """How one sandboxed command ended, in words for a gradebook row. A reason names a
     signal only when the program was signalled, and a limit only on the kernel's word."""
 
-    # ok, exit, crashed, timeout (CPU time), wall, busy, cpu, memory, file_size, disk, sandbox
+    # ok, exit, crashed, timeout (CPU time), wall, busy, cpu, memory, file_size, disk, sandbox,
+    # host_oom
     status: str
     limits: Limits
     exit_code: int | None = None
@@ -146,6 +147,8 @@ class Outcome:
             "cpu": f"killed: CPU time limit {lim.cpu:g} s",
             "memory": f"killed: memory limit {human_size(lim.memory)}",
             "file_size": f"killed: file size limit {human_size(lim.file_size)}",
+            "host_oom": "killed by the machine's out-of-memory killer (the machine's "
+            "trouble); it runs again next time",
             "disk": f"stopped: disk limit {human_size(lim.disk)} or {lim.inodes} files "
             "(work and out full)",
             "sandbox": "the sandbox could not start: " + last_line(self.log),
@@ -442,7 +445,7 @@ def run_sandboxed(
     full = _command(argv, ws, limits, fds, sandboxed, hide)
     uid, gid = sandbox_owner() or (-1, -1)  # as root: never run it as root, even unsandboxed
     launcher = [sys.executable, "-I", "-S", "-c", _LAUNCHER, str(uid), str(gid), str(os.getpid())]
-    start = time.monotonic()
+    start, ooms = time.monotonic(), _oom_kills()
     try:
         proc = subprocess.Popen(
             [*launcher, *full],
@@ -471,7 +474,22 @@ def run_sandboxed(
             os.close(fd)
     if run.collect_error is not None:
         raise run.collect_error
-    return _outcome(run.watch, time.monotonic() - start, limits, sandboxed, [*argv])
+    out = _outcome(run.watch, time.monotonic() - start, limits, sandboxed, [*argv])
+    if out.signal == "SIGKILL" and _oom_kills() > ooms:  # the machine ran out, not the program
+        out.status = "host_oom"
+    return out
+
+
+def _oom_kills() -> int:
+    """How many processes the kernel's OOM killer has killed since boot (/proc/vmstat)."""
+    try:
+        with open("/proc/vmstat", "rb") as f:
+            for line in f:
+                if line.startswith(b"oom_kill "):
+                    return int(line.split()[1])
+    except (OSError, ValueError):
+        pass
+    return 0
 
 
 def _command(
