@@ -53,16 +53,17 @@ def displayable(text: str, *, lines: bool = False) -> str:
     first error) made safe for a CSV cell, JSON, HTML or a terminal: every control, format,
     separator or surrogate character is written as its escape (ESC as \\x1b, U+202E as
     \\u202e, a newline as \\n), so that it cannot move the cursor, colour the terminal,
-    reorder a line or start a forged one. lines=True keeps newlines and tabs (a log shown as
-    lines); a carriage return is escaped even then, since it rewrites the line it ends."""
-    keep = "\n\t" if lines else ""
+    reorder a line or start a forged one (a tab only moves the text on, and stays).
+    lines=True keeps newlines (a log shown as lines); a carriage return is escaped even
+    then, since it rewrites the line it ends."""
+    keep = "\n" if lines else ""
     if text.isprintable():  # the common case, at C speed
         return text
     return "".join(c if c in keep or not _acts(c) else _escaped(c) for c in text)
 
 
 def _acts(c: str) -> bool:
-    return c == "\t" or _hidden_or_active(c) or unicodedata.category(c) == "Cs"
+    return _hidden_or_active(c) or unicodedata.category(c) == "Cs"
 
 
 def displayable_name(name: str) -> tuple[str, str | None]:

@@ -32,6 +32,10 @@ FILL = (
     " if (fclose(f) != 0 || k < 8) break; } exit(4);"
 )
 BIDI_ERROR = "\t@printf 'rt.c:1:1: error: \\342\\200\\256ssap :edarg \\302\\233 2J\\n' >&2; false\n"
+# Busy loops that leave the build's process group, while the build waits: they load the
+# machine while classmates run (judged by their own CPU time, they still pass), and die
+# with the build's sandbox.
+SPIN = "\tfor i in 1 2 3 4 5 6 7 8; do setsid sh -c 'while :; do :; done' & done; sleep 2\n"
 LINKS = "\tln -s /root/.ssh/id_rsa key\n\tln -s /etc/shadow shadow\n"
 
 
@@ -58,6 +62,7 @@ def graded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     student(subs / "forged_out", hooks(after=f'unlink(out); symlink("{FORGED}", out);'))
     student(subs / "bidi_build", makefile=MAKEFILE.split("\n")[0] + "\n" + BIDI_ERROR)
     student(subs / "links_build", makefile=MAKEFILE + LINKS)
+    student(subs / "spinner", makefile=MAKEFILE + SPIN)
     student(subs / "sparse_build", makefile=MAKEFILE + "\ttruncate -s 250M a b c\n")
     student(subs / "disk_hog", hooks(FILL))
     student(subs / "tmp_filler", makefile=MAKEFILE + "\t-head -c 100000000 /dev/zero > /tmp/f\n")
@@ -85,6 +90,7 @@ EXPECTED = {
     "forged_out": ("fail", "is a symbolic link (to \\x1b]0;pwn\\x07\\x1b[2J\\r\\n  scene"),
     "bidi_build": ("fail", "build failed: rt.c:1:1: error: \\u202essap :edarg \\x9b 2J"),
     "links_build": ("pass", ""),
+    "spinner": ("pass", ""),
     "sparse_build": ("fail", "build failed: the build left 750 MiB of files, more than 512 MiB"),
     "disk_hog": ("fail", "classic: stopped: disk limit 64 MiB"),
     "tmp_filler": ("pass", ""),
