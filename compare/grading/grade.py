@@ -28,6 +28,7 @@ import shutil
 import stat
 import time
 from collections.abc import Callable
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -312,24 +313,47 @@ def grade_safely(task: GradeTask) -> StudentResult:
     try:
         return grade_one(task)
     except Exception as e:  # one student's failure must not end the class
-        why = displayable(str(e)[:300]) or "an internal error"
-        reason = f"not graded: {why} (grading failed here, not the program; run again)"
-        scenes = tuple(
-            SceneResult(s, task.models[s].model, "error", 0.0, reason) for s in sorted(task.files)
-        )
-        return StudentResult(
-            student=task.student,
-            key="",
-            status="fail",
-            score=0.0,
-            model=", ".join(sorted({s.model for s in scenes})),
-            reasons=reason,
-            diagnosis="",
-            scenes=scenes,
-            rubric=task.rubric_source,
-            seconds=0.0,
-            page=f"students/{student_slug(task.student)}/index.html",
-        )
+        return not_graded(task, displayable(str(e)[:300]) or "an internal error")
+
+
+def not_graded(task: GradeTask, why: str) -> StudentResult:
+    """The row of a student whose grading failed on rtval's side (never stored)."""
+    reason = f"not graded: {why} (grading failed here, not the program; run again)"
+    scenes = tuple(
+        SceneResult(s, task.models[s].model, "error", 0.0, reason) for s in sorted(task.files)
+    )
+    return StudentResult(
+        student=task.student,
+        key="",
+        status="fail",
+        score=0.0,
+        model=", ".join(sorted({s.model for s in scenes})),
+        reasons=reason,
+        diagnosis="",
+        scenes=scenes,
+        rubric=task.rubric_source,
+        seconds=0.0,
+        page=f"students/{student_slug(task.student)}/index.html",
+    )
+
+
+def _run_all(
+    tasks: list[GradeTask], arrived: Callable[[StudentResult], None], where: Executor
+) -> None:
+    """Every task's result, or its row: a worker process that dies (the kernel's OOM killer)
+    breaks the pool, and each student not graded yet gets a row saying so."""
+    done: set[str] = set()
+
+    def note(r: StudentResult) -> None:
+        done.add(r.student)
+        arrived(r)
+
+    try:
+        run_tasks(grade_safely, tasks, note, where)
+    except BrokenProcessPool:
+        for t in tasks:
+            if t.student not in done:
+                note(not_graded(t, "a grading process died (the machine out of memory?)"))
 
 
 def _stored_result(
@@ -494,7 +518,7 @@ def run_grading(
     start = time.perf_counter()
     results: list[StudentResult] = []
     arrived = _arrived(results, len(tasks), progress)
-    run_tasks(grade_safely, tasks, arrived, where)
+    _run_all(tasks, arrived, where)
     results.sort(key=lambda r: r.student)
     elapsed = time.perf_counter() - start
     write_gradebook(results, out, rubric.source, elapsed)
