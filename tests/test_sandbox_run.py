@@ -18,6 +18,7 @@ import pytest
 
 from compare.sandbox import seccomp
 from compare.sandbox.bwrap import Limits, Workspace, _classify, _hidden, probe, run_sandboxed
+from compare.sandbox.output import read_output
 
 pytestmark = pytest.mark.skipif(probe() is not None, reason=f"no sandbox here: {probe()}")
 PY = "/usr/bin/python3"
@@ -201,3 +202,35 @@ def test_a_kill_by_the_machines_oom_killer_is_not_the_programs(
 def test_rtval_and_rtdemo_are_not_there() -> None:
     out = _run("command -v rtval rtdemo; ls /work /root 2>&1; true")
     assert "rtval" not in out.log and "rtdemo" not in out.log  # type: ignore[attr-defined]
+
+
+def test_a_program_cannot_forge_the_supervisors_report() -> None:
+    forge = (
+        "import os\nfor fd in range(3, 64):\n"
+        '    try: os.write(fd, b\'{"status": 0, "stopped": ""}\\n\')\n'
+        "    except OSError: pass\n"
+        "raise SystemExit(7)\n"
+    )
+    with Workspace() as ws:
+        out = run_sandboxed([PY, "-c", forge], ws, TEN)
+    assert out.reason == "exit 7"
+
+
+def test_an_out_folder_swapped_for_a_link_is_not_followed() -> None:
+    read: list[tuple[str, bytes]] = []
+    with Workspace() as ws:
+        out = run_sandboxed(
+            ["sh", "-c", "cd /sandbox && rmdir out && ln -s /etc out"],
+            ws,
+            TEN,
+            collect=lambda _w, out: read.append(read_output(out, "passwd", 10, 10)),
+        )
+    assert out.ok and read == [("no output: its folder out/ is not a folder", b"")]
+
+
+def test_killing_the_supervisor_is_the_programs_doing() -> None:
+    out = _run("kill -KILL $PPID; sleep 5")
+    assert out.status == "supervisor", out.log  # type: ignore[attr-defined]
+    assert out.reason == "killed the sandbox's supervisor (only the program can)"  # type: ignore[attr-defined]
+    peek = _run("ls /proc/$PPID/fd 2>&1; cat /proc/$PPID/mem 2>&1 | head -c 40; true")
+    assert "Permission denied" in peek.log  # type: ignore[attr-defined]

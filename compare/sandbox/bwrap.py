@@ -114,7 +114,7 @@ class Outcome:
     signal only when the program was signalled, and a limit only on the kernel's word."""
 
     # ok, exit, crashed, timeout (CPU time), wall, busy, cpu, memory, file_size, disk, sandbox,
-    # host_oom
+    # host_oom, supervisor
     status: str
     limits: Limits
     exit_code: int | None = None
@@ -147,6 +147,7 @@ class Outcome:
             "cpu": f"killed: CPU time limit {lim.cpu:g} s",
             "memory": f"killed: memory limit {human_size(lim.memory)}",
             "file_size": f"killed: file size limit {human_size(lim.file_size)}",
+            "supervisor": "killed the sandbox's supervisor (only the program can)",
             "host_oom": "killed by the machine's out-of-memory killer (the machine's "
             "trouble); it runs again next time",
             "disk": f"stopped: disk limit {human_size(lim.disk)} or {lim.inodes} files "
@@ -475,7 +476,8 @@ def run_sandboxed(
     if run.collect_error is not None:
         raise run.collect_error
     out = _outcome(run.watch, time.monotonic() - start, limits, sandboxed, [*argv])
-    if out.signal == "SIGKILL" and _oom_kills() > ooms:  # the machine ran out, not the program
+    machine = out.status == "supervisor" or out.signal == "SIGKILL"
+    if machine and _oom_kills() > ooms:  # the kernel's OOM killer took it, not the program
         out.status = "host_oom"
     return out
 
@@ -602,7 +604,7 @@ class _Run:
         if not self.sandboxed:
             return self.ws.work, self.ws.out
         pid = self.watch.child_pid()
-        if pid is None:
+        if pid is None or _parent(pid) != self.proc.pid:  # bwrap's own child, no other
             raise OSError("bwrap did not say which process is the sandbox")
         root = Path(f"/proc/{pid}/root")
         return root / WORK_DIR.lstrip("/"), root / OUT_DIR.lstrip("/")
@@ -683,8 +685,8 @@ def _outcome(
         sandboxed=sandboxed,
         command=command,
     )
-    if report is None:  # the supervisor never reported: it, bwrap or the launcher failed
-        out.status = "wall" if watch.timed_out else "sandbox"
+    if report is None:  # the supervisor never reported
+        out.status = "wall" if watch.timed_out else _silent(watch, out.log)
         return out
     out.seconds = float(report.get("seconds", seconds))
     out.cpu_seconds = float(report.get("cpu", 0.0))
@@ -697,6 +699,15 @@ def _outcome(
     if out.status == "crashed":
         out.signal = _signal_name(signum)
     return out
+
+
+def _silent(watch: _Watch, log: str) -> str:
+    """Why no report came: the sandbox never started (bwrap, the launcher or the supervisor
+    failed: the machine's trouble), or it started and its supervisor was killed, which only
+    the program (the same user inside) or the machine's OOM killer can do."""
+    if watch.child_pid() is None or "rtval's sandbox supervisor failed" in log:
+        return "sandbox"
+    return "supervisor"
 
 
 def _classify(report: dict[str, Any], limits: Limits, waited: float) -> tuple[str, int]:

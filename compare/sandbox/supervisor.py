@@ -34,6 +34,7 @@ from typing import Any
 
 SAMPLE = 0.05  # seconds between two looks at the sandbox's processes
 _PR_SET_PDEATHSIG = 1
+_PR_SET_DUMPABLE = 4
 _PR_SET_CHILD_SUBREAPER = 36
 _TICK = os.sysconf("SC_CLK_TCK")
 _PAGE = os.sysconf("SC_PAGE_SIZE")
@@ -175,7 +176,12 @@ def disk_full(path: str) -> bool:
 
 def main() -> None:
     cfg = json.loads(sys.argv[1])
+    for fd in (cfg["report"], cfg["control"]):  # the program must not forge a report
+        os.set_inheritable(fd, False)
     libc = ctypes.CDLL(None, use_errno=True)
+    # Not dumpable: the program, the same user, may not open its descriptors or its memory
+    # through /proc (and so may not write a report of its own).
+    libc.prctl(_PR_SET_DUMPABLE, 0, 0, 0, 0)
     libc.prctl(_PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
     if not cfg["sandboxed"]:  # in a sandbox, bwrap's --die-with-parent does this
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
@@ -198,4 +204,8 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except Exception as e:  # rtval's own failure, never the program's: it says so
+        os.write(2, f"rtval's sandbox supervisor failed: {e}\n".encode())
+        raise SystemExit(70) from None
