@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import json
+import marshal
 import os
 import re
 import selectors
@@ -319,6 +320,8 @@ def probe() -> str | None:
         return f"bubblewrap is not installed ({bwrap} missing; Debian: apt-get install bubblewrap)"
     if not os.path.isfile(SYSTEM_PYTHON):
         return f"{SYSTEM_PYTHON} (which runs the sandbox's supervisor) is missing"
+    if not os.path.isfile(SETPRIV):
+        return f"{SETPRIV} (util-linux) is missing"
     if not hasattr(os, "pidfd_open"):
         return "this Python or kernel has no pidfd_open (Linux 5.3+ needed)"
     if why := seccomp.unavailable():
@@ -401,27 +404,20 @@ class _Watch:
         return int(m.group(1)) if m else None
 
 
-# Between rtval and bwrap (or, without a sandbox, the supervisor): it takes the sandbox user
-# (as root), asks to be killed when rtval's process goes (after the uid change, which would
-# clear the request), and becomes bwrap. Not forked from rtval itself: a forked grading worker
-# would start with hundreds of MiB resident.
-_LAUNCHER = """
-import ctypes, os, sys
-uid, gid, parent = (int(v) for v in sys.argv[1:4])
-argv = sys.argv[4:]
-try:
-    if uid >= 0:
-        os.setgroups([])
-        os.setgid(gid)
-        os.setuid(uid)
-    ctypes.CDLL(None).prctl(1, 9, 0, 0, 0)  # PR_SET_PDEATHSIG, SIGKILL
-    if os.getppid() != parent:
-        os._exit(1)
-    os.execv(argv[0], argv)
-except OSError as e:
-    os.write(2, f"cannot start {argv[0]}: {e.strerror}\\n".encode())
-os._exit(127)
-"""
+# Between rtval and bwrap (or, without a sandbox, the supervisor): util-linux's setpriv takes
+# the sandbox user (as root), asks the kernel for SIGKILL when rtval's process goes (after
+# the uid change, which would clear the request) and becomes bwrap. Not forked from rtval
+# itself: a forked grading worker would start with hundreds of MiB resident.
+SETPRIV = "/usr/bin/setpriv"
+
+
+def _launcher() -> list[str]:
+    owner = sandbox_owner()  # as root: never run it as root, even unsandboxed
+    as_user = []
+    if owner:
+        as_user = ["--reuid", str(owner[0]), "--regid", str(owner[1]), "--clear-groups"]
+    return [SETPRIV, *as_user, "--pdeathsig", "KILL", "--"]
+
 
 Collect = Callable[[Path, Path], object]  # (work, out) as rtval can read them, while paused
 
@@ -444,12 +440,10 @@ def run_sandboxed(
     filter_fd = seccomp.filter_fd() if sandboxed else -1
     fds = _Fds(status_w, filter_fd, report_w, control_r)
     full = _command(argv, ws, limits, fds, sandboxed, hide)
-    uid, gid = sandbox_owner() or (-1, -1)  # as root: never run it as root, even unsandboxed
-    launcher = [sys.executable, "-I", "-S", "-c", _LAUNCHER, str(uid), str(gid), str(os.getpid())]
     start, ooms = time.monotonic(), _oom_kills()
     try:
         proc = subprocess.Popen(
-            [*launcher, *full],
+            [*_launcher(), *full],
             stdin=subprocess.DEVNULL,
             stdout=log_w,
             stderr=log_w,
@@ -521,7 +515,7 @@ def _command(
     # Unsandboxed as root, the supervisor runs as the sandbox user: the system's Python is
     # one it can run (rtval's own may lie in root's home).
     python = SYSTEM_PYTHON if sandboxed or os.path.isfile(SYSTEM_PYTHON) else sys.executable
-    tail = [python, "-I", "-S", "-c", _SUPERVISOR, json.dumps(cfg)]
+    tail = [python, "-I", "-S", "-c", _SUPERVISOR, marshal.dumps(cfg).hex()]
     return [*bwrap_argv(ws, limits, fds, hide), *tail] if sandboxed else tail
 
 
