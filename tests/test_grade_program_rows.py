@@ -63,6 +63,8 @@ def graded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     student(subs / "bidi_build", makefile=MAKEFILE.split("\n")[0] + "\n" + BIDI_ERROR)
     student(subs / "links_build", makefile=MAKEFILE + LINKS)
     student(subs / "spinner", makefile=MAKEFILE + SPIN)
+    swap = "\tcd /sandbox && mv work elsewhere && ln -s /etc work\n"
+    student(subs / "work_swapped", makefile=MAKEFILE + swap)
     student(subs / "sparse_build", makefile=MAKEFILE + "\ttruncate -s 250M a b c\n")
     student(subs / "disk_hog", hooks(FILL))
     student(subs / "tmp_filler", makefile=MAKEFILE + "\t-head -c 100000000 /dev/zero > /tmp/f\n")
@@ -91,6 +93,7 @@ EXPECTED = {
     "bidi_build": ("fail", "build failed: rt.c:1:1: error: \\u202essap :edarg \\x9b 2J"),
     "links_build": ("pass", ""),
     "spinner": ("pass", ""),
+    "work_swapped": ("fail", "build failed: the build left no folder to keep"),
     "sparse_build": ("fail", "build failed: the build left 750 MiB of files, more than 512 MiB"),
     "disk_hog": ("fail", "classic: stopped: disk limit 64 MiB"),
     "tmp_filler": ("pass", ""),

@@ -234,3 +234,10 @@ def test_killing_the_supervisor_is_the_programs_doing() -> None:
     assert out.reason == "killed the sandbox's supervisor (only the program can)"  # type: ignore[attr-defined]
     peek = _run("ls /proc/$PPID/fd 2>&1; cat /proc/$PPID/mem 2>&1 | head -c 40; true")
     assert "Permission denied" in peek.log  # type: ignore[attr-defined]
+
+
+def test_files_beyond_the_inode_bound_stop_the_sandbox() -> None:
+    out = _run(
+        "i=0; while [ $i -lt 5000 ]; do : > f$i; i=$((i+1)); done", Limits(time=10, inodes=200)
+    )
+    assert out.status == "disk" and "200 files" in out.reason  # type: ignore[attr-defined]
