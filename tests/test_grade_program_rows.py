@@ -19,8 +19,12 @@ from helpers import run
 from sandbox_class import MAKEFILE, RTVAL, grade, gradebook, hooks, private_tmp, student
 
 from compare.grading import programs
+from compare.sandbox.bwrap import probe
 
-pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
+pytestmark = [
+    pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler"),
+    pytest.mark.skipif(probe() is not None, reason=f"no sandbox here: {probe()}"),
+]
 
 SMALL = ["--run-timeout", "4", "--memory", "256M", "--processes", "32"]  # files up to 256M
 FORGED = "\\x1b]0;pwn\\x07\\x1b[2J\\r\\n  scene classic: pass, score 100.0 =cmd|x"
