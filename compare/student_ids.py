@@ -41,6 +41,31 @@ def _hidden_or_active(c: str) -> bool:
     return category in ("Cc", "Cf", "Zl", "Zp")
 
 
+def _escaped(c: str) -> str:
+    code = ord(c)
+    if 0xDC80 <= code <= 0xDCFF:  # a byte of a name that was not UTF-8 (surrogateescape)
+        return f"\\x{code - 0xDC00:02x}"
+    return c.encode("unicode_escape").decode("ascii")
+
+
+def displayable(text: str, *, lines: bool = False) -> str:
+    """Text a student controls (an id, a file name, a link's target, a log line, a compiler's
+    first error) made safe for a CSV cell, JSON, HTML or a terminal: every control, format,
+    separator or surrogate character is written as its escape (ESC as \\x1b, U+202E as
+    \\u202e, a newline as \\n), so that it cannot move the cursor, colour the terminal,
+    reorder a line or start a forged one (a tab only moves the text on, and stays).
+    lines=True keeps newlines (a log shown as lines); a carriage return is escaped even
+    then, since it rewrites the line it ends."""
+    keep = "\n" if lines else ""
+    if text.isprintable():  # the common case, at C speed
+        return text
+    return "".join(c if c in keep or not _acts(c) else _escaped(c) for c in text)
+
+
+def _acts(c: str) -> bool:
+    return _hidden_or_active(c) or unicodedata.category(c) == "Cs"
+
+
 def displayable_name(name: str) -> tuple[str, str | None]:
     """(text, problem) for a name from os.listdir. A name that is not UTF-8 (it arrives with
     surrogate escapes) or holds characters that act or hide is shown with them escaped, and

@@ -10,7 +10,7 @@ DEBIAN_PACKAGES=(
   libglfw3-dev libglm-dev libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev
   xvfb xauth libllvm19 chromium poppler-utils bubblewrap
   clang libclang-rt-14-dev clang-format
-  python3-venv
+  python3-venv libseccomp2
 )
 
 missing=()

@@ -7,7 +7,13 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from compare.cli.common import add_cache_argument, positive_float, positive_int, size_type
+from compare.cli.common import (
+    add_cache_argument,
+    positive_float,
+    positive_int,
+    size_type,
+    target_model_type,
+)
 
 if TYPE_CHECKING:
     from compare.grading.programs import ProgramOptions
@@ -16,6 +22,7 @@ if TYPE_CHECKING:
 def run_grade(args: argparse.Namespace) -> int:
     from compare.grading import grade
     from compare.grading.class_page import summarise, summary_lines
+    from compare.grading.executors import Executor
     from compare.grading.gradebook import explain
     from compare.grading.lms import stage_submission, write_autograder_results
     from compare.grading.student_page import write_handouts
@@ -32,15 +39,9 @@ def run_grade(args: argparse.Namespace) -> int:
     scenes = [Path(s) for s in args.scene]
     root = Path(args.gradescope_root)
     submissions = stage_submission(root, out) if args.gradescope else Path(args.submissions)
-    results = grade.run_grading(
-        submissions,
-        scenes,
-        out,
+    options = grade.GradingRun(
         rubric_path=args.rubric,
-        executor=args.executor,
-        scheduler=args.scheduler,
-        scheduler_timeout=args.scheduler_timeout,
-        jobs=args.jobs,
+        executor=Executor(args.executor, args.scheduler, args.jobs, args.scheduler_timeout),
         size=args.size,
         against=args.against,
         diagnose=not args.no_diagnose,
@@ -49,6 +50,7 @@ def run_grade(args: argparse.Namespace) -> int:
         program=_program_options(args),
         test_encoding=args.test_encoding,
     )
+    results = grade.run_grading(submissions, scenes, out, options)
     passed = sum(r.status == "pass" for r in results)
     print(f"{passed} passed, {len(results) - passed} failed")
     print("\n".join(summary_lines(summarise(results))))
@@ -73,6 +75,7 @@ def _program_options(args: argparse.Namespace) -> ProgramOptions:
         output=args.output,
         output_format=args.output_format,
         unsandboxed=args.unsandboxed,
+        allow_binaries=args.allow_binaries,
         limits=limits,
     )
 
@@ -111,9 +114,28 @@ def _add_program_arguments(p: argparse.ArgumentParser) -> None:
         "(bwrap missing): only for code you trust",
     )
     g.add_argument(
-        "--build-timeout", type=positive_float, metavar="S", help="per build (default 120)"
+        "--allow-binaries",
+        action="store_true",
+        help="accept prebuilt executables (ELF files) in a submission; by default a "
+        "submission holding one is refused: only what the build makes may run",
     )
-    g.add_argument("--run-timeout", type=positive_float, metavar="S", help="per run (default 60)")
+    _add_limit_arguments(g)
+
+
+def _add_limit_arguments(g: argparse._ArgumentGroup) -> None:
+    g.add_argument(
+        "--build-timeout",
+        type=positive_float,
+        metavar="S",
+        help="CPU seconds per build, all its processes together (default 120)",
+    )
+    g.add_argument(
+        "--run-timeout",
+        type=positive_float,
+        metavar="S",
+        help="CPU seconds per run, all its processes together (default 60); the wall limit "
+        "is a generous 3 x this + 10 s",
+    )
     g.add_argument(
         "--cpu", type=positive_float, metavar="S", help="CPU seconds per process (default 600)"
     )
@@ -123,6 +145,12 @@ def _add_program_arguments(p: argparse.ArgumentParser) -> None:
         "--processes", type=positive_int, metavar="N", help="processes and threads (default 128)"
     )
     g.add_argument("--open-files", type=positive_int, metavar="N", help="per process (default 256)")
+    g.add_argument(
+        "--disk",
+        metavar="SIZE",
+        help="writable space of each build and run, its work and out folders together "
+        "(default 512M; memory-backed)",
+    )
 
 
 def _add_lms_arguments(p: argparse.ArgumentParser) -> None:
@@ -200,6 +228,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--against",
         metavar="MODEL",
         default=None,
+        type=target_model_type,
         help="target model: classic (default, or the rubric's `against`), paper, physical, "
         "MODE+Qn/-Qn, mitsuba, mitsuba-path. Demo models are judged by exact match",
     )

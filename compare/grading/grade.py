@@ -28,18 +28,30 @@ import shutil
 import stat
 import time
 from collections.abc import Callable
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from compare.diagnosis.evidence import EvidenceOptions, diagnose_image
+from compare.diagnosis.search import DiagnoseError
+from compare.errors import ToolError
 from compare.grading.class_page import write_class_page
 from compare.grading.encodings import choose_encoding, with_encoding
-from compare.grading.executors import SCHEDULER_TIMEOUT, Executor, run_tasks
+from compare.grading.executors import Executor, run_tasks
 from compare.grading.gradebook import write_gradebook
 from compare.grading.lms import write_lms_exports
-from compare.grading.programs import ProgramJob, ProgramOptions, ProgramSpec, resolve_spec
+from compare.grading.programs import (
+    ProgramJob,
+    ProgramOptions,
+    ProgramResult,
+    ProgramSpec,
+    build_and_run,
+    program_entries,
+    resolve_spec,
+)
 from compare.grading.results import (
     BadResult,
     SceneResult,
@@ -48,12 +60,31 @@ from compare.grading.results import (
     read_result,
 )
 from compare.grading.student_page import write_student_page
-from compare.grading.submissions import IMAGE_SUFFIXES  # noqa: F401  (re-exported)
+from compare.grading.submissions import (
+    IMAGE_SUFFIXES,  # noqa: F401  (re-exported)
+    collect_entries,
+)
+from compare.judge.images import ImageError, ImageSizeError, read_image
+from compare.judge.png import FAST, display_values, write_display_png
+from compare.judge.rubric import parse_rubric, read_rubric
 from compare.judge.scoring import student_passes, student_score
-from compare.student_ids import student_slug
-from compare.verdict.against import ModelRenders
+from compare.judge.sentences import difference_sentences
+from compare.render.cache import RenderCache
+from compare.render.progress import Progress
+from compare.sandbox.bwrap import require_sandbox
+from compare.student_ids import displayable, student_slug
+from compare.verdict.against import (
+    GRADE_DEFAULT,
+    ModelRenders,
+    judge_against_model,
+    load,
+    nan_pixels,
+    prepare,
+    resolve_model,
+)
 from safe_files.content import sha256_file
 from safe_files.paths import atomic_output, own_folder, write_atomic
+from scene_model.scene import load_scene
 
 if TYPE_CHECKING:
     from compare.diagnosis.search import FlipSeed
@@ -64,7 +95,6 @@ if TYPE_CHECKING:
     from compare.judge.images import Image
     from compare.judge.rubric import Rubric
     from compare.judge.target_model import TargetModel
-    from compare.render.cache import RenderCache
     from compare.verdict.against import LoadedModel
 
 
@@ -106,7 +136,6 @@ def _grade_scene(
 ) -> SceneResult:
     """One scene: not judged (with the reason) when there is no image of the right size to
     judge, else judged against the model."""
-    from compare.verdict.against import load
 
     model_name = task.models[scene_name].model
     if scene_name in task.scene_problems:  # the program's run gave no image: why
@@ -126,7 +155,6 @@ def _grade_scene(
 def _read_submission(path: str, shape: tuple[int, int]) -> Image | str:
     """The submitted image, or why it cannot be judged. The size is checked in the header,
     before decoding: memory stays bounded."""
-    from compare.judge.images import ImageError, ImageSizeError, read_image
 
     try:
         return read_image(path, expected_size=shape)
@@ -147,8 +175,6 @@ def _judge_scene(
 ) -> SceneResult:
     """The verdict, the reasons and the sentences of a scene's image; a failing image against
     a demo model is diagnosed. Writes the image and its difference for the page."""
-    from compare.judge.sentences import difference_sentences
-    from compare.verdict.against import judge_against_model, nan_pixels
 
     nan = nan_pixels(img)
     ev = judge_against_model(img, model, rubric)
@@ -208,7 +234,6 @@ def _write_scene_pictures(
     """The submission, the model and |difference| x 8 (display), for the student's page;
     NaN/Inf pixels in the marker colour (compare/judge/png.py). Judged exactly, a pixel that
     matches is black: what is left of 8-bit rounding there is no difference."""
-    from compare.judge.png import FAST, display_values, write_display_png
 
     a, b = display_values(reference), display_values(test)
     write_display_png(page_dir / f"{scene_name}.png", b, compress_level=FAST)
@@ -242,9 +267,6 @@ def _diagnose_scene(
 ) -> dict[str, Any]:
     """What a failing submission looks like; a diagnosis that cannot run says why in the
     cell instead of failing the student's grading."""
-    from compare.diagnosis.evidence import EvidenceOptions, diagnose_image
-    from compare.diagnosis.search import DiagnoseError
-    from compare.errors import ToolError
 
     try:
         return diagnose_image(
@@ -267,7 +289,6 @@ def grade_one(task: GradeTask) -> StudentResult:
     """Grades one student; returns (and stores) the result. Idempotent: a result with the
     same key on disk is returned as is. A stored file that is not a result (truncated, a
     link, a FIFO) is graded again, with a warning naming it."""
-    from compare.judge.rubric import parse_rubric
 
     out = Path(task.out_dir)
     slug = student_slug(task.student)  # the id on disk; the real id stays in the result
@@ -296,8 +317,59 @@ def grade_one(task: GradeTask) -> StudentResult:
         warnings=warnings,
     )
     write_student_page(page_dir, result)
-    write_atomic(result_path, result.dumps())
+    if program is None or not program.transient:  # the machine's trouble is never kept
+        write_atomic(result_path, result.dumps())
     return result
+
+
+def grade_safely(task: GradeTask) -> StudentResult:
+    """grade_one, where anything that goes wrong inside one submission's grading (a bug, a
+    tree too deep for some walk, the machine out of memory or descriptors) becomes that
+    student's row, stored nowhere: the next run grades it again. The class goes on."""
+    try:
+        return grade_one(task)
+    except Exception as e:  # one student's failure must not end the class
+        return not_graded(task, displayable(str(e)[:300]) or "an internal error")
+
+
+def not_graded(task: GradeTask, why: str) -> StudentResult:
+    """The row of a student whose grading failed on rtval's side (never stored)."""
+    reason = f"not graded: {why} (grading failed here, not the program; run again)"
+    scenes = tuple(
+        SceneResult(s, task.models[s].model, "error", 0.0, reason) for s in sorted(task.files)
+    )
+    return StudentResult(
+        student=task.student,
+        key="",
+        status="fail",
+        score=0.0,
+        model=", ".join(sorted({s.model for s in scenes})),
+        reasons=reason,
+        diagnosis="",
+        scenes=scenes,
+        rubric=task.rubric_source,
+        seconds=0.0,
+        page=f"students/{student_slug(task.student)}/index.html",
+    )
+
+
+def _run_all(
+    tasks: list[GradeTask], arrived: Callable[[StudentResult], None], where: Executor
+) -> None:
+    """Every task's result, or its row: a worker process that dies (the kernel's OOM killer)
+    breaks the pool, and each student not graded yet gets a row saying so."""
+    done: set[str] = set()
+
+    def note(r: StudentResult) -> None:
+        done.add(r.student)
+        arrived(r)
+
+    try:
+        run_tasks(grade_safely, tasks, note, where)
+    except BrokenProcessPool:
+        for t in tasks:
+            if t.student not in done:
+                note(not_graded(t, "a grading process died (the machine out of memory?)"))
 
 
 def _stored_result(
@@ -317,9 +389,9 @@ def _stored_result(
 
 def _run_program(task: GradeTask, out: Path, slug: str) -> tuple[GradeTask, ProgramResult]:
     """A program submission built and run in the sandbox: the task, now of its images."""
-    from compare.grading.programs import build_and_run
 
-    program = build_and_run(task.program, own_folder(out, "programs", slug))  # type: ignore[arg-type]
+    assert task.program is not None
+    program = build_and_run(task.program, own_folder(out, "programs", slug))
     task = dataclasses.replace(
         task, files=program.files, problem=program.problem, scene_problems=program.scene_problems
     )
@@ -373,7 +445,6 @@ def collect(
 ) -> list[Submission]:
     """Every id in the submissions folder (see compare/grading/submissions.py: what is a
     submission, and the reasons for what is not)."""
-    from compare.grading.submissions import collect_entries
 
     return [
         Submission(e.student, e.files, "; ".join(e.problems) or None)
@@ -394,8 +465,6 @@ def _entries(
     [program] (compare/grading/programs.py)."""
     if spec is None:
         return collect(submissions, list(models), exclude=[out], notice=progress)
-    from compare.grading.programs import program_entries
-
     found = program_entries(submissions, models, spec, size, out, cache_root, progress)
     return [Submission(*entry) for entry in found]
 
@@ -428,48 +497,46 @@ def _is_regular_file(path: Path) -> bool:
         return False
 
 
+@dataclass(frozen=True)
+class GradingRun:
+    """How a class is graded, besides what and where (run_grading's arguments)."""
+
+    rubric_path: str | None = None
+    executor: Executor = dataclasses.field(default_factory=Executor)
+    size: tuple[int, int] | None = None
+    against: TargetModel | None = None  # None: the rubric's, else classic
+    diagnose: bool = True
+    cache_dir: Path | str | None = None
+    progress: Callable[[str], None] = print
+    program: ProgramOptions | None = None
+    test_encoding: str | None = None  # None: an 8-bit file judged in both encodings
+
+
 def run_grading(
-    submissions: Path,
-    scene_files: list[Path],
-    out: Path,
-    *,
-    rubric_path: str | None = None,
-    executor: str = "local",
-    scheduler: str | None = None,
-    scheduler_timeout: float = SCHEDULER_TIMEOUT,
-    jobs: int = 2,
-    size: tuple[int, int] | None = None,
-    against: str | None = None,
-    diagnose: bool = True,
-    cache_dir: Path | str | None = None,
-    progress: Callable[[str], None] = print,
-    program: ProgramOptions | None = None,
-    test_encoding: str | None = None,
+    submissions: Path, scene_files: list[Path], out: Path, options: GradingRun = GradingRun()
 ) -> list[StudentResult]:
     """Grades every submission; writes the pages, the results and the gradebook."""
-    from compare.render.cache import RenderCache
-
-    where = Executor(executor, scheduler, jobs, scheduler_timeout)
+    where, progress = options.executor, options.progress
     where.check()
-    rubric_text, rubric, model, spec = _class_setup(rubric_path, against, program)
+    rubric_text, rubric, model, spec = _class_setup(
+        options.rubric_path, options.against, options.program
+    )
     out.mkdir(parents=True, exist_ok=True)
-    cache = RenderCache(cache_dir)
-    models = _model_renders(model, scene_files, size, cache, out, progress)
-    parallel = 0 if not diagnose else 1 if where.side_by_side else 2
+    cache = RenderCache(options.cache_dir)
+    models = _model_renders(model, scene_files, options.size, cache, out, progress)
+    parallel = 0 if not options.diagnose else 1 if where.side_by_side else 2
     base = _base_task(models, rubric_text, rubric, out, cache, parallel)
-    base = dataclasses.replace(base, test_encoding=test_encoding)
-    tasks = [
-        dataclasses.replace(base, **entry._asdict())
-        for entry in _entries(submissions, models, spec, size, out, cache.root, progress)
-    ]
+    base = dataclasses.replace(base, test_encoding=options.test_encoding)
+    found = _entries(submissions, models, spec, options.size, out, cache.root, progress)
+    tasks = [dataclasses.replace(base, **entry._asdict()) for entry in found]
     own_folder(out, "results")  # every folder a task writes, checked here: a planted link
     for t in tasks:  # stops the run before any work
         own_folder(out, "students", student_slug(t.student))
-    progress(f"grading {len(tasks)} submissions against {model.name} ({executor} executor)")
+    progress(f"grading {len(tasks)} submissions against {model.name} ({where.kind} executor)")
     start = time.perf_counter()
     results: list[StudentResult] = []
     arrived = _arrived(results, len(tasks), progress)
-    run_tasks(grade_one, tasks, arrived, where)
+    _run_all(tasks, arrived, where)
     results.sort(key=lambda r: r.student)
     elapsed = time.perf_counter() - start
     write_gradebook(results, out, rubric.source, elapsed)
@@ -506,20 +573,16 @@ def _base_task(
 
 
 def _class_setup(
-    rubric_path: str | None, against: str | None, program: ProgramOptions | None
+    rubric_path: str | None, against: TargetModel | None, program: ProgramOptions | None
 ) -> tuple[str, Rubric, TargetModel, ProgramSpec | None]:
     """The rubric (its text, parsed), the model and the program spec (None: a class of
     images), each checked before any work: a sandboxed class needs a sandbox."""
-    from compare.judge.rubric import parse_rubric, read_rubric
-    from compare.verdict.against import GRADE_DEFAULT, resolve_model
 
     rubric_text, rubric_source = read_rubric(rubric_path)
     rubric = parse_rubric(rubric_text, rubric_source)
     model = resolve_model(against, rubric, GRADE_DEFAULT)
     spec = resolve_spec(program, rubric.program)
     if spec is not None and spec.sandboxed:
-        from compare.sandbox.bwrap import require_sandbox
-
         require_sandbox()  # refuse rather than run students' code bare
     return rubric_text, rubric, model, spec
 
@@ -534,9 +597,6 @@ def _model_renders(
 ) -> dict[str, ModelRenders]:
     """scene name -> the model's renders of it, rendered (or found) in the shared cache and
     copied to OUT/references."""
-    from compare.render.progress import Progress
-    from compare.verdict.against import prepare
-    from scene_model.scene import load_scene
 
     folder = own_folder(out, "references")
     models: dict[str, ModelRenders] = {}

@@ -11,16 +11,18 @@ from typing import Any
 from compare.grading.csv_safe import csv_text
 from compare.grading.results import BadResult, SceneResult, StudentResult, read_result
 from compare.judge.scoring import Term, weighted_score
-from compare.student_ids import student_slug
+from compare.student_ids import displayable, student_slug
 from safe_files.paths import write_atomic
 
 _SUMMARY_KEYS = ("student", "status", "score", "model", "reasons", "diagnosis", "page")
 
 
 def write_gradebook(results: list[StudentResult], out: Path, rubric: str, seconds: float) -> None:
+    """Every text cell goes through displayable(): a reason quoting a student's link target
+    or compiler line cannot carry an escape sequence, a bidi override or a line break."""
     write_atomic(out / "gradebook.csv", csv_text(_csv_rows(results)))
     summary = [
-        {k: getattr(r, k) for k in _SUMMARY_KEYS}
+        {k: _shown(getattr(r, k)) for k in _SUMMARY_KEYS}
         | {"scenes": {s.scene: {"status": s.status, "score": s.score} for s in r.scenes}}
         for r in results
     ]
@@ -50,18 +52,22 @@ def _csv_rows(results: list[StudentResult]) -> list[list[object]]:
         by = {s.scene: s for s in r.scenes}
         rows.append(
             [
-                r.student,
+                displayable(r.student),
                 r.status,
                 f"{r.score:.2f}",
                 r.model,
                 *[f"{by[s].score:.2f}" if s in by else "" for s in scenes],
                 *[by[s].status if s in by else "" for s in scenes],
-                r.reasons,
-                r.diagnosis,
+                displayable(r.reasons),
+                displayable(r.diagnosis),
                 r.page,
             ]
         )
     return rows
+
+
+def _shown(value: object) -> object:
+    return displayable(value) if isinstance(value, str) else value
 
 
 def explain(out: Path, student: str) -> str:
@@ -80,17 +86,18 @@ def explain(out: Path, student: str) -> str:
     if r.student != student:  # never a classmate's result
         raise OSError(f"{path}: holds the result of another id, not {student!r}")
     lines = [
-        f"{student}: {r.status.upper()}, score {r.score:.1f} = mean of the scene scores "
-        f"(judged against {r.model or 'mitsuba'}; rubric: {r.rubric})"
+        f"{displayable(student)}: {r.status.upper()}, score {r.score:.1f} = mean of the scene "
+        f"scores (judged against {r.model or 'mitsuba'}; rubric: {displayable(r.rubric)})"
     ]
     for s in r.scenes:
         lines.append(
-            f"  scene {s.scene}: {s.status}, score {s.score:.1f}"
-            + (f" — {s.reason}" if s.reason else "")
+            f"  scene {displayable(s.scene)}: {displayable(s.status)}, score {s.score:.1f}"
+            + (f" — {displayable(s.reason)}" if s.reason else "")
         )
         if s.verdict:
             lines += _verdict_lines(s)
-    return "\n".join(lines)
+    # Every line is ours: whatever a result file holds, no text in it starts a line.
+    return "\n".join(displayable(line) for line in lines)
 
 
 def _verdict_lines(s: SceneResult) -> list[str]:

@@ -26,30 +26,34 @@ import os
 import re
 import shlex
 import shutil
+import sys
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from compare.grading.submissions import IMAGE_SUFFIXES
+from compare.grading.submissions import IMAGE_SUFFIXES, collect_programs
 from compare.judge.rubric import limit_value
-from compare.render.foreign import PLACEHOLDERS, TemplateError
+from compare.render.foreign import PLACEHOLDERS, TemplateError, _write_xml
 from compare.render.foreign import parse_command as parse_renderer
 from compare.render.placeholders import PLACEHOLDER, fill
 from compare.sandbox.archives import TreeError, TreeLimits, archive_suffix, copy_tree, unpack
 from compare.sandbox.archives import source_digest as tree_digest
-from compare.sandbox.bwrap import Limits, Outcome, Workspace, probe, run_sandboxed
-from compare.sandbox.output import read_output
+from compare.sandbox.bwrap import Collect, Limits, Outcome, Workspace, probe, run_sandboxed
+from compare.sandbox.output import check_format, read_output
+from compare.sandbox.trees import remove_tree
 from compare.sizes import human_size
-from compare.student_ids import student_slug
+from compare.student_ids import displayable, student_slug
 from safe_files.content import sha256_file
 from safe_files.paths import write_atomic
+from scene_model.scene import load_scene
 
-BUILD_LIMITS = Limits(wall=120.0)
-RUN_LIMITS = Limits(wall=60.0)
+BUILD_LIMITS = Limits(time=120.0)
+RUN_LIMITS = Limits(time=60.0)
 TREE_LIMITS = TreeLimits()
 _FIRST_ERROR = re.compile(r": (?:fatal )?error:|undefined reference|error\[|^error:", re.I)
 _ANY_ERROR = re.compile(r"\berror\b", re.I)
+TRANSIENT = ("sandbox", "busy", "host_oom")  # outcomes the machine caused: never kept
 _CONTROL = re.compile(r"\x1b\[[0-9;]*[A-Za-z]|[\x00-\x08\x0b-\x1f\x7f]")
 
 
@@ -65,6 +69,7 @@ class ProgramSpec:
     run_limits: Limits = RUN_LIMITS
     tree: TreeLimits = TREE_LIMITS
     sandboxed: bool = True
+    allow_binaries: bool = False  # prebuilt ELF files in a submission: refused unless True
 
     def digest(self, *parts: str) -> str:
         h = hashlib.sha256(json.dumps(asdict(self), sort_keys=True, default=str).encode())
@@ -82,14 +87,16 @@ class ProgramOptions:
     output: str | None = None
     output_format: str | None = None
     unsandboxed: bool = False
+    allow_binaries: bool = False
     limits: Mapping[str, Any] = field(default_factory=dict)  # keys of LIMIT_KEYS
 
 
 # [program.limits] keys (compare/judge/rubric.py checks them; the flags use the same names)
 # -> (the build's limits, the run's, or both; the Limits field)
 LIMIT_KEYS: dict[str, tuple[str, str]] = {
-    "build_timeout": ("build", "wall"),
-    "run_timeout": ("run", "wall"),
+    "build_timeout": ("build", "time"),
+    "run_timeout": ("run", "time"),
+    "disk": ("both", "disk"),
     "cpu": ("both", "cpu"),
     "memory": ("both", "memory"),
     "file_size": ("both", "file_size"),
@@ -130,6 +137,7 @@ def resolve_spec(
         build_limits=build_limits,
         run_limits=run_limits,
         sandboxed=not options.unsandboxed,
+        allow_binaries=options.allow_binaries,
     )
 
 
@@ -207,6 +215,7 @@ class ProgramResult:
     problem: str | None = None  # nothing can be graded (the build failed)
     scene_problems: dict[str, str] = field(default_factory=dict)  # this scene's run failed
     info: dict[str, Any] = field(default_factory=dict)
+    transient: bool = False  # the machine failed, not the program: never stored as its result
 
 
 def build_and_run(job: ProgramJob, folder: Path) -> ProgramResult:
@@ -226,12 +235,16 @@ def build_and_run(job: ProgramJob, folder: Path) -> ProgramResult:
         for scene in job.scenes:
             run = _run(job, folder, scene, build["key"])
             result.info["runs"][scene.name] = run
+            result.transient |= run["status"] in TRANSIENT
             if run["reason"]:
                 result.scene_problems[scene.name] = run["reason"]
             else:
                 result.files[scene.name] = str(folder / "runs" / run["image"])
     except (OSError, TreeError) as e:  # the machine's trouble (a full disk), not the student's
-        result.problem = f"could not build or run the program: {e}"
+        result.problem = f"could not build or run the program: {displayable(str(e))[:300]}"
+        result.transient = True
+    if result.info["build"] is not None:
+        result.transient |= result.info["build"]["status"] in TRANSIENT
     return result
 
 
@@ -251,38 +264,72 @@ def _build(job: ProgramJob, folder: Path) -> dict[str, Any]:
     old = _cached(where / "outcome.json", key)
     if old is not None and (old["status"] != "ok" or (where / "tree").is_dir()):
         return {**old, "cached": True}
-    _remove(where)
+    remove_tree(where)
     where.mkdir(parents=True)
     with Workspace() as ws:
         record = _prepare_source(job, ws)
+        built = _Built(where)
         if record is None and spec.build:
-            ws.hand_over()
-            argv = _expand(spec.build, ws.work)
-            outcome = run_sandboxed(
-                argv, ws, spec.build_limits, sandboxed=spec.sandboxed, hide=job.hide
-            )
+            argv = _expand(spec.build, ws.src)
+            outcome = _rerun_if_busy(argv, ws, spec.build_limits, job, built.keep)
             record = _step(outcome, shlex.join(argv), build=True)
-        if record is None:
+        elif record is None:  # nothing to build: the program is its source
             record = {"status": "ok", "reason": "", "command": "", "log": "", "seconds": 0.0}
-        if record["status"] == "ok":
-            try:
-                copy_tree(ws.work, where / "tree", spec.tree, built=True)
-            except TreeError as e:
-                record |= {"status": "refused", "reason": f"build failed: the build left {e}"}
+            built.keep(ws.src, ws.src, spec.tree)
+        if record["status"] == "ok" and built.refused:  # nothing of it stays in OUT
+            record |= {
+                "status": "refused",
+                "reason": f"build failed: the build left {built.refused}",
+            }
+        if record["status"] != "ok":
+            remove_tree(where / "tree")
     record |= {"key": key, "cached": False}
     _keep(where / "outcome.json", record)
     return record
 
 
+class _Built:
+    """What a build left, copied out of its sandbox into OUT/.../build/tree (links listed in
+    links.json, never made), or why not."""
+
+    def __init__(self, where: Path) -> None:
+        self.where = where
+        self.refused = ""
+
+    def keep(self, work: Path, _out: Path, limits: TreeLimits = TREE_LIMITS) -> None:
+        try:
+            links = copy_tree(work, self.where / "tree", limits, built=True)
+            write_atomic(self.where / "links.json", json.dumps(links))
+        except TreeError as e:
+            self.refused = displayable(str(e))
+        except OSError as e:  # its folder replaced by a link, say
+            self.refused = f"no folder to keep ({displayable(e.strerror or str(e))})"
+
+
+def _rerun_if_busy(
+    argv: list[str], ws: Workspace, limits: Limits, job: ProgramJob, collect: Collect
+) -> Outcome:
+    """A run that the machine starved (it waited for a CPU most of its wall time) is not the
+    program's fault: it is tried once more; still starved, it is marked busy (never kept)."""
+    outcome = run_sandboxed(
+        argv, ws, limits, sandboxed=job.spec.sandboxed, hide=job.hide, collect=collect
+    )
+    if outcome.status == "busy":
+        outcome = run_sandboxed(
+            argv, ws, limits, sandboxed=job.spec.sandboxed, hide=job.hide, collect=collect
+        )
+    return outcome
+
+
 def _prepare_source(job: ProgramJob, ws: Workspace) -> dict[str, Any] | None:
-    """The student's files in ws.work; a record of the refusal when they cannot be."""
+    """The student's files in ws.src; a record of the refusal when they cannot be."""
     source = Path(job.source)
     staged = ws.root / "source"
     try:
         if archive_suffix(source.name) and not source.is_dir():
-            unpack(source, staged, job.spec.tree)
+            unpack(source, staged, job.spec.tree, binaries=job.spec.allow_binaries)
         else:
-            copy_tree(source, staged, job.spec.tree)
+            copy_tree(source, staged, job.spec.tree, binaries=job.spec.allow_binaries)
     except TreeError as e:
         return {
             "status": "refused",
@@ -291,8 +338,8 @@ def _prepare_source(job: ProgramJob, ws: Workspace) -> dict[str, Any] | None:
             "log": "",
             "seconds": 0.0,
         }
-    ws.work.rmdir()
-    staged.rename(ws.work)  # hand_over() gives it to the sandbox user
+    ws.src.rmdir()
+    staged.rename(ws.src)  # the supervisor copies it into the sandbox's own folder
     return None
 
 
@@ -338,8 +385,8 @@ def first_error(log: str) -> str:
     for pattern in (_FIRST_ERROR, _ANY_ERROR):
         hit = next((line for line in lines if pattern.search(line)), None)
         if hit:
-            return hit[:300]
-    return lines[-1][:300] if lines else ""
+            return displayable(hit[:300])
+    return displayable(lines[-1][:300]) if lines else ""
 
 
 def _run(job: ProgramJob, folder: Path, scene: SceneJob, build_key: str) -> dict[str, Any]:
@@ -352,20 +399,25 @@ def _run(job: ProgramJob, folder: Path, scene: SceneJob, build_key: str) -> dict
     old = _cached(where / "outcome.json", key)
     if old is not None and (old["reason"] or (folder / "runs" / old["image"]).is_file()):
         return {**old, "cached": True}
-    _remove(where)
+    remove_tree(where)
     where.mkdir(parents=True)
     with Workspace() as ws:
         copy_tree(folder / "build" / "tree", ws.root / "copy", spec.tree, built=True)
-        ws.work.rmdir()
-        (ws.root / "copy").rename(ws.work)
+        ws.src.rmdir()
+        (ws.root / "copy").rename(ws.src)
+        ws.links = _links(folder / "build" / "links.json")
         argv, out_name = _run_argv(spec, scene, ws)
-        ws.hand_over()
-        outcome = run_sandboxed(argv, ws, spec.run_limits, sandboxed=spec.sandboxed, hide=job.hide)
+        rel = spec.output or out_name
+        read: list[tuple[str, bytes]] = []
+
+        def grab(work: Path, out: Path) -> None:
+            read.append(read_output(work if spec.output else out, rel, scene.width, scene.height))
+
+        outcome = _rerun_if_busy(argv, ws, spec.run_limits, job, grab)
         record = _step(outcome, shlex.join(argv), build=False)
         if outcome.ok:
-            root, rel = (ws.work, spec.output) if spec.output else (ws.out, out_name)
-            assert rel is not None
-            problem, data = read_output(root, rel, scene.width, scene.height)
+            problem, data = read[-1] if read else ("no output: it could not be read back", b"")
+            problem = problem or check_format(data, rel)
             if problem:
                 record |= {"status": "output", "reason": problem}
             else:
@@ -379,16 +431,15 @@ def _run(job: ProgramJob, folder: Path, scene: SceneJob, build_key: str) -> dict
 
 def _keep(path: Path, record: dict[str, Any]) -> None:
     """Stores a finished step, last (the mark that it is done). A sandbox that could not
-    start is the machine's trouble, not the program's outcome: it is tried again next time."""
-    if record["status"] != "sandbox":
+    start, or a run the machine starved, is the machine's trouble, not the program's outcome:
+    it is tried again next time."""
+    if record["status"] not in TRANSIENT:
         write_atomic(path, json.dumps(record, indent=1))
 
 
 def _run_argv(spec: ProgramSpec, scene: SceneJob, ws: Workspace) -> tuple[list[str], str]:
     """The run command for one scene, placeholders filled with the paths the program sees;
     also the name {out} has in the out folder."""
-    from scene_model.scene import load_scene
-
     _, inputs, out = ws.seen(spec.sandboxed)
     scene_name = f"{student_slug(scene.name)}.json"
     shutil.copyfile(scene.scene_file, ws.inputs / scene_name)
@@ -403,8 +454,6 @@ def _run_argv(spec: ProgramSpec, scene: SceneJob, ws: Workspace) -> tuple[list[s
         "scene_xml": "",
     }
     if any("{scene_xml}" in w for w in spec.run):
-        from compare.render.foreign import _write_xml
-
         loaded = load_scene(scene.scene_file)
         sized = replace(
             loaded, camera=replace(loaded.camera, width=scene.width, height=scene.height)
@@ -416,11 +465,17 @@ def _run_argv(spec: ProgramSpec, scene: SceneJob, ws: Workspace) -> tuple[list[s
     return [fill(w, values) for w in spec.run], out_name
 
 
-def _remove(path: Path) -> None:
-    if path.is_dir() and not path.is_symlink():
-        shutil.rmtree(path)
-    elif path.exists() or path.is_symlink():
-        path.unlink()
+def _links(listing: Path) -> list[tuple[str, str]]:
+    """The links a build made (links.json), to be made again inside a run's sandbox only."""
+    try:
+        links = json.loads(listing.read_text())
+    except (OSError, ValueError):
+        return []
+    return [
+        (rel, target)
+        for rel, target in (e for e in links if isinstance(e, list) and len(e) == 2)
+        if isinstance(rel, str) and isinstance(target, str) and ".." not in rel.split("/")
+    ]
 
 
 def program_entries(
@@ -434,9 +489,6 @@ def program_entries(
 ) -> list[tuple[str, dict[str, str | None], str | None, ProgramJob | None]]:
     """(student, scene -> file, problem, program) for every program in SUBMISSIONS: each
     renders every scene at the model's size (--size, else the scene's)."""
-    from compare.grading.submissions import collect_programs
-    from scene_model.scene import load_scene
-
     scenes = []
     for name, renders in models.items():
         camera = load_scene(renders.scene_file).camera
@@ -444,7 +496,16 @@ def program_entries(
         scenes.append(SceneJob(name, str(renders.scene_file), w, h))
     # Never visible in a sandbox anyway (only the system is mounted); named so that a copy
     # of them inside a system folder is covered too.
-    hide = (submissions, out, cache_root, Path.home(), Path(__file__).resolve().parents[2])
+    # rtval's environment and its programs too (rtdemo is a renderer a student could call).
+    tools = [Path(p) for p in map(shutil.which, ("rtval", "rtdemo")) if p]
+    hide: tuple[Path, ...] = (
+        submissions,
+        out,
+        cache_root,
+        Path.home(),
+        Path(__file__).resolve().parents[2],
+    )
+    hide += (Path(sys.prefix), *tools)
     rows = []
     for e in collect_programs(submissions, exclude=[out], notice=progress):
         job = None

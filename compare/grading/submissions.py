@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from compare.sandbox.archives import ARCHIVE_SUFFIXES, archive_suffix
 from compare.student_ids import displayable_name
 from safe_files.paths import describe_mode
 
@@ -164,8 +165,6 @@ def collect_programs(
     notice: Callable[[str], None] | None = None,
 ) -> list[ProgramEntry]:
     """One ProgramEntry per student id, sorted by id; skipped entries as in collect_entries."""
-    from compare.sandbox.archives import ARCHIVE_SUFFIXES, archive_suffix
-
     by_id: dict[str, ProgramEntry] = {}
     for e, shown, bad_name, mode in _listing(submissions, exclude, notice):
         suffix = archive_suffix(shown) if not stat.S_ISDIR(mode) else None

@@ -161,12 +161,18 @@ def _exr_size(path: Path) -> tuple[int, int]:
     return int(hi[1]) - int(lo[1]) + 1, int(hi[0]) - int(lo[0]) + 1
 
 
+def _pil_formats(path: Path) -> list[str]:
+    """The one decoder a file's name allows: never one chosen by its bytes (a TIFF named
+    .ppm is not read; an EPS would run Ghostscript)."""
+    return {".png": ["PNG"], ".ppm": ["PPM"]}.get(path.suffix.lower(), ["PNG", "PPM"])
+
+
 def _pil_size(path: Path) -> tuple[int, int]:
     from PIL import Image as PILImage
 
     with _open_regular(path) as f:
         try:
-            with PILImage.open(f) as im:  # reads the header only
+            with PILImage.open(f, formats=_pil_formats(path)) as im:  # the header only
                 w, h = im.size
         except Exception as e:
             raise _unreadable(path, e) from None
@@ -287,7 +293,7 @@ def _read_8bit(path: Path, encoding: str) -> Image:
             warnings.simplefilter(
                 "error", PILImage.DecompressionBombWarning
             )  # refuse, never allocate
-            with PILImage.open(f) as im:
+            with PILImage.open(f, formats=_pil_formats(path)) as im:
                 data = _ppm_exact(path, f, im)  # before load(), which forgets the layout
                 if data is None:
                     im.load()

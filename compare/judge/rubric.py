@@ -253,6 +253,7 @@ PROGRAM_LIMITS = {
     "file_size": "size",
     "processes": "count",
     "open_files": "count",
+    "disk": "size",
 }
 
 

@@ -33,7 +33,7 @@ def _copy_named(word: str, ws: Workspace, limits: TreeLimits) -> str:
     if word.startswith(SYSTEM_PREFIXES) or not (p.is_file() or p.is_dir()) or p.is_symlink():
         return word
     rel = Path(*[part for part in p.parts if part not in ("/", "..", ".")]) or Path(p.name)
-    dest = ws.work / rel
+    dest = ws.src / rel
     if dest.exists():
         return f"{WORK_DIR}/{rel}"
     dest.parent.mkdir(parents=True, exist_ok=True)
@@ -69,12 +69,17 @@ def render_sandboxed(
                 argv.append(fill(w, seen))
             else:
                 argv.append(_copy_named(w, ws, TreeLimits()))
-        ws.hand_over()
-        outcome = run_sandboxed(argv, ws, Limits(wall=timeout or 600.0))
+        read: list[tuple[str, bytes]] = []
+        outcome = run_sandboxed(
+            argv,
+            ws,
+            Limits(time=timeout or 600.0),
+            collect=lambda _work, out: read.append(read_output(out, out_name, *size)),
+        )
         if not outcome.ok:
             tail = f"\nrenderer output:\n{outcome.log[-2000:]}" if outcome.log.strip() else ""
             raise SandboxedRenderFailed(f"{outcome.reason} (sandboxed): {' '.join(argv)}{tail}")
-        problem, data = read_output(ws.out, out_name, *size)
+        problem, data = read[-1] if read else ("no output: it could not be read back", b"")
         if problem:
             raise SandboxedRenderFailed(f"{problem} (sandboxed): {' '.join(argv)}")
         kept = Path(tempfile.mkdtemp(prefix="rtval-sandboxed-")) / out_name

@@ -13,7 +13,11 @@ Reasons are sentences for a gradebook row; names in them are made displayable.
 
 from __future__ import annotations
 
+import bz2
+import gzip
 import hashlib
+import io
+import lzma
 import os
 import stat
 import tarfile
@@ -21,18 +25,18 @@ import zipfile
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO
+from typing import IO, cast
 
+from compare.sandbox.trees import Node, TreeError, open_regular, walk
+
+__all__ = ["TreeError", "TreeLimits", "archive_suffix", "copy_tree", "source_digest", "unpack"]
 from compare.sizes import human_size
-from compare.student_ids import displayable_name
+from compare.student_ids import displayable
 from safe_files.paths import describe_mode
 
 ARCHIVE_SUFFIXES = (".zip", ".tar.gz", ".tgz", ".tar")
+ELF_MAGIC = b"\x7fELF"
 CHUNK = 1 << 20
-
-
-class TreeError(ValueError):
-    """A submission that cannot become a tree of plain files; the message is the reason."""
 
 
 @dataclass(frozen=True)
@@ -41,6 +45,8 @@ class TreeLimits:
     max_entries: int = 10_000  # files and folders
     max_depth: int = 32  # folders inside folders
     max_built: int = 512 << 20  # what a build may leave in the folder (objects, the program)
+    max_path: int = 1024  # bytes of a path inside the tree: far below PATH_MAX wherever it lies
+    max_header: int = 4096  # bytes of a tar long-name or pax header
 
 
 def archive_suffix(name: str) -> str | None:
@@ -50,7 +56,8 @@ def archive_suffix(name: str) -> str | None:
 
 
 def _shown(name: str) -> str:
-    return displayable_name(name)[0][:200]
+    """A name for a reason: cut first (a name may be megabytes), then made displayable."""
+    return displayable(name[:200])
 
 
 def _parts(name: str) -> list[str]:
@@ -77,6 +84,8 @@ class _Writer:
         self.max_bytes = max_bytes or limits.max_bytes
         self.bytes = 0
         self.entries = 0
+        self.refuse_binaries = False
+        self.links: list[tuple[str, str]] = []  # (path, target) of the links a build made
         dest.mkdir(mode=0o755)
 
     def _count(self, parts: list[str], name: str) -> Path:
@@ -85,6 +94,8 @@ class _Writer:
             raise TreeError(f"more than {self.limits.max_entries} files and folders")
         if len(parts) > self.limits.max_depth:
             raise TreeError(f"{_shown(name)!r} is nested over {self.limits.max_depth} folders deep")
+        if sum(len(os.fsencode(p)) + 1 for p in parts) > self.limits.max_path:
+            raise TreeError(f"{_shown(name)!r}: a path over {self.limits.max_path} bytes")
         return self.dest.joinpath(*parts)
 
     def folder(self, parts: list[str], name: str) -> None:
@@ -108,7 +119,14 @@ class _Writer:
         except NotADirectoryError:
             raise TreeError(f"{_shown(name)!r} is inside a file") from None
         with os.fdopen(fd, "wb") as out:
+            first = True
             while chunk := data.read(CHUNK):
+                if first and self.refuse_binaries and chunk.startswith(ELF_MAGIC):
+                    raise TreeError(
+                        f"{_shown(name)!r} is a prebuilt program (an ELF file): hand in the "
+                        "source only (the teacher may pass --allow-binaries)"
+                    )
+                first = False
                 self.bytes += len(chunk)
                 if self.bytes > self.max_bytes:
                     raise TreeError(self.too_large())
@@ -116,24 +134,38 @@ class _Writer:
         os.chmod(path, 0o755 if executable else 0o644)
 
     def link(self, parts: list[str], target: str) -> None:
-        """A symbolic link made by a build (kept as a link: it only resolves in a sandbox)."""
-        os.symlink(target, self._count(parts, target))
+        """A symbolic link made by a build: never made outside a sandbox, only listed, so
+        that nothing reading OUT (zip -r, cp -L, a web server) can follow it."""
+        self._count(parts, "/".join(parts))
+        self.links.append(("/".join(parts), target))
 
     def too_large(self) -> str:
         return f"more than {human_size(self.max_bytes)} of files"
 
 
-def unpack(archive: Path, dest: Path, limits: TreeLimits = TreeLimits()) -> None:
-    """Unpacks a .zip or .tar(.gz) into the new folder dest; TreeError says why not."""
+def unpack(
+    archive: Path, dest: Path, limits: TreeLimits = TreeLimits(), *, binaries: bool = True
+) -> None:
+    """Unpacks a .zip or .tar(.gz) into the new folder dest; TreeError says why not (no ELF
+    file inside unless binaries)."""
     suffix = archive_suffix(archive.name)
     staging = dest.with_name(dest.name + ".unpacking")
     writer = _Writer(staging, limits)
+    writer.refuse_binaries = not binaries
     try:
         if suffix == ".zip":
             _unzip(archive, writer)
         else:
+            _prescan_tar(archive, limits)
             _untar(archive, writer)
-    except (zipfile.BadZipFile, tarfile.TarError, zlib.error, EOFError) as e:
+    except (
+        zipfile.BadZipFile,
+        tarfile.TarError,
+        zlib.error,
+        EOFError,
+        OSError,
+        lzma.LZMAError,
+    ) as e:
         raise TreeError(f"not a valid {suffix} archive: {e}") from None
     except (RuntimeError, NotImplementedError) as e:  # encrypted, unknown compression
         raise TreeError(f"cannot unpack this {suffix} archive: {e}") from None
@@ -162,6 +194,62 @@ def _unzip(archive: Path, writer: _Writer) -> None:
                     writer.file(parts, info.filename, data, bool(mode & 0o111))
             else:
                 raise TreeError(f"archive entry {_shown(info.filename)!r} is {describe_mode(mode)}")
+
+
+def _prescan_tar(archive: Path, limits: TreeLimits) -> None:
+    """Reads the tar's headers before tarfile does: a GNU long-name or pax header is read
+    whole into memory by tarfile, so one declaring 512 MiB is refused here, having read 512
+    bytes of it; and the whole stream, decompressed, may not be much larger than what it may
+    unpack to. So any archive costs at most about max_bytes of decompression."""
+    budget = limits.max_bytes + 1024 * limits.max_entries + (1 << 20)
+    done = 0
+    with _decompressed(archive) as f:
+        while True:
+            header = f.read(512)
+            if len(header) < 512 or header == bytes(512):
+                return  # the end (tarfile says what is wrong with a cut one)
+            size, kind = _field_size(header[124:136]), header[156:157]
+            if kind and kind in b"LKxgX" and size > limits.max_header:
+                what = "long-name" if kind in b"LK" else "pax"
+                raise TreeError(
+                    f"a tar {what} header of {human_size(size)}, more than the "
+                    f"{limits.max_header} bytes allowed"
+                )
+            done += 512 + (size + 511) // 512 * 512
+            if done > budget:
+                raise TreeError(
+                    f"the archive unpacks to more than {human_size(limits.max_bytes)} (a bomb?)"
+                )
+            left = (size + 511) // 512 * 512
+            while left > 0:
+                chunk = f.read(min(left, CHUNK))
+                if not chunk:
+                    return
+                left -= len(chunk)
+
+
+def _decompressed(archive: Path) -> io.BufferedIOBase:
+    """The archive's tar stream, as tarfile's "r:*" would find it."""
+    with archive.open("rb") as f:
+        magic = f.read(6)
+    if magic.startswith(b"\x1f\x8b"):
+        return gzip.open(archive, "rb")
+    if magic.startswith(b"BZh"):
+        return bz2.open(archive, "rb")
+    if magic.startswith(b"\xfd7zXZ\x00"):
+        return lzma.open(archive, "rb")
+    return cast(io.BufferedIOBase, archive.open("rb"))
+
+
+def _field_size(field: bytes) -> int:
+    """A tar header's size field: octal text, or base-256 when its first bit is set."""
+    if field[:1] and field[0] & 0x80:
+        return int.from_bytes(field[1:], "big")
+    text = field.split(b"\0", 1)[0].strip()
+    try:
+        return int(text or b"0", 8)
+    except ValueError:
+        raise TreeError("not a valid tar archive: a header's size is not a number") from None
 
 
 def _untar(archive: Path, writer: _Writer) -> None:
@@ -202,47 +290,41 @@ def copy_tree(
     limits: TreeLimits = TreeLimits(),
     *,
     built: bool = False,
-) -> None:
-    """Copies a folder into the new folder dest, never following a link. A student's folder
-    (built=False) may hold only folders and regular files; a built tree (what a build left in
-    its sandbox) keeps its symbolic links as links and drops FIFOs, sockets and devices."""
+    binaries: bool = True,
+) -> list[tuple[str, str]]:
+    """Copies a folder into the new folder dest, never following a link, at any depth
+    without recursion (compare/sandbox/trees.py). A student's folder (built=False) may hold
+    only folders and regular files, and no ELF file unless binaries; a built tree (what a
+    build left) has its symbolic links listed, not made, and its FIFOs, sockets and devices
+    dropped. Returns the links as (path, target)."""
     writer = _Writer(dest, limits, limits.max_built if built else None)
-    _copy_into(src, [], writer, built)
+    writer.refuse_binaries = not binaries
+    nodes = list(walk(src, limits.max_depth, limits.max_entries))  # at most max_entries
+    declared = sum(n.st.st_size for n in nodes if stat.S_ISREG(n.st.st_mode))
+    if declared > writer.max_bytes:  # said before a byte is written (sparse files too)
+        raise TreeError(
+            f"{human_size(declared)} of files, more than {human_size(writer.max_bytes)}"
+        )
+    for node in walk(src, limits.max_depth, limits.max_entries):
+        _copy_node(node, writer, built)
+    return writer.links
 
 
-def _copy_into(folder: Path, parts: list[str], writer: _Writer, built: bool) -> None:
-    try:
-        with os.scandir(folder) as it:
-            entries = sorted(it, key=lambda e: e.name)
-    except OSError as err:
-        raise TreeError(f"cannot list {_shown('/'.join(parts) or '.')}: {err.strerror}") from None
-    for e in entries:
-        here = [*parts, e.name]
-        name = "/".join(here)
-        mode = e.stat(follow_symlinks=False).st_mode
-        if stat.S_ISDIR(mode):
-            writer.folder(here, name)
-            _copy_into(Path(e.path), here, writer, built)
-        elif stat.S_ISREG(mode):
-            with _open_regular(Path(e.path), name) as data:
-                writer.file(here, name, data, bool(mode & 0o111))
-        elif stat.S_ISLNK(mode) and built:
-            writer.link(here, os.readlink(e.path))
-        elif not built:
-            what = describe_mode(mode)
-            if stat.S_ISLNK(mode):
-                what += f" (to {_shown(os.readlink(e.path))})"
-            raise TreeError(f"{_shown(name)!r} is {what}; hand in plain files only")
-
-
-def _open_regular(path: Path, name: str) -> IO[bytes]:
-    """Opens a file that must be regular, without following a link or blocking on a FIFO
-    swapped in since the listing."""
-    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
-    if not stat.S_ISREG(os.fstat(fd).st_mode):
-        os.close(fd)
-        raise TreeError(f"{_shown(name)!r} changed while it was copied")
-    return os.fdopen(fd, "rb")
+def _copy_node(node: Node, writer: _Writer, built: bool) -> None:
+    mode = node.st.st_mode
+    parts = list(node.parts)
+    if stat.S_ISDIR(mode):
+        writer.folder(parts, node.rel)
+    elif stat.S_ISREG(mode):
+        with os.fdopen(open_regular(node), "rb") as data:
+            writer.file(parts, node.rel, data, bool(mode & 0o111))
+    elif stat.S_ISLNK(mode) and built:
+        writer.link(parts, os.readlink(node.name, dir_fd=node.dir_fd))
+    elif not built:
+        what = describe_mode(mode)
+        if stat.S_ISLNK(mode):
+            what += f" (to {_shown(os.readlink(node.name, dir_fd=node.dir_fd))})"
+        raise TreeError(f"{_shown(node.rel)!r} is {what}; hand in plain files only")
 
 
 def source_digest(path: Path, limits: TreeLimits = TreeLimits()) -> str:
@@ -253,9 +335,10 @@ def source_digest(path: Path, limits: TreeLimits = TreeLimits()) -> str:
     try:
         st = os.lstat(path)
         if stat.S_ISDIR(st.st_mode):
-            _digest_folder(path, h, [limits.max_bytes + 1, limits.max_entries + 1])
+            _digest_folder(path, h, limits)
         elif stat.S_ISREG(st.st_mode) and st.st_size <= 4 * limits.max_bytes:
-            with _open_regular(path, path.name) as f:
+            fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+            with os.fdopen(fd, "rb") as f:
                 while chunk := f.read(CHUNK):
                     h.update(chunk)
         else:  # unpacking will refuse it; its size and time still tell a change
@@ -265,25 +348,18 @@ def source_digest(path: Path, limits: TreeLimits = TreeLimits()) -> str:
     return h.hexdigest()[:24]
 
 
-def _digest_folder(folder: Path, h: hashlib._Hash, budget: list[int]) -> None:
-    with os.scandir(folder) as it:
-        entries = sorted(it, key=lambda e: e.name)
-    for e in entries:
-        budget[1] -= 1
-        if budget[1] < 0:
-            return
-        st = e.stat(follow_symlinks=False)
-        h.update(
-            os.fsencode(e.name) + b"\0" + f"{stat.S_IFMT(st.st_mode)} {st.st_mode & 0o111}".encode()
-        )
-        if stat.S_ISDIR(st.st_mode):
-            h.update(b"{")
-            _digest_folder(Path(e.path), h, budget)
-            h.update(b"}")
-        elif stat.S_ISREG(st.st_mode) and budget[0] > 0:
-            budget[0] -= st.st_size
-            with _open_regular(Path(e.path), e.name) as f:
+def _digest_folder(folder: Path, h: hashlib._Hash, limits: TreeLimits) -> None:
+    """Names, kinds, modes and contents, within the depth and entry limits (TreeError past
+    them: the digest then says so) and reading at most max_bytes of contents."""
+    budget = limits.max_bytes + 1
+    for node in walk(folder, limits.max_depth + 1, limits.max_entries + 1):
+        mode = node.st.st_mode
+        h.update(f"{len(node.parts)} ".encode() + os.fsencode(node.name) + b"\0")
+        h.update(f"{stat.S_IFMT(mode)} {mode & 0o111}".encode())
+        if stat.S_ISREG(mode) and budget > 0:
+            budget -= node.st.st_size
+            with os.fdopen(open_regular(node), "rb") as f:
                 while chunk := f.read(CHUNK):
                     h.update(chunk)
-        elif stat.S_ISLNK(st.st_mode):
-            h.update(os.fsencode(os.readlink(e.path)))
+        elif stat.S_ISLNK(mode):
+            h.update(os.fsencode(os.readlink(node.name, dir_fd=node.dir_fd)))

@@ -1,31 +1,32 @@
 """Running untrusted programs (a student's build and renders) in a bubblewrap sandbox.
 
     ws = Workspace()                      # a fresh folder tree the sandbox may use
-    copy the program into ws.work, the scene into ws.inputs
-    outcome = run_sandboxed(["./rt", "/sandbox/in/scene.json"], ws, Limits(wall=60))
-    outcome.reason                        # "" on success, else "timed out after 60 s", ...
+    copy the program into ws.src, the scene into ws.inputs
+    outcome = run_sandboxed(["./rt", "/sandbox/in/scene.json"], ws, Limits(time=60), collect=f)
+    outcome.reason                        # "" on success, else "timed out after 60 s ...", ...
     ws.close()
 
 Inside the sandbox (docs/sandbox.md) the program sees the system read-only (/usr, /etc and
-the /bin, /lib links), its own copy at /sandbox/work (writable, the current folder), its inputs
-at /sandbox/in (read-only), /sandbox/out (writable, for {out}), a private /tmp of bounded
-size, a fresh /proc and a minimal /dev. Nothing else of the machine exists there: no home, no
-render cache, no other student. It has no network (a new network namespace), runs as uid
-65534 (when rtval runs as root, bwrap itself is started as that user, so not even the
-namespace's owner is root), in a new PID namespace (when its main process ends, or the wall
-time runs out, every process it started dies with the namespace) and a new session.
-
-Limits are per build or per run: wall time (the whole sandbox is killed), and, set with
-prlimit inside the sandbox so that every process inherits them, CPU seconds, address space,
-file size, processes (counted in the sandbox's own user namespace: other sandboxes and the
-machine's processes do not count) and open files. The captured stdout and stderr keep a
-bounded head and tail.
+the /bin, /lib links), its inputs at /sandbox/in (read-only), and a memory-backed folder of
+--disk bytes holding /sandbox/work (a copy of ws.src, the current folder) and /sandbox/out
+(for {out}); a private /tmp of bounded size, a fresh /proc, a read-only minimal /dev with a
+small /dev/shm. Nothing else of the machine exists there. It has no network, runs as uid
+65534, in new namespaces, under a seccomp filter (compare/sandbox/seccomp.py) and new
+session. Its first process is rtval's supervisor (compare/sandbox/supervisor.py), which
+starts the program under its limits, watches every process of the sandbox, stops it at its
+CPU time or wall time, and reports how it ended; while it waits, `collect` reads what the
+program left (through /proc/PID/root: the folder exists only in the sandbox), then
+everything ends. Nothing outlives rtval: bwrap is started by a launcher that dies with rtval
+(PR_SET_PDEATHSIG), bwrap dies with it (--die-with-parent) and the sandbox with bwrap, and
+the supervisor also ends the sandbox at its wall time by itself.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
+import json
+import marshal
 import os
 import re
 import selectors
@@ -36,25 +37,31 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 from compare.errors import ToolError
+from compare.sandbox import seccomp, supervisor
+from compare.sandbox.trees import remove_tree
 from compare.sizes import human_size
+from compare.student_ids import displayable
 
 WORK_DIR = "/sandbox/work"  # the program's copy, its current folder
 IN_DIR = "/sandbox/in"  # its inputs, read-only
 OUT_DIR = "/sandbox/out"  # where {out} points
+SRC_DIR = "/sandbox/src"  # what the supervisor copies into work, read-only
 SANDBOX_UID = 65534  # nobody
 SYSTEM_DIRS = ("/usr", "/etc")  # bound read-only; /bin, /lib... follow as links or binds
 SYSTEM_LINKS = ("/bin", "/sbin", "/lib", "/lib32", "/lib64", "/libx32")
 PATH = "/usr/local/bin:/usr/bin:/bin:/usr/local/sbin:/usr/sbin:/sbin"
-_ALLOC_FAILED = re.compile(
-    r"bad_alloc|cannot allocate memory|out of memory|memoryerror|failed to allocate|"
-    r"memory allocation failed|memory exhausted",
-    re.IGNORECASE,
-)
+SYSTEM_PYTHON = "/usr/bin/python3"  # runs the supervisor inside (scripts/setup.sh has it)
+SHM_SIZE = 8 << 20  # /dev/shm: semaphores and small shared memory only
+GRACE = 600.0  # seconds the supervisor waits for rtval to read the output, at most
+BACKSTOP = 30.0  # seconds past the wall limit before rtval kills a silent sandbox itself
+BUSY_SHARE = 0.25  # waited that share of the wall time for a CPU: the machine was too busy
+_SUPERVISOR = Path(supervisor.__file__).read_text()
 
 
 class SandboxUnavailable(ToolError):
@@ -65,7 +72,8 @@ class SandboxUnavailable(ToolError):
 class Limits:
     """What one build or one run may use. Defaults: docs/sandbox.md."""
 
-    wall: float = 60.0  # seconds for the whole sandbox
+    time: float = 60.0  # CPU seconds of every process together: what a run is judged by
+    wall: float = 0.0  # wall seconds for the whole sandbox; 0: generous, 3 x time + 10
     cpu: float = 600.0  # CPU seconds per process (RLIMIT_CPU): threads add up
     memory: int = 2 << 30  # address space per process (RLIMIT_AS)
     file_size: int = 256 << 20  # largest file a process may write (RLIMIT_FSIZE)
@@ -73,41 +81,53 @@ class Limits:
     open_files: int = 256  # per process (RLIMIT_NOFILE)
     log: int = 64 << 10  # bytes of stdout+stderr kept: half from the start, half from the end
     tmp: int = 64 << 20  # size of the private /tmp (memory-backed)
+    disk: int = 512 << 20  # work and out together (memory-backed)
+    inodes: int = 100_000  # files and folders in work and out together
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
+            if name == "wall" and value == 0:
+                continue
             if not (value > 0 and value < 2**62):  # also refuses NaN
                 raise ValueError(f"limit {name} must be positive, got {value!r}")
 
-    def prlimit_args(self) -> list[str]:
+    @property
+    def wall_limit(self) -> float:
+        return self.wall or 3 * self.time + 10
+
+    def rlimits(self) -> list[tuple[str, int, int]]:
         cpu = max(1, int(self.cpu + 0.999))
         # Soft CPU limit first: SIGXCPU says which limit it was; the hard one a second later
         # stops a program that ignores it. No core files: they would fill the folder.
         return [
-            f"--cpu={cpu}:{cpu + 1}",
-            f"--as={self.memory}",
-            f"--fsize={self.file_size}",
-            f"--nproc={self.processes}",
-            f"--nofile={self.open_files}",
-            "--core=0",
+            ("RLIMIT_CPU", cpu, cpu + 1),
+            ("RLIMIT_AS", self.memory, self.memory),
+            ("RLIMIT_FSIZE", self.file_size, self.file_size),
+            ("RLIMIT_NPROC", self.processes, self.processes),
+            ("RLIMIT_NOFILE", self.open_files, self.open_files),
+            ("RLIMIT_CORE", 0, 0),
         ]
 
 
 @dataclass
 class Outcome:
-    """How one sandboxed command ended, in words for a gradebook row."""
+    """How one sandboxed command ended, in words for a gradebook row. A reason names a
+    signal only when the program was signalled, and a limit only on the kernel's word."""
 
-    status: str  # ok, exit, crashed, timeout, cpu, memory, file_size, sandbox
+    # ok, exit, crashed, timeout (CPU time), wall, busy, cpu, memory, file_size, disk, sandbox,
+    # host_oom, supervisor
+    status: str
     limits: Limits
     exit_code: int | None = None
     signal: str | None = None  # SIGSEGV, ...
     seconds: float = 0.0
-    cpu_seconds: float = 0.0
-    peak_memory: int = 0  # bytes: the largest resident set of any one process
-    log: str = ""  # head and tail of stdout+stderr
+    cpu_seconds: float = 0.0  # every process of the sandbox together
+    peak_memory: int = 0  # bytes: the resident sets of all its processes together, at most
+    log: str = ""  # head and tail of stdout+stderr, made displayable
     log_bytes: int = 0  # all it printed
     sandboxed: bool = True
     command: list[str] = field(default_factory=list)
+    waited: float = 0.0  # seconds its processes waited for a CPU (the machine's load)
 
     @property
     def ok(self) -> bool:
@@ -120,10 +140,19 @@ class Outcome:
             "ok": "",
             "exit": f"exit {self.exit_code}",
             "crashed": f"crashed: {self.signal}",
-            "timeout": f"timed out after {lim.wall:g} s",
+            "timeout": f"timed out after {lim.time:g} s of CPU time",
+            "wall": f"timed out after {lim.wall_limit:g} s of wall time "
+            f"({self.cpu_seconds:.1f} s of CPU used)",
+            "busy": f"not finished in {lim.wall_limit:g} s: the machine was busy (it waited "
+            f"{self.waited:.0f} s for a CPU); it runs again next time",
             "cpu": f"killed: CPU time limit {lim.cpu:g} s",
             "memory": f"killed: memory limit {human_size(lim.memory)}",
             "file_size": f"killed: file size limit {human_size(lim.file_size)}",
+            "supervisor": "killed the sandbox's supervisor (only the program can)",
+            "host_oom": "killed by the machine's out-of-memory killer (the machine's "
+            "trouble); it runs again next time",
+            "disk": f"stopped: disk limit {human_size(lim.disk)} or {lim.inodes} files "
+            "(work and out full)",
             "sandbox": "the sandbox could not start: " + last_line(self.log),
         }[self.status]
 
@@ -136,7 +165,7 @@ class Outcome:
 
 def last_line(text: str) -> str:
     lines = [line.strip() for line in text.splitlines() if line.strip()]
-    return lines[-1][:300] if lines else "(no message)"
+    return displayable(lines[-1][:300]) if lines else "(no message)"
 
 
 # -- the folders a sandbox sees ------------------------------------------------------------
@@ -149,33 +178,28 @@ def sandbox_owner() -> tuple[int, int] | None:
 
 
 class Workspace:
-    """A fresh folder tree for one sandboxed command: work/ (the program's copy, writable by
-    the sandbox), inputs/ (read-only inside) and out/ (writable). It lives in the system's
-    temporary folder, whose ancestors the unprivileged sandbox user can traverse (rtval's
-    --out folder may lie below a private one); close() removes it."""
+    """A fresh folder tree for one sandboxed command: src/ (the program, copied into the
+    sandbox's own work folder when it starts), inputs/ (read-only inside) and, for a run
+    without a sandbox only, work/ and out/. It lives in the system's temporary folder, whose
+    ancestors the unprivileged sandbox user can traverse (rtval's --out folder may lie below a
+    private one); its name holds rtval's pid, so that one left by a killed rtval is removed
+    by the next; close() removes it, however deep what a program left there."""
 
     def __init__(self, base: str | None = None) -> None:
-        self.root = Path(tempfile.mkdtemp(prefix="rtval-sandbox-", dir=base))
+        _sweep_stale(base or tempfile.gettempdir())
+        self.root = Path(tempfile.mkdtemp(prefix=f"rtval-sandbox-{os.getpid()}-", dir=base))
         os.chmod(self.root, 0o711)  # traversable, not listable
-        self.work = self.root / "work"
+        self.src = self.root / "src"
         self.inputs = self.root / "inputs"
+        self.work = self.root / "work"
         self.out = self.root / "out"
-        for d in (self.work, self.inputs, self.out):
+        self.links: list[tuple[str, str]] = []  # made again in the copy of src: a build's
+        for d in (self.src, self.inputs, self.work, self.out):
             d.mkdir(mode=0o755)
         owner = sandbox_owner()
         if owner:
             for d in (self.work, self.out):
                 os.chown(d, *owner)
-
-    def hand_over(self) -> None:
-        """Gives everything in work/ to the sandbox user (a copy made as root is root's)."""
-        owner = sandbox_owner()
-        if owner is None:
-            return
-        os.chown(self.work, *owner)
-        for dirpath, dirnames, filenames in os.walk(self.work):
-            for name in dirnames + filenames:
-                os.lchown(os.path.join(dirpath, name), *owner)
 
     def seen(self, sandboxed: bool) -> tuple[str, str, str]:
         """(work, inputs, out) as the program sees them."""
@@ -184,10 +208,8 @@ class Workspace:
         return str(self.work), str(self.inputs), str(self.out)
 
     def close(self) -> None:
-        if sys.version_info >= (3, 12):
-            shutil.rmtree(self.root, onexc=_make_removable)
-        else:
-            shutil.rmtree(self.root, onerror=lambda f, p, e: _make_removable(f, p, e[1]))
+        """Removes the whole tree, however deep or odd what the program left there."""
+        remove_tree(self.root)
 
     def __enter__(self) -> Workspace:
         return self
@@ -196,19 +218,29 @@ class Workspace:
         self.close()
 
 
-def _make_removable(func: object, path: str, exc: BaseException) -> None:
-    """rmtree's retry for a folder the program made unwritable (chmod 0): only its owner, or
-    root, gets here, and may give itself the permission back."""
-    parent = os.path.dirname(path)
-    with contextlib.suppress(OSError):
-        os.chmod(parent, 0o700)
-    if os.path.isdir(path) and not os.path.islink(path):
+_STALE = re.compile(r"rtval-sandbox-([0-9]+)-")
+
+
+@functools.lru_cache(maxsize=4)
+def _sweep_stale(base: str) -> None:
+    """Removes the workspaces that an rtval killed before it could (SIGKILL, the OOM killer)
+    left behind: ours, named after a process that is gone. Once per process and folder."""
+    with contextlib.suppress(OSError), os.scandir(base) as it:
+        stale = [e for e in it if (m := _STALE.match(e.name)) and not _alive(int(m.group(1)))]
+    for e in stale:
         with contextlib.suppress(OSError):
-            os.chmod(path, 0o700)
-        shutil.rmtree(path, ignore_errors=True)
-    else:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(path)
+            if e.stat(follow_symlinks=False).st_uid == os.geteuid():
+                remove_tree(Path(e.path))
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 # -- bubblewrap ------------------------------------------------------------------------------
@@ -248,54 +280,36 @@ def _hidden(hide: Sequence[str | Path]) -> list[str]:
     return args
 
 
+@dataclass(frozen=True)
+class _Fds:
+    """The descriptors the sandbox inherits: bwrap's status, the seccomp filter, the
+    supervisor's report and its control (rtval closes its end when it has read the output)."""
+
+    status: int
+    seccomp: int
+    report: int
+    control: int
+
+
 def bwrap_argv(
-    ws: Workspace, limits: Limits, status_fd: int, hide: Sequence[str | Path] = ()
+    ws: Workspace, limits: Limits, fds: _Fds, hide: Sequence[str | Path] = ()
 ) -> list[str]:
-    """The bwrap command line up to (and including) prlimit's '--'."""
+    """The bwrap command line up to (and including) its '--'."""
     env = {"PATH": PATH, "HOME": "/tmp", "TMPDIR": "/tmp", "LANG": "C.UTF-8", "TERM": "dumb"}
-    args = [
-        bwrap_path(),
-        "--unshare-all",
-        "--unshare-user",
-        "--disable-userns",
-        "--uid",
-        str(SANDBOX_UID),
-        "--gid",
-        str(SANDBOX_UID),
-        "--hostname",
-        "sandbox",
-        "--die-with-parent",
-        "--new-session",
-        *_system_mounts(),
-        "--proc",
-        "/proc",
-        "--dev",
-        "/dev",
-        "--size",
-        str(limits.tmp),
-        "--tmpfs",
-        "/tmp",
-        *_hidden(hide),
-        "--ro-bind",
-        str(ws.inputs),
-        IN_DIR,
-        "--bind",
-        str(ws.work),
-        WORK_DIR,
-        "--bind",
-        str(ws.out),
-        OUT_DIR,
-        "--chdir",
-        WORK_DIR,
-        "--remount-ro",
-        "/",
-        "--json-status-fd",
-        str(status_fd),
-        "--clearenv",
-    ]
+    uid = str(SANDBOX_UID)
+    args = [bwrap_path(), "--unshare-all", "--unshare-user", "--disable-userns"]
+    args += ["--uid", uid, "--gid", uid, "--hostname", "sandbox", "--die-with-parent"]
+    args += ["--new-session", *_system_mounts(), "--proc", "/proc", "--dev", "/dev"]
+    args += ["--size", str(SHM_SIZE), "--tmpfs", "/dev/shm", "--remount-ro", "/dev"]
+    args += ["--size", str(limits.tmp), "--tmpfs", "/tmp", *_hidden(hide)]
+    args += ["--size", str(limits.disk), "--tmpfs", "/sandbox"]
+    args += ["--dir", WORK_DIR, "--dir", OUT_DIR]
+    args += ["--ro-bind", str(ws.src), SRC_DIR, "--ro-bind", str(ws.inputs), IN_DIR]
+    args += ["--chdir", WORK_DIR, "--remount-ro", "/"]
+    args += ["--json-status-fd", str(fds.status), "--seccomp", str(fds.seccomp), "--clearenv"]
     for k, v in env.items():
         args += ["--setenv", k, v]
-    return [*args, "--", "/usr/bin/prlimit", *limits.prlimit_args(), "--"]
+    return [*args, "--"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -304,16 +318,28 @@ def probe() -> str | None:
     bwrap = bwrap_path()
     if not (os.path.isfile(bwrap) and os.access(bwrap, os.X_OK)):
         return f"bubblewrap is not installed ({bwrap} missing; Debian: apt-get install bubblewrap)"
-    if not os.path.isfile("/usr/bin/prlimit"):
-        return "/usr/bin/prlimit (util-linux) is missing"
+    if not os.path.isfile(SYSTEM_PYTHON):
+        return f"{SYSTEM_PYTHON} (which runs the sandbox's supervisor) is missing"
+    if not os.path.isfile(SETPRIV):
+        return f"{SETPRIV} (util-linux) is missing"
     if not hasattr(os, "pidfd_open"):
         return "this Python or kernel has no pidfd_open (Linux 5.3+ needed)"
+    if why := seccomp.unavailable():
+        return why
+    seen: list[str] = []
     try:
         with Workspace() as ws:
-            out = run_sandboxed(["true"], ws, Limits(wall=30))
+            out = run_sandboxed(
+                ["sh", "-c", f"echo ok > {OUT_DIR}/probe"],
+                ws,
+                Limits(time=30),
+                collect=lambda _work, out: seen.extend(os.listdir(out)),
+            )
     except OSError as e:
         return f"cannot start {bwrap}: {e}"
-    return None if out.ok else f"{bwrap} fails here: {last_line(out.log)}"
+    if not out.ok:
+        return f"{bwrap} fails here: {last_line(out.log)}"
+    return None if seen == ["probe"] else "the sandbox's output cannot be read back here"
 
 
 def require_sandbox() -> None:
@@ -360,68 +386,40 @@ class _Log:
 class _Watch:
     log: _Log
     status: bytearray = field(default_factory=bytearray)  # bwrap's JSON
-    report: bytearray = field(default_factory=bytearray)  # the launcher's line
-    timed_out: bool = False
+    report: bytearray = field(default_factory=bytearray)  # the supervisor's line
+    timed_out: bool = False  # rtval's own backstop: the supervisor never reported
 
-    def usage(self) -> tuple[int, int, float] | None:
-        """bwrap's wait status, the peak resident KiB and the CPU seconds, when the launcher
-        said."""
+    def usage(self) -> dict[str, Any] | None:
+        """The supervisor's report, once it is complete."""
+        if not self.report.endswith(b"\n"):
+            return None
         try:
-            status, rss, cpu = self.report.split()
-            return int(status), int(rss), float(cpu)
+            report = json.loads(self.report)
         except ValueError:
             return None
+        return report if isinstance(report, dict) else None
 
     def child_pid(self) -> int | None:
         m = re.search(rb'"child-pid"\s*:\s*([0-9]+)', self.status)
         return int(m.group(1)) if m else None
 
 
-# The launcher between rtval and bwrap: it forks bwrap, reaps it and reports how it ended.
-# It is a child subreaper: bwrap returns as soon as its init says the program ended, and the
-# init (PID 1 of the sandbox, which takes every process of the namespace down with it) then
-# comes back to the launcher, which waits for it too. So (1) when the launcher ends, nothing
-# of the sandbox is left, and (2) the CPU time and peak memory of the program's processes
-# reach the report (bwrap's own rusage lacks them). The peak is that of the largest process;
-# a few MiB at least, since bwrap starts with the small launcher's resident set (rtval does not
-# fork bwrap itself: a forked process starts with its parent's, hundreds of MiB in a grading
-# worker). The sandbox user is taken in the child only.
-_LAUNCHER = """
-import os, signal, sys
-report, uid, gid, reap = (int(v) for v in sys.argv[1:5])
-argv = sys.argv[5:]
-os.set_inheritable(report, False)
-if reap:
-    import ctypes
-    ctypes.CDLL(None, use_errno=True).prctl(36, 1, 0, 0, 0)  # PR_SET_CHILD_SUBREAPER
-pid = os.fork()
-if pid == 0:
-    for sig in (signal.SIGPIPE, signal.SIGXFSZ):  # Python ignores them; exec would keep that
-        signal.signal(sig, signal.SIG_DFL)
-    try:
-        if uid >= 0:
-            os.setgroups([])
-            os.setgid(gid)
-            os.setuid(uid)
-        os.execv(argv[0], argv)
-    except OSError as e:
-        os.write(2, f"cannot start {argv[0]}: {e.strerror}\\n".encode())
-    os._exit(127)
-_, status, ru = os.wait4(pid, 0)
-rss, cpu = ru.ru_maxrss, ru.ru_utime + ru.ru_stime
-while reap:  # the sandbox's init, once bwrap let it go: gone only when all of it is
-    try:
-        _, _, ru = os.wait4(-1, 0)
-    except ChildProcessError:
-        break
-    rss, cpu = max(rss, ru.ru_maxrss), cpu + ru.ru_utime + ru.ru_stime
-os.write(report, f"{status} {rss} {cpu}\\n".encode())
-"""
+# Between rtval and bwrap (or, without a sandbox, the supervisor): util-linux's setpriv takes
+# the sandbox user (as root), asks the kernel for SIGKILL when rtval's process goes (after
+# the uid change, which would clear the request) and becomes bwrap. Not forked from rtval
+# itself: a forked grading worker would start with hundreds of MiB resident.
+SETPRIV = "/usr/bin/setpriv"
 
 
-def _launcher(report_fd: int, uid: int, gid: int, reap: bool) -> list[str]:
-    args = (report_fd, uid, gid, int(reap))
-    return [sys.executable, "-I", "-S", "-c", _LAUNCHER, *(str(a) for a in args)]
+def _launcher() -> list[str]:
+    owner = sandbox_owner()  # as root: never run it as root, even unsandboxed
+    as_user = []
+    if owner:
+        as_user = ["--reuid", str(owner[0]), "--regid", str(owner[1]), "--clear-groups"]
+    return [SETPRIV, *as_user, "--pdeathsig", "KILL", "--"]
+
+
+Collect = Callable[[Path, Path], object]  # (work, out) as rtval can read them, while paused
 
 
 def run_sandboxed(
@@ -431,92 +429,179 @@ def run_sandboxed(
     *,
     sandboxed: bool = True,
     hide: Sequence[str | Path] = (),
+    collect: Collect | None = None,
 ) -> Outcome:
-    """Runs argv in the workspace under the limits and says how it ended. Never raises for
-    anything the program does; OSError only when the launcher itself cannot be started."""
-    pipes = [os.pipe() for _ in range(3)]  # log, bwrap's JSON status, the launcher's report
-    (log_r, log_w), (status_r, status_w), (report_r, report_w) = pipes
-    if sandboxed:
-        full = [*bwrap_argv(ws, limits, status_w, hide), *argv]
-    else:  # limits only: the program sees the machine (--unsandboxed)
-        full = ["/usr/bin/prlimit", *limits.prlimit_args(), "--", *argv]
-    uid, gid = sandbox_owner() or (-1, -1)  # as root: never run it as root, even unsandboxed
-    start = time.monotonic()
+    """Runs argv (in a copy of ws.src) under the limits and says how it ended; `collect`
+    reads the program's work and out folders after it ended, before they vanish. Never
+    raises for anything the program does; OSError when the launcher cannot start, and what
+    collect raises, once the sandbox is gone."""
+    pipes = [os.pipe() for _ in range(4)]  # log, bwrap's status, the report, the control
+    (log_r, log_w), (status_r, status_w), (report_r, report_w), (control_r, control_w) = pipes
+    filter_fd = seccomp.filter_fd() if sandboxed else -1
+    fds = _Fds(status_w, filter_fd, report_w, control_r)
+    full = _command(argv, ws, limits, fds, sandboxed, hide)
+    start, ooms = time.monotonic(), _oom_kills()
     try:
         proc = subprocess.Popen(
-            [*_launcher(report_w, uid, gid, sandboxed), *full],
+            [*_launcher(), *full],
             stdin=subprocess.DEVNULL,
             stdout=log_w,
             stderr=log_w,
-            pass_fds=(status_w, report_w),
-            cwd=None if sandboxed else str(ws.work),
+            pass_fds=tuple(fd for fd in (status_w, report_w, control_r, filter_fd) if fd >= 0),
             env={"PATH": PATH, "HOME": str(ws.work), "LANG": "C.UTF-8"},
-            start_new_session=True,  # its own process group: the unsandboxed kill takes all
+            start_new_session=True,  # its own process group: rtval's signals are not its
         )
     except BaseException:
         for fd in (fd for pair in pipes for fd in pair):
             os.close(fd)
         raise
-    for fd in (log_w, status_w, report_w):
-        os.close(fd)
-    watch = _Watch(_Log(limits.log))
-    try:
-        _supervise(
-            proc,
-            {log_r: "log", status_r: "status", report_r: "report"},
-            limits.wall,
-            watch,
-            sandboxed,
-        )
     finally:
+        if filter_fd >= 0:
+            os.close(filter_fd)
+    for fd in (log_w, status_w, report_w, control_r):
+        os.close(fd)
+    run = _Run(proc, _Watch(_Log(limits.log)), limits, sandboxed, ws, collect, control_w)
+    try:
+        run.supervise({log_r: "log", status_r: "status", report_r: "report"})
+    finally:
+        run.close_control()
         for fd in (log_r, status_r, report_r):
             os.close(fd)
-    return _outcome(proc, time.monotonic() - start, watch, limits, sandboxed, [*argv])
+    if run.collect_error is not None:
+        raise run.collect_error
+    out = _outcome(run.watch, time.monotonic() - start, limits, sandboxed, [*argv])
+    machine = out.status == "supervisor" or out.signal == "SIGKILL"
+    if machine and _oom_kills() > ooms:  # the kernel's OOM killer took it, not the program
+        out.status = "host_oom"
+    return out
 
 
-def _supervise(
-    proc: subprocess.Popen[bytes],
-    pipes: dict[int, str],
-    wall: float,
-    watch: _Watch,
-    sandboxed: bool,
-) -> None:
-    """Reads the pipes until the launcher ends or the wall time is up (then kills the
-    sandbox), and reaps it. Waits on events (the launcher's pidfd, the pipes), never by
-    sleeping and polling."""
-    pidfd = os.pidfd_open(proc.pid)
-    sel = selectors.DefaultSelector()
-    for fd, what in pipes.items():
-        os.set_blocking(fd, False)
-        sel.register(fd, selectors.EVENT_READ, what)
-    sel.register(pidfd, selectors.EVENT_READ, "exit")
-    deadline = time.monotonic() + wall
+def _oom_kills() -> int:
+    """How many processes the kernel's OOM killer has killed since boot (/proc/vmstat)."""
     try:
-        exited = False
-        while not exited:
+        with open("/proc/vmstat", "rb") as f:
+            for line in f:
+                if line.startswith(b"oom_kill "):
+                    return int(line.split()[1])
+    except (OSError, ValueError):
+        pass
+    return 0
+
+
+def _command(
+    argv: Sequence[str],
+    ws: Workspace,
+    limits: Limits,
+    fds: _Fds,
+    sandboxed: bool,
+    hide: Sequence[str | Path],
+) -> list[str]:
+    """bwrap and the supervisor (or the supervisor alone), with the supervisor's settings."""
+    cfg = {
+        "argv": list(argv),
+        "cwd": WORK_DIR if sandboxed else str(ws.work),
+        "src": SRC_DIR if sandboxed else str(ws.src),
+        "links": ws.links,
+        "sandboxed": sandboxed,
+        "rlimits": limits.rlimits(),
+        "time": limits.time,
+        "wall": limits.wall_limit,
+        "disk_root": "/sandbox" if sandboxed else "",
+        "inodes": limits.inodes,
+        "report": fds.report,
+        "control": fds.control,
+        "grace": GRACE,
+    }
+    # Unsandboxed as root, the supervisor runs as the sandbox user: the system's Python is
+    # one it can run (rtval's own may lie in root's home).
+    python = SYSTEM_PYTHON if sandboxed or os.path.isfile(SYSTEM_PYTHON) else sys.executable
+    tail = [python, "-I", "-S", "-c", _SUPERVISOR, marshal.dumps(cfg).hex()]
+    return [*bwrap_argv(ws, limits, fds, hide), *tail] if sandboxed else tail
+
+
+class _Run:
+    """One sandbox watched from rtval's side: its pipes read until the launcher ends, the
+    output collected once the supervisor has reported, the sandbox killed past the
+    backstop. Waits on events (the launcher's pidfd, the pipes), never by sleeping."""
+
+    def __init__(
+        self,
+        proc: subprocess.Popen[bytes],
+        watch: _Watch,
+        limits: Limits,
+        sandboxed: bool,
+        ws: Workspace,
+        collect: Collect | None,
+        control: int,
+    ) -> None:
+        self.proc, self.watch, self.limits, self.sandboxed = proc, watch, limits, sandboxed
+        self.ws, self.collect, self.control = ws, collect, control
+        self.collect_error: BaseException | None = None
+
+    def close_control(self) -> None:
+        if self.control >= 0:
+            os.close(self.control)
+            self.control = -1
+
+    def supervise(self, pipes: dict[int, str]) -> None:
+        pidfd = os.pidfd_open(self.proc.pid)
+        sel = selectors.DefaultSelector()
+        for fd, what in pipes.items():
+            os.set_blocking(fd, False)
+            sel.register(fd, selectors.EVENT_READ, what)
+        sel.register(pidfd, selectors.EVENT_READ, "exit")
+        try:
+            self._loop(sel, time.monotonic() + self.limits.wall_limit + BACKSTOP)
+            self.proc.wait()  # it has exited, or was just killed: this returns at once
+            _drain(sel, self.watch)
+        except BaseException:  # interrupted: leave nothing running, then let it propagate
+            if self.proc.returncode is None:
+                _kill(self.proc, self.watch, self.sandboxed)
+                self.proc.wait()
+            raise
+        finally:
+            sel.close()
+            os.close(pidfd)
+
+    def _loop(self, sel: selectors.BaseSelector, deadline: float) -> None:
+        while True:
             left = deadline - time.monotonic()
             if left <= 0:
-                watch.timed_out = True
-                _kill(proc, watch, sandboxed)
-                break
+                self.watch.timed_out = True
+                _kill(self.proc, self.watch, self.sandboxed)
+                return
+            exited = False
             for key, _ in sel.select(left):
                 if key.data == "exit":
                     exited = True
-                elif not _read_some(key.fd, watch, key.data):
+                elif not _read_some(key.fd, self.watch, key.data):
                     sel.unregister(key.fd)
-        proc.wait()  # it has exited, or was just killed: this returns at once
-        if not sandboxed:  # what it left behind in its process group goes too
-            with contextlib.suppress(ProcessLookupError, PermissionError):
-                os.killpg(proc.pid, signal.SIGKILL)
-        _drain(sel, watch)
-    except BaseException:  # interrupted: leave nothing running, then let it propagate
-        if proc.returncode is None:
-            _kill(proc, watch, sandboxed)
-            proc.wait()
-        raise
-    finally:
-        sel.close()
-        os.close(pidfd)
+            if self.control >= 0 and self.watch.usage() is not None:
+                self._collect(sel)
+            if exited:
+                return
+
+    def _collect(self, sel: selectors.BaseSelector) -> None:
+        """The program has ended and every process of it is dead; the supervisor waits
+        while its folders are read."""
+        for key in list(sel.get_map().values()):
+            if key.data == "status":
+                _read_some(key.fd, self.watch, "status")
+        try:
+            if self.collect is not None:
+                self.collect(*self._folders())
+        except BaseException as e:  # raised again once the sandbox is gone
+            self.collect_error = e
+        self.close_control()
+
+    def _folders(self) -> tuple[Path, Path]:
+        if not self.sandboxed:
+            return self.ws.work, self.ws.out
+        pid = self.watch.child_pid()
+        if pid is None or _parent(pid) != self.proc.pid:  # bwrap's own child, no other
+            raise OSError("bwrap did not say which process is the sandbox")
+        root = Path(f"/proc/{pid}/root")
+        return root / WORK_DIR.lstrip("/"), root / OUT_DIR.lstrip("/")
 
 
 def _read_some(fd: int, watch: _Watch, what: str) -> bool:
@@ -582,56 +667,71 @@ def _parent(pid: int) -> int:
 
 
 def _outcome(
-    proc: subprocess.Popen[bytes],
-    seconds: float,
-    watch: _Watch,
-    limits: Limits,
-    sandboxed: bool,
-    command: list[str],
+    watch: _Watch, seconds: float, limits: Limits, sandboxed: bool, command: list[str]
 ) -> Outcome:
-    usage = watch.usage()
-    status, rss, cpu = usage or (0, 0, 0.0)
-    log = watch.log.text()
+    report = watch.usage()
     out = Outcome(
         "ok",
         limits,
         seconds=seconds,
-        cpu_seconds=cpu,
-        peak_memory=rss * 1024,  # Linux: KiB
-        log=log,
+        log=displayable(watch.log.text(), lines=True),
         log_bytes=watch.log.total,
         sandboxed=sandboxed,
         command=command,
     )
-    if watch.timed_out:
-        out.status = "timeout"
+    if report is None:  # the supervisor never reported
+        out.status = "wall" if watch.timed_out else _silent(watch, out.log)
         return out
-    if usage is None or (sandboxed and watch.child_pid() is None):
-        out.status = "sandbox"  # the launcher or bwrap failed before starting the program
-        return out
-    code = os.waitstatus_to_exitcode(status)
-    # bwrap (and a shell) report a death by signal N as 128 + N; unsandboxed it is -N
-    signum = -code if code < 0 else code - 128 if 128 < code < 128 + 65 else 0
-    out.exit_code = code
-    if code == 0:
-        return out
-    out.status = _classify(signum, out, limits, log)
+    out.seconds = float(report.get("seconds", seconds))
+    out.cpu_seconds = float(report.get("cpu", 0.0))
+    out.peak_memory = max(int(report.get("peak", 0)), int(report.get("max_rss", 0)))
+    out.waited = float(report.get("delay", 0.0))
+    out.status, signum = _classify(report, limits, out.waited)
+    status = report.get("status")
+    if isinstance(status, int) and os.WIFEXITED(status):
+        out.exit_code = os.WEXITSTATUS(status)
     if out.status == "crashed":
         out.signal = _signal_name(signum)
     return out
 
 
-def _classify(signum: int, out: Outcome, limits: Limits, log: str) -> str:
-    """Which limit (if any) ended a failing program: a signal names CPU and file size; an
-    address-space limit shows as a failed allocation (its message, or a crash with a resident
-    set close to the limit)."""
-    if signum == signal.SIGXCPU or (signum == signal.SIGKILL and out.cpu_seconds >= limits.cpu):
-        return "cpu"
+def _silent(watch: _Watch, log: str) -> str:
+    """Why no report came: the sandbox never started (bwrap, the launcher or the supervisor
+    failed: the machine's trouble), or it started and its supervisor was killed, which only
+    the program (the same user inside) or the machine's OOM killer can do."""
+    if watch.child_pid() is None or "rtval's sandbox supervisor failed" in log:
+        return "sandbox"
+    return "supervisor"
+
+
+def _classify(report: dict[str, Any], limits: Limits, waited: float) -> tuple[str, int]:
+    """(status, signal) from the supervisor's evidence: why it stopped the sandbox, the
+    program's own wait status (a signal only when it was signalled: an exit code of 152 is
+    an exit code), the largest resident set beside the memory limit, a full disk."""
+    stopped = report.get("stopped")
+    if stopped == "cpu":
+        return "timeout", 0
+    if stopped == "inodes":
+        return "disk", 0
+    if stopped == "wall":  # a program that waited long for a CPU was the machine's victim
+        return ("busy" if waited > BUSY_SHARE * limits.wall_limit else "wall"), 0
+    status = report.get("status")
+    if not isinstance(status, int):
+        return "sandbox", 0
+    signum = os.WTERMSIG(status) if os.WIFSIGNALED(status) else 0
+    if signum == signal.SIGXCPU or (
+        signum == signal.SIGKILL and float(report.get("main_cpu", 0)) >= limits.cpu
+    ):
+        return "cpu", signum
     if signum == signal.SIGXFSZ:
-        return "file_size"
-    if _ALLOC_FAILED.search(log) or out.peak_memory >= 0.75 * limits.memory:
-        return "memory"
-    return "crashed" if signum else "exit"
+        return "file_size", signum
+    if not signum and os.WEXITSTATUS(status) == 0:
+        return "ok", 0
+    if int(report.get("max_rss", 0)) >= 0.75 * limits.memory:
+        return "memory", signum
+    if report.get("disk_full"):
+        return "disk", signum
+    return ("crashed" if signum else "exit"), signum
 
 
 def _signal_name(signum: int) -> str:

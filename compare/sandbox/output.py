@@ -10,7 +10,17 @@ import stat
 from pathlib import Path
 
 from compare.sizes import human_size
+from compare.student_ids import displayable
 from safe_files.paths import describe_mode
+
+# How each format a program may write begins; the image is decoded only as the format its
+# name says (never by what its bytes claim: a TIFF or an EPS named classic.ppm is a reason).
+MAGIC = {
+    "ppm": (b"P6", b"P3"),
+    "pfm": (b"PF", b"Pf"),
+    "png": (b"\x89PNG\r\n\x1a\n",),
+    "exr": (b"\x76\x2f\x31\x01",),
+}
 
 
 def output_cap(width: int, height: int) -> int:
@@ -24,7 +34,10 @@ def read_output(root: Path, rel: str, width: int, height: int) -> tuple[str, byt
     opened without following a link, and the file must be a regular one of a bounded size:
     a link to /etc/passwd, a FIFO or a 10 GB file are reasons, never read."""
     parts = rel.split("/")
-    fd = os.open(root, os.O_RDONLY | os.O_DIRECTORY)
+    try:  # the folder itself may have been swapped for a link by the program
+        fd = os.open(root, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+    except OSError:
+        return f"no output: its folder {root.name}/ is not a folder", b""
     try:
         for part in parts[:-1]:
             try:
@@ -47,7 +60,8 @@ def _read_regular(dir_fd: int, name: str, rel: str, cap: int) -> tuple[str, byte
         return f"no output: the program wrote no {rel}", b""
     if stat.S_ISLNK(st.st_mode):
         target = os.readlink(name, dir_fd=dir_fd)
-        return f"output is not a regular file: {rel} is a symbolic link (to {target[:200]})", b""
+        shown = displayable(target[:200])
+        return f"output is not a regular file: {rel} is a symbolic link (to {shown})", b""
     if not stat.S_ISREG(st.st_mode):
         return f"output is not a regular file: {rel} is {describe_mode(st.st_mode)}", b""
     if st.st_size > cap:
@@ -64,3 +78,14 @@ def _read_regular(dir_fd: int, name: str, rel: str, cap: int) -> tuple[str, byte
     if len(data) > cap:
         return f"output too large: {rel} is over {human_size(cap)}", b""
     return "", data
+
+
+def check_format(data: bytes, rel: str) -> str:
+    """Why the bytes are not an image of the format rel's suffix names; "" when they are."""
+    fmt = rel.rsplit(".", 1)[-1].lower()
+    starts = MAGIC.get(fmt)
+    if starts is None:
+        return f"output is not an image: {rel} has no known image suffix"
+    if not data.startswith(starts):
+        return f"output is not a {fmt.upper()} image: {rel} does not start as one"
+    return ""

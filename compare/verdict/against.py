@@ -60,9 +60,9 @@ class LoadedModel:
     bounds: dict[str, tuple[Bounds, Bounds]] = field(default_factory=dict)  # per encoding, on use
 
 
-def resolve_model(cli: str | None, rubric: Rubric | None, default: str) -> TargetModel:
+def resolve_model(cli: TargetModel | None, rubric: Rubric | None, default: str) -> TargetModel:
     """--against wins over the rubric's `against`, which wins over the command's default."""
-    return parse_model(cli or (rubric.against if rubric else None) or default)
+    return cli or parse_model((rubric.against if rubric else None) or default)
 
 
 def prepare(

@@ -1,0 +1,41 @@
+"""Images are decoded only as the format their name says: a TIFF named .ppm is not read by
+compare/judge/images.py, and a program's output of another format than --output-format
+names is a reason (compare/sandbox/output.py), never handed to a decoder chosen by its
+bytes (an EPS would reach Ghostscript)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from compare.judge.images import ImageError, read_image
+from compare.sandbox.output import check_format
+
+
+def test_a_tiff_named_ppm_is_not_decoded(tmp_path: Path) -> None:
+    Image.new("RGB", (4, 4)).save(tmp_path / "a.ppm", format="TIFF")
+    with pytest.raises(ImageError, match="cannot read image"):
+        read_image(tmp_path / "a.ppm")
+    Image.new("RGB", (4, 4)).save(tmp_path / "b.ppm", format="PPM")
+    assert read_image(tmp_path / "b.ppm").rgb.shape == (4, 4, 3)
+
+
+@pytest.mark.parametrize(
+    ("data", "name", "problem"),
+    [
+        (b"P6\n1 1\n255\n\0\0\0", "classic.ppm", ""),
+        (b"%!PS-Adobe-3.0 EPSF-3.0\n", "classic.ppm", "output is not a PPM image"),
+        (b"BM6\0\0\0", "classic.png", "output is not a PNG image"),
+        (b"\x89PNG\r\n\x1a\n", "classic.png", ""),
+        (b"PF\n1 1\n-1\n", "classic.pfm", ""),
+        (b"v/1\x01", "classic.exr", ""),
+        (b"II*\0", "classic.exr", "output is not a EXR image"),
+    ],
+)
+def test_program_outputs_must_be_of_their_named_format(
+    data: bytes, name: str, problem: str
+) -> None:
+    got = check_format(data, name)
+    assert got.startswith(problem) and bool(got) == bool(problem)
