@@ -133,6 +133,9 @@ def watch(cfg: dict[str, Any], pid: int, started: float) -> dict[str, Any]:
         select.select([pidfd], [], [], SAMPLE)
         reap(pid, seen, block=False)
     os.close(pidfd)
+    # Once more at the end: a program quicker than one sample still finds the bound.
+    if not seen["stopped"] and cfg["disk_root"] and too_many_files(cfg["disk_root"], cfg["inodes"]):
+        seen["stopped"] = "inodes"
     return seen
 
 
