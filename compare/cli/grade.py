@@ -26,6 +26,7 @@ def run_grade(args: argparse.Namespace) -> int:
     from compare.grading.gradebook import explain
     from compare.grading.lms import stage_submission, write_autograder_results
     from compare.grading.student_page import write_handouts
+    from compare.render.cache import RenderCache
     from compare.render.progress import Progress
 
     out = Path(args.out)
@@ -45,7 +46,7 @@ def run_grade(args: argparse.Namespace) -> int:
         size=args.size,
         against=args.against,
         diagnose=not args.no_diagnose,
-        cache_dir=args.cache,
+        cache=RenderCache(args.cache),
         progress=Progress(sys.stderr),
         program=_program_options(args),
         test_encoding=args.test_encoding,

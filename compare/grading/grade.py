@@ -506,7 +506,7 @@ class GradingRun:
     size: tuple[int, int] | None = None
     against: TargetModel | None = None  # None: the rubric's, else classic
     diagnose: bool = True
-    cache_dir: Path | str | None = None
+    cache: RenderCache = dataclasses.field(default_factory=RenderCache)  # the shared one
     progress: Callable[[str], None] = print
     program: ProgramOptions | None = None
     test_encoding: str | None = None  # None: an 8-bit file judged in both encodings
@@ -522,7 +522,7 @@ def run_grading(
         options.rubric_path, options.against, options.program
     )
     out.mkdir(parents=True, exist_ok=True)
-    cache = RenderCache(options.cache_dir)
+    cache = options.cache
     models = _model_renders(model, scene_files, options.size, cache, out, progress)
     parallel = 0 if not options.diagnose else 1 if where.side_by_side else 2
     base = _base_task(models, rubric_text, rubric, out, cache, parallel)
