@@ -83,3 +83,22 @@ def test_a_candidate_over_the_limit_is_skipped_and_said() -> None:
     assert d.exact and 2 in d.quirks_present, d.sentences  # the search still finds Q2
     assert d.skipped == ["classic --max-depth 32 (classic --max-depth 32 stopped after 4.0 s)"]
     assert any(s.startswith(f"skipped ({len(d.skipped)} candidates ran past") for s in d.sentences)
+
+
+class _Uncosted(_Slow):
+    """Its renders come from a cache that kept no time for them (a class's second student)."""
+
+    def cost(self, what: TargetModel | Candidate) -> float:
+        return 0.0
+
+
+def test_a_start_of_unknown_cost_still_bounds_every_candidate() -> None:
+    # Grading 200 submissions waited minutes on `--max-depth 32 --mistake no_inside_flip`: the
+    # starts were read from the cache, their cost unknown, and no limit was set.
+    rgb = _toy(Candidate.of_mode("classic").with_quirk(2, True)).rgb
+    image = Image(rgb=np.floor(rgb * 255) / 255, path="toy.ppm", encoding="linear")
+    render = _Uncosted(_toy)
+    diagnose(
+        image, load_scene(CLASSIC), render, DiagnoseOptions(start=Candidate.of_mode("classic"))
+    )
+    assert render.time_limit == TIME_LIMIT_MAX
