@@ -101,3 +101,14 @@ def test_stress_command_writes_an_atlas(tmp_path: Path) -> None:
     html = (tmp_path / "index.html").read_text()
     assert "camera_inside_glass" in html
     assert "Not in this scene: emitter, direct, shadow (does not occur in this scene)" in html
+
+
+def test_an_out_folder_that_is_a_link_is_refused_before_any_render(tmp_path: Path) -> None:
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (tmp_path / "out").symlink_to(victim)
+    rtval = str(Path(sys.executable).with_name("rtval"))
+    proc = run([rtval, "stress", "--out", str(tmp_path / "out"), "--size", "16x12"])
+    assert proc.returncode == 4, proc.stderr
+    assert "rtval never follows links" in proc.stderr
+    assert list(victim.iterdir()) == []

@@ -30,7 +30,7 @@ from compare.render.cache import RenderCache
 from compare.render.jobs import RenderJob, run_jobs
 from compare.render.progress import Progress
 from safe_files.content import json_safe
-from safe_files.paths import own_folder, write_atomic
+from safe_files.paths import own_folder, require_folder, write_atomic
 from scene_model.scene import Scene, load_scene
 
 DEMO_METHODS = [
@@ -162,6 +162,7 @@ def run_stress(
     cache: RenderCache | None = None,
     progress: Callable[[str], None] = print,
 ) -> dict[str, Any]:
+    require_folder(out_dir, missing_ok=True)  # a link there would take the atlas elsewhere
     out_dir.mkdir(parents=True, exist_ok=True)
     own_folder(out_dir, "images")  # never through a link planted there
     cache = cache or RenderCache()
