@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from compare.grading.submissions import IMAGE_SUFFIXES, collect_programs
+from compare.judge.image_kinds import output_problem
 from compare.judge.rubric import limit_value
 from compare.render.foreign import PLACEHOLDERS, TemplateError, _write_xml
 from compare.render.foreign import parse_command as parse_renderer
@@ -40,7 +41,7 @@ from compare.render.placeholders import PLACEHOLDER, fill
 from compare.sandbox.archives import TreeError, TreeLimits, archive_suffix, copy_tree, unpack
 from compare.sandbox.archives import source_digest as tree_digest
 from compare.sandbox.bwrap import Collect, Limits, Outcome, Workspace, probe, run_sandboxed
-from compare.sandbox.output import check_format, read_output
+from compare.sandbox.output import read_output
 from compare.sandbox.trees import remove_tree
 from compare.sizes import human_size
 from compare.student_ids import displayable, student_slug
@@ -417,7 +418,7 @@ def _run(job: ProgramJob, folder: Path, scene: SceneJob, build_key: str) -> dict
         record = _step(outcome, shlex.join(argv), build=False)
         if outcome.ok:
             problem, data = read[-1] if read else ("no output: it could not be read back", b"")
-            problem = problem or check_format(data, rel)
+            problem = problem or output_problem(data, rel)
             if problem:
                 record |= {"status": "output", "reason": problem}
             else:

@@ -95,3 +95,17 @@ def same_family(suffix_key: str, kind: Kind) -> bool:
     the same Netpbm kinds)."""
     family = "ppm" if suffix_key == "pnm" else suffix_key
     return kind.key == family
+
+
+def output_problem(data: bytes, name: str) -> str:
+    """Why a program's output is not the image its name's suffix promises ("" when it is),
+    judged before any decoder sees it (none is ever chosen by the bytes: an EPS would reach
+    Ghostscript)."""
+    key = name.rsplit(".", 1)[-1].lower()
+    if key not in EXPECTED:
+        return f"output is not an image: {name} has no known image suffix"
+    head = data[:HEAD_BYTES]
+    kind = identify(head)
+    if kind is not None and same_family(key, kind):
+        return ""
+    return f"output is not {EXPECTED[key]}: {name} holds {describe(head)}"
