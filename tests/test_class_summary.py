@@ -61,4 +61,4 @@ def test_a_cause_reaches_the_terminal_without_control_characters() -> None:
     evil = _student("e", 0.0, _unjudged("build failed\x1b[2J\x1b]0;owned\x07: exit 1"))
     lines = summary_lines(summarise([evil]))
     assert not any(ch in "".join(lines) for ch in "\x1b\x07")
-    assert lines[1] == "  1 student: not judged: build failed\ufffd[2J\ufffd]0;owned\ufffd"
+    assert lines[1] == "  1 student: not judged: build failed\\x1b[2J\\x1b]0;owned\\x07"

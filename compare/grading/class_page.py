@@ -10,7 +10,6 @@ divided by the number of scenes, so a row's points add up to its score.
 from __future__ import annotations
 
 import statistics
-import unicodedata
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +19,7 @@ from compare.diagnosis.evidence import describe_cause
 from compare.grading.results import SceneResult, StudentResult
 from compare.judge.scoring import Term, weighted_score
 from compare.pages.writer import write_page
+from compare.student_ids import displayable
 
 HISTOGRAM_BINS = 10  # 0-10, 10-20, ..., 90-100 (100 falls in the last)
 # Why an unjudged scene was not judged, by how its reason starts (grade.py's words).
@@ -128,18 +128,10 @@ def summary_lines(summary: ClassSummary, most: int = 5) -> list[str]:
         f"mean score {s.mean:.1f}, median {s.median:.1f}"
     ]
     for n, cause in s.causes[:most]:
-        lines.append(f"  {n} student{'s' if n != 1 else ''}: {terminal_text(cause)}")
+        lines.append(f"  {n} student{'s' if n != 1 else ''}: {displayable(cause)}")
     for n, note in s.notes:
-        lines.append(f"  note, {n} student{'s' if n != 1 else ''}: {terminal_text(note)}")
+        lines.append(f"  note, {n} student{'s' if n != 1 else ''}: {displayable(note)}")
     return lines
-
-
-def terminal_text(text: str) -> str:
-    """Text a terminal prints as it is: controls (ESC sequences), line breaks and invisible
-    format characters become U+FFFD."""
-    return "".join(
-        "\ufffd" if unicodedata.category(c) in ("Cc", "Cf", "Zl", "Zp") else c for c in text
-    )
 
 
 def class_rows(results: list[StudentResult]) -> tuple[list[str], list[dict[str, Any]]]:

@@ -25,6 +25,7 @@ from pathlib import Path
 from compare.judge.images import Image, ImageError, read_image
 from compare.render.foreign_sandboxed import SandboxedRenderFailed, render_sandboxed
 from compare.render.placeholders import PLACEHOLDER, fill
+from compare.student_ids import displayable
 from mitsuba_ref.export import ExportOptions, export_scene
 from scene_model.scene import Scene
 
@@ -33,7 +34,6 @@ OUTPUT_FORMATS = ("exr", "pfm", "png", "ppm")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
 _INTERPRETERS = re.compile(r"(python[0-9.]*|pypy[0-9.]*|node|ruby|perl|julia|java|bash|sh|env)")
 STDERR_KEPT = 2000  # characters of the renderer's stderr kept for a failure message
-_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f]")  # all but tab and newline
 
 
 class RenderFailed(RuntimeError):
@@ -277,7 +277,7 @@ class _Tail:
     def text(self) -> str:
         self.thread.join(timeout=1.0)  # the renderer has exited; its children may not have
         raw = bytes(self.kept).decode("utf-8", "replace").strip()[-STDERR_KEPT:]
-        return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", raw)  # no terminal escapes
+        return displayable(raw, lines=True)  # no terminal escapes, no reordered lines
 
 
 def _size_advice(cmd: RendererCommand, size_from: str, got: str) -> str:
