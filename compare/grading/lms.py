@@ -15,12 +15,15 @@ import json
 import math
 import os
 import shutil
+import stat
 from pathlib import Path
 from typing import Any
 
 from compare.grading.class_page import effect_weights
 from compare.grading.csv_safe import csv_text
 from compare.grading.results import SceneResult, StudentResult
+from compare.sandbox.archives import TreeLimits
+from compare.sandbox.trees import open_regular, remove_tree, walk
 from compare.student_ids import student_slug
 from safe_files.paths import own_folder, write_atomic
 
@@ -132,22 +135,26 @@ def stage_submission(root: Path, out: Path) -> Path:
     if target.is_symlink() or target.is_file():
         target.unlink()
     elif target.exists():
-        shutil.rmtree(target)  # a folder rtval made on an earlier run; links in it are not followed
+        remove_tree(target)  # an earlier run's copy of a student's folder: any depth, no link
     _copy_tree(source, target)
     return staging
 
 
 def _copy_tree(source: Path, target: Path) -> None:
+    """The submission as the student made it, within the bounds of a submitted folder
+    (compare/sandbox/trees.py: iterative, no link followed): links copied as links, for
+    grading to refuse by name; FIFOs and devices left out."""
     target.mkdir()
-    with os.scandir(source) as entries:
-        for e in entries:
-            dst = target / e.name
-            if e.is_symlink():
-                os.symlink(os.readlink(e.path), dst)
-            elif e.is_dir(follow_symlinks=False):
-                _copy_tree(Path(e.path), dst)
-            elif e.is_file(follow_symlinks=False):
-                shutil.copyfile(e.path, dst, follow_symlinks=False)
+    limits = TreeLimits()
+    for node in walk(source, limits.max_depth, limits.max_entries):
+        dst = target.joinpath(*node.parts)
+        if stat.S_ISLNK(node.st.st_mode):
+            os.symlink(os.readlink(node.name, dir_fd=node.dir_fd), dst)
+        elif stat.S_ISDIR(node.st.st_mode):
+            dst.mkdir()
+        elif stat.S_ISREG(node.st.st_mode):
+            with os.fdopen(open_regular(node), "rb") as f, open(dst, "wb") as out:
+                shutil.copyfileobj(f, out)
 
 
 def write_autograder_results(
