@@ -158,8 +158,8 @@ class Trials:
     def limit_time(self, starts: Sequence[Candidate]) -> float | None:
         """Sets the renderer's time limit from what the starts' renders cost (TIME_FACTOR
         times the dearest, within TIME_LIMIT_MIN and TIME_LIMIT_MAX); TIME_LIMIT_MAX when no
-        cost is known (the starts came from the cache without their time: a class's second
-        student), so that no candidate ever runs unbounded."""
+        cost is known (the starts' codes were read from derived/, kept by a classmate's
+        diagnosis, and nothing was rendered), so that no candidate ever runs unbounded."""
         cost = max((self.render.cost(c) for c in starts), default=0.0)
         limit = min(TIME_LIMIT_MAX, max(TIME_LIMIT_MIN, TIME_FACTOR * cost))
         if cost <= 0:

@@ -187,7 +187,10 @@ def read_passing(
     if job.tool != "rtdemo":
         raise ValueError(f"render job {job.key}: read_passing runs rtdemo jobs only")
     key = set_key(job)
-    if cache.info(key) is not None:
+    info = cache.info(key)
+    if info is not None:  # its cost known, as render_one's hits: the time limits follow it
+        job.cached, job.info = True, info
+        job.seconds = float(info.get("seconds", 0.0))
         return read(job.exr(cache)), True
     tmp = cache.tmp_path(job.cache_key)
     try:
