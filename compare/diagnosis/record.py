@@ -45,6 +45,7 @@ class Step:
     step: str = ""  # Switch.step: the step of the algorithm it changes
     # Other changes the image cannot tell from this one (a constant in place of a quirk).
     alternatives: tuple[str, ...] = ()
+    alternative_names: tuple[str, ...] = ()  # their Switch.cause: "light_blocks_itself"
 
 
 @dataclass(frozen=True)
@@ -187,6 +188,7 @@ class Diagnosis:
                     **st,
                     "explains": tuple(st["explains"]),
                     "alternatives": tuple(st.get("alternatives", ())),
+                    "alternative_names": tuple(st.get("alternative_names", ())),
                 }
             )
             for st in d["steps"]
@@ -412,7 +414,13 @@ def cause_list(found: Found, findings: dict[str, EffectFinding]) -> list[dict[st
             if k in findings
         }
         cause = _cause(st.cause, st.kind, st.step or st.change, ev, st.change + _alike(st))
-        out.append(cause | {"alternatives": list(st.alternatives)})
+        out.append(
+            cause
+            | {
+                "alternatives": list(st.alternatives),
+                "alternative_names": list(st.alternative_names),
+            }
+        )
     return out
 
 

@@ -531,21 +531,25 @@ class Search:
             explains = tuple(k for k in masks if k in needs[sw])
             cause = sw.cause(or_more=or_more)
             before, now = per(cur), per(after)
-            alike = self.alike(begin, path[-1][1], sw) if sw.kind == "quirk" else ()
-            steps.append(
-                Step(
-                    change, cause, after.name, before, now, explains, sw.cause_kind, sw.step, alike
-                )
-            )
+            alike = self.alike(begin, path[-1][1], sw) if sw.kind in ALIKE_KINDS else []
+            told, names = tuple(a[0] for a in alike), tuple(a[1] for a in alike)
+            step = Step(change, cause, after.name, before, now, explains, sw.cause_kind, sw.step)
+            steps.append(dataclasses.replace(step, alternatives=told, alternative_names=names))
             cur = after
         return steps
 
-    def alike(self, begin: Candidate, final: Candidate, sw: Switch) -> tuple[str, ...]:
-        """Constants (a depth, background, ior or bias) that, in place of the quirk toggle sw,
-        give an image the image cannot tell from final's: both are said, since naming the
-        quirk alone could be false (a program with a deeper limit of its own is not -Q6)."""
+    def alike(self, begin: Candidate, final: Candidate, sw: Switch) -> list[tuple[str, str]]:
+        """Constants (a depth, background, ior or bias) and named mistakes that, in place of
+        the quirk toggle or mistake sw, give an image the image cannot tell from final's: all
+        are said, since naming one alone could be false (a program with a deeper limit of its
+        own is not -Q6; a light that blocks its own shadow rays and a light direction turned
+        round both leave every lit surface black)."""
         without = undone(final, begin, [sw], self.scene)
-        options = [o for o in switches(without, self.scene, (), full=True) if o.kind in VALUED]
+        options = [
+            o
+            for o in switches(without, self.scene, (), full=True)
+            if (o.kind in VALUED or (o.kind == "mistake" and o.present)) and o != sw
+        ]
         cands = [o.apply(without, self.scene) for o in options]
         t = self.trials
         t.evaluate(cands)
@@ -557,10 +561,11 @@ class Search:
         depths = sorted((o for o in alike if o.kind == "depth"), key=lambda o: int(o.key))
         # Depths that all fit are one finding: the shallowest, "or more" when the deepest fits.
         more = bool(depths) and int(depths[-1].key) == MAX_SEARCH_DEPTH and len(depths) > 1
-        told = [o.change(self.scene) for o in alike if o.kind != "depth"]
+        told = [(o.change(self.scene), o.cause()) for o in alike if o.kind != "depth"]
         if depths:
-            told.insert(0, depths[0].change(self.scene, or_more=more))
-        return tuple(told)
+            d = depths[0]
+            told.insert(0, (d.change(self.scene, or_more=more), d.cause(or_more=more)))
+        return told
 
     def report(self, found: Found) -> tuple[dict[str, EffectFinding], str]:
         """Per effect: the exact match of the start and of the result, as the verdict judges
@@ -590,6 +595,10 @@ class Search:
             )
             findings[k] = finding(k, found, ev)
         return findings, summary(found, findings, exact[begin])
+
+
+# The switches whose named cause could be told as well by another (alike).
+ALIKE_KINDS = ("quirk", "mistake")
 
 
 def _box(where: BOOL) -> tuple[int, int, int, int] | None:

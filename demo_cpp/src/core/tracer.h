@@ -74,6 +74,8 @@ private:
     // Where a secondary ray leaves the surface: the paper's fixed bias, or (Q1 fixed) an
     // offset that grows with |p| so float32 rounding at large coordinates cannot re-hit.
     float offset_at(const point3& p) const;
+    // Where a refracted ray starts: bias inside the surface (or outside: refraction_bias_outside).
+    point3 refraction_origin(const point3& p, const vec3& n, float offset) const;
 
     const Scene& scene_;
     TraceOptions opt_;
