@@ -30,6 +30,7 @@ from compare.diagnosis import transforms
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
 from compare.diagnosis.memo import keep, load, record_name
+from compare.diagnosis.mistakes import catalogue
 from compare.diagnosis.record import (
     MODE_CLOSE_RATIO,
     MODE_CLOSE_SHARE,
@@ -108,6 +109,15 @@ SEARCH_SECONDS = 15.0
 # Mistakes that move every pixel's tone: the nearest mode is chosen with and without them, so
 # that a gamma-encoded paper image is not taken for physical mode (it starts from paper).
 TONE_MISTAKES = ("double_gamma",)
+# A camera slip moves every silhouette, so the modes cannot be told apart until it is undone.
+# Where the nearest start leaves over CAMERA_TRY_SHARE of the pixels differing, each camera
+# mistake of the catalogue is tried on it; one that halves the count (CAMERA_RATIO) is tried on
+# every start, and the modes are compared through it, as through a tone mistake.
+CAMERA_TRY_SHARE = 0.25
+CAMERA_RATIO = 0.5
+# Where the nearest start is that far off, every start within this ratio of its count is
+# searched from too.
+FAR_MODE_RATIO = 1.5
 # The nearest mode is the one matching most pixels, unless none matches this share of them.
 MODE_MATCH_MIN = 0.05
 # The image is taken as mirrored when a flipped copy is at most MIRROR_RATIO as far from the
@@ -137,6 +147,7 @@ class Search:
         self.quirks, self.max_renders, self.say = tuple(quirks), max_renders, say
         self.gated: dict[tuple[Candidate, Candidate], dict[str, Gate]] = {}
         self.images: list[ImageCause] = []  # the writer's transforms found (transformed)
+        self.camera_slips: tuple[str, ...] = ()  # a camera mistake the modes are judged with
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
@@ -170,6 +181,10 @@ class Search:
         first always."""
         out = [self.explain(begins[0], mirrored)]
         for b in begins[1:]:
+            exact = next((f for f in out if self.left_over(f)[0] == 0), None)
+            if exact is not None:
+                self.say(f"diagnose: {exact.result.name} matches exactly: {b.name} not searched")
+                break
             if time.perf_counter() - self.t0 > SEARCH_SECONDS:
                 self.say(f"diagnose: no time left to search from {b.name} too")
                 break
@@ -196,6 +211,7 @@ class Search:
         if limit is not None:
             self.say(f"diagnose: each candidate may render for {limit:.1f} s")
         mirrored = self.mirrored(starts + toned)
+        self.camera_slips = self.camera_slip(starts)
         begins = self.nearest(starts)
         if self.transformed(begins):  # the modes are judged again through it
             begins = self.nearest(starts)
@@ -263,9 +279,28 @@ class Search:
         return MIRRORS[key]
 
     def _toned_best(self, c: Candidate) -> Candidate:
-        """c or c with a tone mistake, whichever leaves fewer pixels differing."""
-        toned = [c, *(c.with_mistake(m, True) for m in TONE_MISTAKES)]
+        """c or c with a tone mistake (or the camera slip found), whichever leaves fewer
+        pixels differing."""
+        slips = TONE_MISTAKES + self.camera_slips
+        toned = [c, *(c.with_mistake(m, True) for m in slips)]
         return min(toned, key=self.trials.whole_differing)
+
+    def camera_slip(self, starts: list[Candidate]) -> tuple[str, ...]:
+        """The catalogue's camera mistake that, on some start, halves the fewest pixels
+        differing from any start, when every start is far off (CAMERA_TRY_SHARE): the mode
+        cannot be judged before the silhouettes fit. () when the starts place them."""
+        t = self.trials
+        plain = min(t.whole_differing(c) for c in starts)
+        if plain <= CAMERA_TRY_SHARE * t.total_pixels():
+            return ()
+        tried = {c.with_mistake(m, True): m for c in starts for m in camera_mistakes()}
+        t.evaluate(list(tried))
+        best = min(tried, key=t.whole_differing)
+        if t.whole_differing(best) > CAMERA_RATIO * plain:
+            return ()
+        slip = tried[best]
+        self.say(f"diagnose: the silhouettes fit {slip}; the modes are compared through it")
+        return (slip,)
 
     def nearest(self, starts: list[Candidate]) -> list[Candidate]:
         """The start whose pixels match the image most often, over the whole image: a program
@@ -289,7 +324,20 @@ class Search:
             + ("" if by_count else "; none matches, the nearest by how far pixels are off")
             + ")"
         )
-        close = [c for c in starts if c != nearest and by_count and self._close(counts, c, nearest)]
+        # Every start far off: a mistake that moves most pixels hides the mode, so each one
+        # about as far is searched too (a classic program with its normals turned in is a
+        # quarter nearer physical by count).
+        far = counts[nearest] > CAMERA_TRY_SHARE * total
+        close = [
+            c
+            for c in sorted(starts, key=lambda c: counts[c])
+            if c != nearest
+            and by_count
+            and (
+                (far and counts[c] <= FAR_MODE_RATIO * counts[nearest])
+                or self._close(counts, c, nearest)
+            )
+        ]
         if close:
             self.say(
                 f"diagnose: {', '.join(c.name for c in close)} as near: searched from each too"
@@ -598,7 +646,15 @@ class Search:
 
 
 # The switches whose named cause could be told as well by another (alike).
-ALIKE_KINDS = ("quirk", "mistake")
+ALIKE_KINDS = ("quirk", "mistake", "effect")
+
+
+def camera_mistakes() -> tuple[str, ...]:
+    """The catalogue's mistakes of the camera step (mistakes.json), half_pixel_offset aside:
+    it moves silhouettes by half a pixel, which the greedy search finds as any switch."""
+    return tuple(
+        m.name for m in catalogue().values() if m.step == "camera" and m.name != "half_pixel_offset"
+    )
 
 
 def _box(where: BOOL) -> tuple[int, int, int, int] | None:
