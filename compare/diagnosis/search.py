@@ -148,6 +148,8 @@ class Search:
         self.gated: dict[tuple[Candidate, Candidate], dict[str, Gate]] = {}
         self.images: list[ImageCause] = []  # the writer's transforms found (transformed)
         self.camera_slips: tuple[str, ...] = ()  # a camera mistake the modes are judged with
+        self.near_by_count: list[Candidate] = []  # the nearest start and those within its margin
+        self.banned: set[tuple[str, str]] = set()  # switches of a dead end (searched)
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
@@ -213,7 +215,10 @@ class Search:
         mirrored = self.mirrored(starts + toned)
         self.camera_slips = self.camera_slip(starts)
         begins = self.nearest(starts)
-        if self.transformed(begins):  # the modes are judged again through it
+        # The writer's transforms are fitted against the nearest start and those close to it by
+        # count, not against the far-off ones searched only because every start is far.
+        fitted_on = [c for c in begins if c in self.near_by_count]
+        if self.transformed(fitted_on):  # the modes are judged again through it
             begins = self.nearest(starts)
         self.trials.keep_only(set(begins))
         return mirrored, begins
@@ -328,6 +333,9 @@ class Search:
         # about as far is searched too (a classic program with its normals turned in is a
         # quarter nearer physical by count).
         far = counts[nearest] > CAMERA_TRY_SHARE * total
+        self.near_by_count = [nearest] + [
+            c for c in starts if c != nearest and by_count and self._close(counts, c, nearest)
+        ]
         close = [
             c
             for c in sorted(starts, key=lambda c: counts[c])
@@ -356,12 +364,8 @@ class Search:
     def explain(self, begin: Candidate, mirrored: str) -> Found:
         """The search, then the result without what explains nothing, retold from the mode it
         differs least from in the quirks the scene shows."""
-        current = self.shallowest(self.greedy(begin))
-        # Most often the result: its FLIP and exact match while the steps are retold.
-        self.trials.flip_guess(current)
-        self.trials.exact_soon(current)
-        # Switches that explain nothing go first, so that they cannot decide the mode below.
-        current, _, _ = self.justified(begin, current, False)
+        self.banned = set()  # each begin's search may meet its own dead end
+        current = self.searched(begin)
         invisible = self.invisible(current)
         untested = set(range(1, QUIRK_COUNT + 1)) - set(self.quirks) - {10}
         simpler = simplest(current, invisible | untested)
@@ -376,6 +380,24 @@ class Search:
         or_more = or_more and current.depth(self.scene) == simpler.depth(self.scene)
         cands = {c.name: c for c in (begin, *path, current)}
         return Found(begin, current, steps, invisible, untested, or_more, mirrored, cands)
+
+    def searched(self, begin: Candidate) -> Candidate:
+        """The greedy search's result without the switches that explain nothing. Where it
+        kept switches and none explains anything, it walked into a dead end (a mistake that
+        lowers the distance without matching, such as a ray that never leaves glass for a
+        wrong index): it runs once more with those switches banned."""
+        found = self.shallowest(self.greedy(begin))
+        # Most often the result: its FLIP and exact match while the steps are retold.
+        self.trials.flip_guess(found)
+        self.trials.exact_soon(found)
+        # Switches that explain nothing go first, so that they cannot decide the mode below.
+        current, _, _ = self.justified(begin, found, False)
+        dead_end = differences(begin, found, self.scene) if current == begin else []
+        if not dead_end or self.banned:
+            return current
+        self.banned = {(sw.kind, sw.key) for sw in dead_end}
+        self.say(f"diagnose: a dead end; searching again without {found.name}'s switches")
+        return self.searched(begin)
 
     def greedy(self, current: Candidate) -> Candidate:
         """One switch at a time; later rounds retry only the switches that helped (and the
@@ -417,7 +439,8 @@ class Search:
         tried = [
             sw
             for sw in switches(current, self.scene, self.quirks, full=promising is None)
-            if promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth"
+            if (promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth")
+            and (sw.kind, sw.key) not in self.banned
         ]
         cands = [sw.apply(current, self.scene) for sw in tried]
         t = self.trials

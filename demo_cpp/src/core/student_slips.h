@@ -35,6 +35,20 @@ inline std::optional<float> intersect_with_root_slip(const Sphere& s, const ray&
     return tca + thc;
 }
 
+// The robust test (quirk Q1 fixed) with the same slips: near_root_only misses the sphere
+// when t0 lies before the range, negative_root_hit takes a t0 behind the origin.
+inline std::optional<float> intersect_robust_with_root_slip(const Sphere& s, const ray& r,
+                                                            interval range, const MistakeSet& m) {
+    const auto roots = robust_roots(s, r);
+    if (!roots) return std::nullopt;
+    const float t0 = float(roots->first), t1 = float(roots->second);
+    if (range.surrounds(t0)) return t0;
+    if (t0 <= range.min && m.has(Mistake::negative_root_hit)) return t0;
+    if (t0 <= range.min && m.has(Mistake::near_root_only)) return std::nullopt;
+    if (range.surrounds(t1)) return t1;
+    return std::nullopt;
+}
+
 // reflect_sign: d + 2(d.n)n, the mirror formula with its sign turned.
 inline vec3 reflect_wrong_sign(const vec3& d, const vec3& n) {
     return normalize(d + n * (2.0f * dot(d, n)));

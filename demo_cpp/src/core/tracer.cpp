@@ -44,10 +44,13 @@ Tracer::Hit Tracer::nearest_hit(const ray& r, int skip) const {
     const bool slip = has_root_slip(opt_.mistakes);
     for (int i = 0; i < static_cast<int>(scene_.spheres.size()); ++i) {
         if (i == skip) continue;
+        const Sphere& sphere = scene_.spheres[i];
+        const interval range{0.0f, t_near};
         const std::optional<float> t =
-            slip    ? intersect_with_root_slip(scene_.spheres[i], r, opt_.mistakes)
-            : paper ? intersect_paper(scene_.spheres[i], r)
-                    : intersect_robust(scene_.spheres[i], r, {0.0f, t_near});
+            slip && paper ? intersect_with_root_slip(sphere, r, opt_.mistakes)
+            : slip        ? intersect_robust_with_root_slip(sphere, r, range, opt_.mistakes)
+            : paper       ? intersect_paper(sphere, r)
+                          : intersect_robust(sphere, r, range);
         if (t && *t < t_near) {
             t_near = *t;
             best = Hit{i, *t};
@@ -57,12 +60,17 @@ Tracer::Hit Tracer::nearest_hit(const ray& r, int skip) const {
 }
 
 bool Tracer::blocks(int j, const ray& shadow_ray, float max_t) const {
-    if (has_root_slip(opt_.mistakes)) {
+    const bool paper = opt_.quirks.has(Quirk::paper_intersection);
+    if (has_root_slip(opt_.mistakes) && paper) {
         const std::optional<float> t =
             intersect_with_root_slip(scene_.spheres[j], shadow_ray, opt_.mistakes);
         return t && *t < max_t;
     }
-    if (opt_.quirks.has(Quirk::paper_intersection)) {
+    if (has_root_slip(opt_.mistakes))
+        return intersect_robust_with_root_slip(scene_.spheres[j], shadow_ray, {0.0f, max_t},
+                                               opt_.mistakes)
+            .has_value();
+    if (paper) {
         const std::optional<float> t = intersect_paper(scene_.spheres[j], shadow_ray);
         return t && *t < max_t;
     }
