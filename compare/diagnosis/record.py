@@ -21,7 +21,9 @@ from scene_model.scene import Scene
 # of the pixels that differed from the start match. Measured (tests/test_diagnose.py, 160x120
 # and 640x480): every named cause of the student variants makes 93-100 % match; the best
 # candidates for programs nothing explains make 0-19 % match (glass never multiplied by its
-# colour; a refracted ray that hits nothing): half is far from both.
+# colour; a refracted ray that hits nothing): half is far from both. Two switches that explain
+# one effect only together must match it exactly (search.joint_partial): a ray that never
+# leaves glass plus a hard-coded ior 1.2 made most of "a refracted ray that hits nothing" match.
 
 
 # The nearest mode wins outright only by a clear margin: more than MODE_CLOSE_SHARE of all

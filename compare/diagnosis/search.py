@@ -572,7 +572,7 @@ class Search:
             worse = {k for k, g in passed.items() if g.worse}
             path = self.retell(begin, final)
             undo = {sw: self.undo_effects(begin, final, sw) for sw, _ in path}
-            needs = {sw: lose & gained for sw, (lose, _) in undo.items()}
+            needs = self.joint_partial(final, {sw: lose & gained for sw, (lose, _) in undo.items()})
             drop = [sw for sw, eff in needs.items() if not eff]
             culprits = [sw for sw, (_, win) in undo.items() if win & worse and sw not in drop]
             if worse and not culprits:  # together, not one by one: none of them is named
@@ -587,6 +587,23 @@ class Search:
                 break
             final = undone(final, begin, drop + culprits, self.scene)
         return final, self._steps(begin, path, needs, or_more), [after for _, after in path]
+
+    def joint_partial(
+        self, final: Candidate, needs: dict[Switch, set[str]]
+    ) -> dict[Switch, set[str]]:
+        """needs without the effects that a hard-coded constant explains only together with
+        another switch, and only in part (final does not match them exactly): a constant
+        fitted on top of a change mimics a bug neither is (a hard-coded ior on top of a ray
+        that never leaves glass). Quirks that together make another mode are not this."""
+        exact = self.trials.exact_of(final).per_effect
+
+        def joint(k: str) -> bool:
+            sharing = [sw for sw, eff in needs.items() if k in eff]
+            valued = any(sw.kind in VALUED for sw in sharing)
+            return len(sharing) >= 2 and valued and not exact[k].passed
+
+        dropped = {k for k in set().union(*needs.values()) if joint(k)}
+        return {sw: eff - dropped for sw, eff in needs.items()}
 
     def _steps(
         self,
