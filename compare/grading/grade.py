@@ -40,7 +40,7 @@ from compare.diagnosis.evidence import EvidenceOptions, diagnose_image
 from compare.diagnosis.search import DiagnoseError
 from compare.errors import ToolError
 from compare.grading.class_page import write_class_page
-from compare.grading.encodings import choose_encoding, with_encoding
+from compare.grading.encodings import choose_encoding, with_encoding, with_encoding_cause
 from compare.grading.executors import Executor, run_on_dask, run_tasks
 from compare.grading.gradebook import write_gradebook
 from compare.grading.lms import write_lms_exports
@@ -212,6 +212,7 @@ def _judge_scene(
         known = ev.known_flip()  # the verdict's FLIP: the diagnosis' starts from it
         seed = None if known is None else (model.reference.rgb, *known)
         diagnosis = _diagnose_scene(img, scene_name, task.models[scene_name], task, page_dir, seed)
+        diagnosis = with_encoding_cause(diagnosis, img)
         diagnosis["short"] = _beside_verdict(diagnosis, model.renders.model, verdict)
         reasons.append(diagnosis["short"])
     matches = ev.exact.matches if ev.exact is not None else None
