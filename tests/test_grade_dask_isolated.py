@@ -24,6 +24,13 @@ from helpers import SCENES, run
 from student_variants import render_variant
 
 from compare.grading.executors import Executor, run_on_dask
+from compare.grading.shipping import (
+    MAX_SHIPPED_BYTES,
+    ShipError,
+    ship_images,
+    ship_program,
+    unpack_program,
+)
 from scene_model.scene import load_scene
 
 pytestmark = pytest.mark.slow
@@ -235,3 +242,27 @@ def test_a_dead_worker_is_one_row_and_the_rest_go_on(tmp_path: Path) -> None:
 
 def _failed(task: int, why: str) -> tuple[str, int, str]:
     return ("failed", task, why)
+
+
+def test_a_program_folder_travels_with_its_links_and_modes(tmp_path: Path) -> None:
+    src = tmp_path / "bob"
+    (src / "src").mkdir(parents=True)
+    (src / "src" / "main.cpp").write_text("int main() {}\n")
+    (src / "run.sh").write_text("#!/bin/sh\n")
+    (src / "run.sh").chmod(0o755)
+    (src / "notes").symlink_to("/etc/passwd")  # travels as a link, for grading to refuse
+    os.mkfifo(src / "pipe")  # never opened, never sent
+    there = tmp_path / "worker"
+    there.mkdir()
+    root = unpack_program(ship_program(str(src)), there)
+    assert (root / "src" / "main.cpp").read_text() == "int main() {}\n"
+    assert os.access(root / "run.sh", os.X_OK) and not os.access(root / "src" / "main.cpp", os.X_OK)
+    assert os.readlink(root / "notes") == "/etc/passwd" and not (root / "pipe").exists()
+
+
+def test_a_file_too_large_to_send_is_refused_by_name(tmp_path: Path) -> None:
+    huge = tmp_path / "huge.ppm"
+    with huge.open("wb") as f:  # sparse: no disk used
+        f.truncate(MAX_SHIPPED_BYTES + 1)
+    with pytest.raises(ShipError, match=r"huge\.ppm: .* bytes, over the"):
+        ship_images({"classic": str(huge)})

@@ -10,6 +10,7 @@ accepts and never answers, and one that speaks something else are each a clear e
 
 from __future__ import annotations
 
+import asyncio
 import ctypes
 import ctypes.util
 import os
@@ -123,7 +124,7 @@ def run_on_dask(
         for future in _completed(futures):
             try:
                 value = future.result()
-            except Exception as e:  # the worker's failure, not the task's: one row says so
+            except (Exception, asyncio.CancelledError) as e:  # the worker's failure: one row
                 arrived(failed(task_of[future.key], worker_failure(e)))
                 continue
             arrived(value)

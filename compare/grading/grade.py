@@ -407,8 +407,12 @@ def _run_shipped(
         if old is not None:
             arrived(old.as_resumed())
             continue
-        images = ship_images(t.files)
-        program = ship_program(t.program.source) if t.program and not t.problem else None
+        try:
+            images = ship_images(t.files)
+            program = ship_program(t.program.source) if t.program and not t.problem else None
+        except (OSError, ValueError) as e:  # too large, or gone: that student's row
+            arrived(not_graded(t, displayable(str(e)[:300])))
+            continue
         pending.append(Shipped(t, key, images, program, warnings))
     shared = ship_models(tasks[0].models, tasks[0].models_key)
     run_on_dask(

@@ -30,6 +30,15 @@ from compare.student_ids import student_slug
 from compare.verdict.against import ModelRenders
 from safe_files.paths import write_atomic
 
+# The most one submitted file may carry to a worker (a 4K float EXR with its AOVs is ~0.3 GiB):
+# a larger file is that student's row, never the client's memory.
+MAX_SHIPPED_BYTES = 1 << 30
+
+
+class ShipError(OSError):
+    """A submission that cannot travel to a worker (the message names the file and why)."""
+
+
 # A file's bytes with its name (the suffix says how it is read: .png is sRGB, .ppm linear).
 Named = tuple[str, bytes]
 _LINK, _DIR, _FILE = "link", "dir", "file"
@@ -119,6 +128,14 @@ def _read(path: str) -> bytes:
         st = os.lstat(path)
         if not stat.S_ISREG(st.st_mode):
             return b""
+    except OSError:
+        return b""
+    if st.st_size > MAX_SHIPPED_BYTES:
+        raise ShipError(
+            f"{Path(path).name}: {st.st_size:,} bytes, over the {MAX_SHIPPED_BYTES:,} a task "
+            "may carry to a Dask worker"
+        )
+    try:
         return Path(path).read_bytes()
     except OSError:
         return b""
@@ -139,12 +156,14 @@ def ship_program(source: str) -> Archive | tuple[TreeEntry, ...]:
         elif stat.S_ISDIR(mode):
             entries.append(TreeEntry(node.rel, _DIR))
         elif stat.S_ISREG(mode):
+            if node.st.st_size > MAX_SHIPPED_BYTES:
+                raise ShipError(f"{node.rel}: over {MAX_SHIPPED_BYTES:,} bytes, not sent")
             with os.fdopen(open_regular(node), "rb") as f:
                 entries.append(TreeEntry(node.rel, _FILE, f.read(), bool(mode & 0o111)))
     return tuple(entries)
 
 
-def _unpack_program(program: Archive | tuple[TreeEntry, ...], folder: Path) -> Path:
+def unpack_program(program: Archive | tuple[TreeEntry, ...], folder: Path) -> Path:
     if isinstance(program, Archive):
         target = folder / program.name
         target.write_bytes(program.data)
@@ -216,7 +235,7 @@ def worker_paths(
             SceneJob(s.name, models[s.name].scene_file, s.width, s.height) for s in job.scenes
         )
         hide = (str(folder), str(cache.root), str(Path.home()), *_own_tools())
-        source = _unpack_program(shipped.program, folder)
+        source = unpack_program(shipped.program, folder)
         fields["program"] = dataclasses.replace(job, source=str(source), scenes=scenes, hide=hide)
     return fields
 
