@@ -5,7 +5,9 @@ Pool workers die with grade (`kill -9` or `kill -TERM` included): each asks the 
 SIGKILL when its parent goes (Linux's PR_SET_PDEATHSIG), instead of sitting forever under
 init. A Dask scheduler is tried first within --scheduler-timeout: a port that refuses, one that
 accepts and never answers, and one that speaks something else are each a clear error
-(SchedulerError, an OSError: exit 4), never a hang.
+(SchedulerError, an OSError: exit 4), never a hang. On Dask, run_on_dask sends what every task
+shares once per worker, and a task whose worker died or was lost arrives as its failure in
+words, so one machine's trouble is one row, never the end of the class.
 """
 
 from __future__ import annotations
@@ -135,6 +137,8 @@ def worker_failure(e: BaseException) -> str:
     name = type(e).__name__
     if name == "KilledWorker":
         return "the Dask worker grading it died (out of memory, or killed)"
+    if isinstance(e, asyncio.CancelledError) or "Cancelled" in name:
+        return "the Dask scheduler dropped it (restarted, or the connection to it was lost)"
     if isinstance(e, (OSError, EOFError)) or "Comm" in name:
         return "the connection to the Dask worker grading it was lost"
     return f"the Dask worker grading it failed: {str(e)[:200] or 'no message'}"
