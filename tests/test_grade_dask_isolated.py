@@ -63,7 +63,7 @@ def _isolation(teacher: Path, worker: Path, basetemp: Path) -> list[str]:
             for sub in worker.rglob("*"):
                 os.chown(sub, NOBODY, NOBODY)
             return drop
-    # Here the interpreter lives under /root (mode 0700): no other uid can run it.
+    # No other uid can run this Python (an interpreter under a home of mode 0700): hide instead.
     if not shutil.which("bwrap"):
         pytest.skip("no other uid can run this Python, and no bwrap to hide the teacher's folder")
     sandbox = ["bwrap", "--die-with-parent", "--ro-bind", "/", "/", "--dev", "/dev"]
