@@ -14,6 +14,7 @@ const char* kTopHelp = R"(rtdemo - the course paper's Whitted ray tracer (CPU an
 usage:
   rtdemo render SCENE.json -o OUT.exr [options]   render a scene (rtdemo render --help)
   rtdemo view SCENE.json [options]                ray-trace it live in a window (rtdemo view --help)
+  rtdemo trace-pixel SCENE.json X Y [options]     one pixel's ray tree as JSON (trace-pixel --help)
   rtdemo --help | --version
 
 Exit codes: 0 ok, 1 out of memory ("rtdemo: error: out of memory ...") or another failure
