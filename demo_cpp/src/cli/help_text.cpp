@@ -58,6 +58,8 @@ outputs (at least one):
   --exr-compression C    none (default: fastest, ~10 MB at 640x480), rle or zip (~4 MB)
   --exr-channels C       all (default) or rgb: R, G, B alone, no AOVs (3.7 MB at 640x480;
                          what rtval diagnose renders its candidates with)
+                         all+path or rgb+path: also "path", each pixel's path-class bits
+                         (docs/diagnosis.md; a second pass of the scalar tracer)
   With one output, a PPM or an uncompressed EXR, the CPU tracer writes each band of rows to
   the file as soon as it is traced (no frame is kept; --keep-frame turns this off). The
   frame's time (header, summary line) then leaves out the writing: its time on the render

@@ -34,9 +34,9 @@ PixelTrace trace_pixel(const Scene& scene, const RenderSettings& settings, int x
     return out;
 }
 
-std::vector<float> path_plane(const Scene& scene, const RenderSettings& settings) {
+Plane path_plane(const Scene& scene, const RenderSettings& settings) {
     const int w = settings.width, h = settings.height;
-    std::vector<float> plane(static_cast<std::size_t>(w) * h, 0.0f);
+    Plane plane(static_cast<std::size_t>(w) * h);
     const CameraRays camera(scene.camera, w, h);
     std::atomic<int> next_row{0};
     run_workers(settings.threads, [&](int) {

@@ -2,8 +2,6 @@
 // tree recorded; and the path-class plane of a whole frame (the `path` AOV).
 #pragma once
 
-#include <vector>
-
 #include "core/cpu_renderer.h"
 #include "core/ray_tree.h"
 
@@ -20,6 +18,6 @@ PixelTrace trace_pixel(const Scene& scene, const RenderSettings& settings, int x
 
 // Per pixel (row-major, y down) the path bits of its centre ray's tree, as floats; traced on
 // settings.threads threads with the scalar tracer.
-std::vector<float> path_plane(const Scene& scene, const RenderSettings& settings);
+Plane path_plane(const Scene& scene, const RenderSettings& settings);
 
 }  // namespace rt

@@ -113,5 +113,19 @@ TEST(PathBits, GroundInTheGlassShadow) {
     EXPECT_GT(shadowed, 10);
 }
 
+// The path AOV's plane holds, for every pixel, the bits of that pixel's own traced tree.
+TEST(PathPlane, EveryPixelIsItsTreesBits) {
+    const Scene scene = load_scene_file(kScenes + "/classic.json");
+    RenderSettings s = small_settings(Mode::classic, "", Engine::scalar);
+    s.threads = 2;
+    const Plane plane = path_plane(scene, s);
+    ASSERT_EQ(plane.size(), static_cast<std::size_t>(s.width * s.height));
+    for (int y = 0; y < s.height; ++y)
+        for (int x = 0; x < s.width; ++x)
+            ASSERT_EQ(plane[static_cast<std::size_t>(y * s.width + x)],
+                      static_cast<float>(trace_pixel(scene, s, x, y).path))
+                << x << "," << y;
+}
+
 }  // namespace
 }  // namespace rt
