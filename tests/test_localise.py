@@ -100,3 +100,4 @@ def test_wrong_eta_leaving_nothing_explains_is_localised(tmp_path: Path) -> None
     )
     again = type(d).from_record(d.record())  # the memo keeps it
     assert again.as_dict()["localisation"] == out["localisation"]
+    assert any(s.startswith("where the error lives: ") and "leaves glass" in s for s in d.sentences)

@@ -211,8 +211,10 @@ def _sentence(names: tuple[str, ...], counts: tuple[int, int, float], steps: lis
     what = " and ".join(BIT_PHRASES[x] for x in names)
     blame = f"the {steps[0]} is wrong"
     if len(steps) > 1:
-        blame = f"the {', the '.join(steps[:-1])} or the {steps[-1]} is wrong (here every such "
-        blame += "path goes through each of them, so the image cannot tell which)"
+        blame = (
+            f"the error lies in a step every such path takes: the {', the '.join(steps[:-1])} "
+            f"or the {steps[-1]} (the image cannot tell which)"
+        )
     return (
         f"the differing pixels are {how} those whose path {what} ({hit:,} of {n:,}; "
         f"{precision:.0%} of such pixels differ): {blame}"

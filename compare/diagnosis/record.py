@@ -463,6 +463,18 @@ def _sentences(found: Found, findings: dict[str, EffectFinding], text: str) -> l
     return out
 
 
+def _where_sentences(where: dict[str, Any]) -> list[str]:
+    """The localisation in words: the whole image's step, then each unexplained effect's
+    where it names another."""
+    overall = where.get("overall", [])
+    out = [f"where the error lives: {o['sentence']}" for o in overall]
+    named = {o["step"] for o in overall}
+    for effect, e in where.get("effects", {}).items():
+        if e["step"] not in named:
+            out.append(f"where the error lives in the {effect}: {e['sentence']}")
+    return out
+
+
 def diagnosis(
     scene: Scene,
     image_path: str,
@@ -499,7 +511,8 @@ def diagnosis(
         unexplained=[k for k, f in findings.items() if f.state == "unexplained"],
         matches=all(f.matched for f in findings.values()),
         summary=text,
-        sentences=_sentences(found, findings, text),
+        sentences=_sentences(found, findings, text)
+        + _where_sentences(facts.get("localisation", {})),
         renders=facts["renders"],
         seconds=facts["seconds"],
         candidate=c,
