@@ -114,6 +114,9 @@ class Diagnosis:
     image_transform_specs: list[list[Any]] = field(default_factory=list)  # of_spec's
     # The causes as the JSON's `causes` list: name, kind, effects, evidence, sentence.
     cause_list: list[dict[str, Any]] = field(default_factory=list)
+    # Where the pixels nothing explains lie (localise.py): the whole image's step ("overall",
+    # the JSON's `localisation`) and, per unexplained effect, its step and path classes.
+    where: dict[str, Any] = field(default_factory=dict)
 
     @property
     def exact(self) -> bool:
@@ -160,9 +163,11 @@ class Diagnosis:
                 "share": self.effects[k].final_differing / max(1, self.effects[k].pixels),
                 "box": self.effects[k].box,
                 "against": self.result,
+                **self.where.get("effects", {}).get(k, {}),
             }
             for k in self.unexplained
         ]
+        d["localisation"] = d.pop("where").get("overall", [])
         d["reason"] = self.reason()
         for k, f in self.effects.items():
             d["effects"][k]["fixed_share"] = f.fixed_share
@@ -174,6 +179,7 @@ class Diagnosis:
         return {
             **self.as_dict(),
             "record_candidates": {k: _candidate_fields(c) for k, c in cands.items()},
+            "record_where": self.where,
         }
 
     @staticmethod
@@ -182,8 +188,9 @@ class Diagnosis:
         is not one)."""
         cands = {k: _candidate(v) for k, v in raw["record_candidates"].items()}
         fields = {f.name for f in dataclasses.fields(Diagnosis)} - {"candidate", "candidates"}
-        d = {k: raw[k] for k in fields - {"cause_list"}}
+        d = {k: raw[k] for k in fields - {"cause_list", "where"}}
         d["cause_list"] = list(raw["causes"])
+        d["where"] = dict(raw["record_where"])
         d["steps"] = [
             Step(
                 **{
@@ -466,6 +473,18 @@ def _sentences(found: Found, findings: dict[str, EffectFinding], text: str) -> l
     return out
 
 
+def _where_sentences(where: dict[str, Any]) -> list[str]:
+    """The localisation in words: the whole image's step, then each unexplained effect's
+    where it names another."""
+    overall = where.get("overall", [])
+    out = [f"where the error lives: {o['sentence']}" for o in overall]
+    named = {o["step"] for o in overall}
+    for effect, e in where.get("effects", {}).items():
+        if e["step"] not in named:
+            out.append(f"where the error lives in the {effect}: {e['sentence']}")
+    return out
+
+
 def diagnosis(
     scene: Scene,
     image_path: str,
@@ -502,7 +521,8 @@ def diagnosis(
         unexplained=[k for k, f in findings.items() if f.state == "unexplained"],
         matches=all(f.matched for f in findings.values()),
         summary=text,
-        sentences=_sentences(found, findings, text),
+        sentences=_sentences(found, findings, text)
+        + _where_sentences(facts.get("localisation", {})),
         renders=facts["renders"],
         seconds=facts["seconds"],
         candidate=c,
@@ -511,4 +531,5 @@ def diagnosis(
         image_transforms=[c.name for c in found.images],
         image_transform_specs=[list(c.spec) for c in found.images],
         cause_list=cause_list(found, findings),
+        where=facts.get("localisation", {}),
     )

@@ -23,12 +23,14 @@ import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import transforms
+from compare.diagnosis import localise, transforms
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
+from compare.diagnosis.localise import INT
 from compare.diagnosis.memo import keep, load, record_name
 from compare.diagnosis.mistakes import catalogue
 from compare.diagnosis.record import (
@@ -166,6 +168,7 @@ class Search:
         if len(begins) > 1:
             self.say(f"diagnose: told from {found.begin.name}, the better explanation")
         findings, text = self.report(found)
+        where = self.localised(found.result, findings)
         seconds = time.perf_counter() - self.t0
         self.say(f"diagnose: {found.result.name} after {len(t.scores)} renders in {seconds:.1f} s")
         facts = {
@@ -173,6 +176,7 @@ class Search:
             "renders": len(t.scores),
             "seconds": seconds,
             "candidates": found.candidates,
+            "localisation": where,
         }
         return diagnosis(self.scene, self.image.path, found, findings, text, facts)
 
@@ -655,6 +659,19 @@ class Search:
             told.insert(0, (d.change(self.scene, or_more=more), d.cause(or_more=more)))
         return told
 
+    def localised(self, final: Candidate, findings: dict[str, EffectFinding]) -> dict[str, Any]:
+        """Where the pixels still differing from the result lie, by the result's path classes
+        (localise.py): one extra render of the result, with the path AOV."""
+        t = self.trials
+        if all(f.matched for f in findings.values()):
+            return {"overall": [], "effects": {}}
+        paths = t.render.path_classes(final)
+        if paths is None:
+            return {"overall": [], "effects": {}}
+        differing = ~t.exact_of(final).matches
+        unexplained = [k for k, f in findings.items() if f.state == "unexplained"]
+        return _located(paths, differing, t.target.masks, unexplained)
+
     def report(self, found: Found) -> tuple[dict[str, EffectFinding], str]:
         """Per effect: the exact match of the start and of the result, as the verdict judges
         a model (each rendered also with the camera turned), FLIP before and after, and the
@@ -697,6 +714,20 @@ def camera_mistakes() -> tuple[str, ...]:
     )
 
 
+def _located(
+    paths: INT, differing: BOOL, masks: dict[str, BOOL], effects: list[str]
+) -> dict[str, Any]:
+    """The localisation's record: the whole image's, and each effect's with its classes."""
+    overall = localise.locate(differing, paths)
+    per_effect = {}
+    for k in effects:
+        found = localise.locate(differing, paths, masks[k])
+        if found is not None:
+            classes = localise.classes(differing & masks[k], paths)
+            per_effect[k] = {"step": found.step, "sentence": found.sentence, "classes": classes}
+    return {"overall": [] if overall is None else [overall.as_dict()], "effects": per_effect}
+
+
 def _box(where: BOOL) -> tuple[int, int, int, int] | None:
     """x0, y0, x1, y1 (inclusive) of the True pixels; None for none."""
     ys, xs = np.nonzero(where)
@@ -722,6 +753,8 @@ class FunctionRenderer:
     search_quirks: tuple[int, ...] = SEARCH_QUIRKS
     store: Store | None = None
     time_limit: float | None = None
+    # The path-class AOV of a candidate (localise.py); None: the diagnosis localises nothing.
+    paths: Callable[[TargetModel | Candidate], INT | None] | None = None
 
     def __call__(self, what: TargetModel | Candidate) -> Image:
         return self.render(what)
@@ -734,6 +767,9 @@ class FunctionRenderer:
 
     def cost(self, what: TargetModel | Candidate) -> float:
         return 0.0
+
+    def path_classes(self, what: TargetModel | Candidate) -> INT | None:
+        return None if self.paths is None else self.paths(what)
 
 
 @dataclass(frozen=True)

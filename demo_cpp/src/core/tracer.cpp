@@ -92,7 +92,15 @@ PrimaryHit Tracer::primary(const ray& r) const {
 }
 
 color Tracer::trace(const ray& r, int depth, PrimaryHit* first) const {
-    return trace_skipping(r, depth, -1, first);
+    return traced(RayKind::camera, r, depth, -1, first);
+}
+
+color Tracer::traced(RayKind kind, const ray& r, int depth, int skip, PrimaryHit* first) const {
+    if (!recorder_) return trace_skipping(r, depth, skip, first);
+    recorder_->begin_ray(kind, r, depth);
+    const color c = trace_skipping(r, depth, skip, first);
+    recorder_->end_ray(c);
+    return c;
 }
 
 color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* first) const {
@@ -101,6 +109,7 @@ color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* firs
     if (first) *first = hit ? primary_hit(scene_, r, hit.index, hit.t) : PrimaryHit{};
     if (!hit) return opt_.mistakes.has(Mistake::black_background) ? color(0.0f) : scene_.background;
 
+    if (recorder_) recorder_->hit(hit.index, hit.t);
     const Sphere& s = scene_.spheres[hit.index];
     const bool paper_light = opt_.quirks.has(Quirk::no_pi_no_falloff);
     // Q13: the hit sphere's own light is never added; a light is shaded like any surface.
@@ -118,6 +127,7 @@ color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* firs
     }
     if (opt_.mistakes.has(Mistake::flipped_normal)) n = -n;
 
+    if (recorder_) recorder_->surface(n, inside, s.has_specular_flags() && depth >= opt_.max_depth);
     color c;
     if (s.has_specular_flags() && depth < opt_.max_depth) {
         c = shade_specular(hit.index, r, p, n, inside, depth);
@@ -147,7 +157,9 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
         total_internal =
             refraction_k(r.dir, n, eta) < 0 && !q.has(Quirk::nan_at_total_internal_reflection);
         if (!total_internal && opt_.refraction)
-            refracted = trace({refraction_origin(p, n, offset), refract(r.dir, n, eta)}, depth + 1);
+            refracted =
+                traced(RayKind::refraction,
+                       {refraction_origin(p, n, offset), refract(r.dir, n, eta)}, depth + 1, -1);
         eta_ti_sq = eta * eta;
     }
 
@@ -164,6 +176,7 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
         fresnel = 1.0f;  // conductor material="none": an exact mirror tinted by its colour
     }
     if (!total_internal && opt_.mistakes.has(Mistake::fresnel_constant)) fresnel = 0.5f;
+    if (recorder_) recorder_->specular(fresnel, total_internal);
 
     color reflected(0.0f);
     if (opt_.reflection) {
@@ -171,7 +184,7 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
                                                                     : reflect(r.dir, n);
         // Leaving a convex sphere outward, the ray cannot meet it again (Q1 fixed only).
         const int skip = (!q.has(Quirk::paper_intersection) && !inside) ? hit_index : -1;
-        reflected = trace_skipping({p + n * offset, r_dir}, depth + 1, skip);
+        reflected = traced(RayKind::reflection, {p + n * offset, r_dir}, depth + 1, skip);
     }
     const float t_weight = q.has(Quirk::paper_fresnel) ? 1.0f : eta_ti_sq;
     if (opt_.mistakes.has(Mistake::fresnel_missing))  // both at full strength, unmixed
@@ -228,6 +241,7 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
                     use_lanes_ ? (blockers >> j & 1) != 0 : blocks(j, shadow_ray, max_t);
                 if (!blocked && first_only) break;
                 if (!blocked) continue;
+                if (recorder_) recorder_->blocker(j);
                 const float opacity = q.has(Quirk::glass_partial_shadow)
                                           ? 1.0f - scene_.spheres[j].transparency
                                           : 1.0f;
@@ -241,6 +255,7 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
                 if (first_only) break;
             }
         }
+        if (recorder_) recorder_->light_sample(light, l, lambert, transmission);
         if (q.has(Quirk::no_pi_no_falloff)) {
             c += s.surface_color * l_sphere.emission * (transmission * lambert);
         } else {
