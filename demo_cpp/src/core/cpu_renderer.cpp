@@ -44,11 +44,8 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
         return render_packet(plain.scene, plain.settings, isa_from_environment(), rays);
     }
     RenderedImage image(settings.width, settings.height);
-    const MistakeSet& m = settings.trace.mistakes;
-    const CameraRays shared_camera(
-        scene.camera, settings.width, settings.height,
-        {m.has(Mistake::aspect_ratio_missing), m.has(Mistake::fov_full_angle),
-         m.has(Mistake::ray_dir_unnormalized)});
+    const CameraRays shared_camera(scene.camera, settings.width, settings.height,
+                                   camera_slips(settings.trace.mistakes));
     const Tracer shared_tracer(scene, settings.trace);
     const int k = strata_per_axis(settings.spp);
     const float inv_samples = 1.0f / static_cast<float>(k * k);

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/camera_rays.h"
+#include "core/student_slips.h"
 #include "core/worker_threads.h"
 
 namespace rt {
@@ -19,7 +20,8 @@ ray centre_ray(const CameraRays& camera, const RenderSettings& settings, int x, 
 }  // namespace
 
 PixelTrace trace_pixel(const Scene& scene, const RenderSettings& settings, int x, int y) {
-    const CameraRays camera(scene.camera, settings.width, settings.height);
+    const CameraRays camera(scene.camera, settings.width, settings.height,
+                            camera_slips(settings.trace.mistakes));
     Tracer tracer(scene, settings.trace);
     RayTreeRecorder recorder(scene);
     tracer.set_recorder(&recorder);
@@ -37,7 +39,7 @@ PixelTrace trace_pixel(const Scene& scene, const RenderSettings& settings, int x
 Plane path_plane(const Scene& scene, const RenderSettings& settings) {
     const int w = settings.width, h = settings.height;
     Plane plane(static_cast<std::size_t>(w) * h);
-    const CameraRays camera(scene.camera, w, h);
+    const CameraRays camera(scene.camera, w, h, camera_slips(settings.trace.mistakes));
     std::atomic<int> next_row{0};
     run_workers(settings.threads, [&](int) {
         Tracer tracer(scene, settings.trace);

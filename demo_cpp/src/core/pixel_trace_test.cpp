@@ -66,7 +66,10 @@ INSTANTIATE_TEST_SUITE_P(Models, TreeEqualsRender,
                                            Model{Mode::physical, ""},
                                            Model{Mode::classic, "fresnel_constant"},
                                            Model{Mode::classic, "no_inside_flip,half_pixel_offset"},
-                                           Model{Mode::paper, "double_gamma"}));
+                                           Model{Mode::paper, "double_gamma"},
+                                           Model{Mode::classic, "aspect_ratio_missing"},
+                                           Model{Mode::physical, "near_root_only"},
+                                           Model{Mode::classic, "shadow_first_only,reflect_sign"}));
 
 // Pixels of scenes/classic.json at 640x480 (its own size), classic mode, found with
 // `rtdemo trace-pixel scenes/classic.json --pixels ... --mode classic`: (0, 0) is sky,

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <optional>
 
+#include "core/camera_rays.h"
 #include "core/mistakes.h"
 #include "core/ray.h"
 #include "core/sphere.h"
@@ -86,6 +87,12 @@ inline color mix_with_slip(const MistakeSet& m, SpecularParts parts, float fresn
     if (m.has(Mistake::reflection_untinted))
         return parts.reflected * f_reflect + parts.refracted * refract_weight * w.tint;
     return (parts.reflected * f_reflect + parts.refracted * refract_weight) * w.tint;
+}
+
+// The camera slips (camera_rays.h) the named camera mistakes set.
+inline CameraSlips camera_slips(const MistakeSet& m) {
+    return {m.has(Mistake::aspect_ratio_missing), m.has(Mistake::fov_full_angle),
+            m.has(Mistake::ray_dir_unnormalized)};
 }
 
 // Camera slips (camera_rays.h) of the named camera mistakes.
