@@ -38,6 +38,9 @@ class Mistake:
         What the image shows, for a student. Default "".
     source : str
         Where real programs or people made it. Default "".
+    symptom : str
+        What the image shows, where several mistakes render the same image ("direct light
+        lost"): the diagnosis names the symptom, not one of them. Default "".
     """
 
     name: str
@@ -47,6 +50,7 @@ class Mistake:
     step: str = ""
     looks_like: str = ""
     source: str = ""
+    symptom: str = ""
 
 
 @cache
@@ -77,6 +81,7 @@ def catalogue() -> dict[str, Mistake]:
             entry.get("step", ""),
             entry.get("looks_like", ""),
             entry.get("source", ""),
+            entry.get("symptom", ""),
         )
     return out
 

@@ -440,17 +440,19 @@ class Search:
     ) -> tuple[list[Switch], list[Candidate], list[float]]:
         """The switches of one round (every one, or those that helped and the depth), their
         candidates, and what each gains."""
+        t = self.trials
+        still = t.open_effects(current)
         tried = [
             sw
             for sw in switches(current, self.scene, self.quirks, full=promising is None)
             if (promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth")
             and (sw.kind, sw.key) not in self.banned
+            and may_help(sw, still)
         ]
         cands = [sw.apply(current, self.scene) for sw in tried]
-        t = self.trials
         t.near(current)
         t.evaluate(cands)
-        base, still = t.per(current), t.open_effects(current)
+        base = t.per(current)
         # Only a switch that clearly explains some effect counts: small drops spread over
         # every effect are noise fitting (e.g. acne patterns that float rounding decides).
         # One that makes another effect clearly worse is never kept, however much it gains
@@ -640,7 +642,9 @@ class Search:
         options = [
             o
             for o in switches(without, self.scene, (), full=True)
-            if (o.kind in VALUED or (o.kind == "mistake" and o.present)) and o != sw
+            if (o.kind in VALUED or (o.kind == "mistake" and o.present))
+            and o != sw
+            and not (o.kind == sw.kind == "mistake" and o.cause() == sw.cause())
         ]
         cands = [o.apply(without, self.scene) for o in options]
         t = self.trials
@@ -704,6 +708,14 @@ class Search:
 
 # The switches whose named cause could be told as well by another (alike).
 ALIKE_KINDS = ("quirk", "mistake", "effect")
+
+
+def may_help(sw: Switch, still: set[str]) -> bool:
+    """Whether sw can explain an effect still open: a named mistake is added only where one
+    of the effects it shows in (mistakes.json) differs; every other switch may."""
+    if sw.kind != "mistake" or not sw.present:
+        return True
+    return bool(set(catalogue()[sw.key].effects) & set(still))
 
 
 def camera_mistakes() -> tuple[str, ...]:

@@ -92,6 +92,8 @@ class Switch:
     def cause_kind(self) -> str:
         """What kind of cause it is: quirk, mistake, camera, image, step or constant."""
         if self.kind == "mistake":
+            if catalogue()[self.key].symptom:
+                return "step"  # a symptom several mistakes share: the step, not one of them
             step = catalogue()[self.key].step
             kind = {"camera": "camera", "image writing": "image"}.get(step, "mistake")
             return {"half_pixel_offset": "camera", "double_gamma": "image"}.get(self.key, kind)
@@ -131,6 +133,9 @@ class Switch:
             return f"ior {float(self.key):g}" if self.present else "scene ior"
         if self.kind == "bias":
             return f"bias {float(self.key):g}" if self.present else "scene bias"
+        symptom = catalogue()[self.key].symptom if self.kind == "mistake" else ""
+        if symptom and self.present:
+            return symptom
         return f"{'' if self.present else '-'}{self.key}"
 
     def change(self, scene: Scene, *, or_more: bool = False) -> str:
@@ -153,6 +158,12 @@ class Switch:
         if self.kind in ("background", "ior"):
             return self._constant_change(scene)
         m = catalogue()[self.key]
+        if self.present and m.symptom:
+            alike = [o.name for o in catalogue().values() if o.symptom == m.symptom]
+            return (
+                f"{m.symptom}: the image shows what any of these mistakes gives and cannot tell "
+                f"which: {', '.join(alike)}"
+            )
         if self.present:
             return f"the mistake {m.name} ({m.explanation})"
         return f"without the mistake {m.name}"

@@ -109,7 +109,7 @@ inline bool needs_scalar_tracer(const MistakeSet& m) {
         Mistake::normal_not_normalized,   Mistake::reflect_sign,
         Mistake::light_blocks_itself,     Mistake::fresnel_facing_sign,
         Mistake::refraction_bias_outside, Mistake::shadow_dir_unnormalized,
-        Mistake::shadow_first_only};
+        Mistake::shadow_first_only,       Mistake::light_colour_from_hit};
     for (Mistake s : kScalarOnly)
         if (m.has(s)) return true;
     return has_root_slip(m) || has_mix_slip(m) || has_camera_slip(m);

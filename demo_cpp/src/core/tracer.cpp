@@ -256,8 +256,13 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
             }
         }
         if (recorder_) recorder_->light_sample(light, l, lambert, transmission);
+        // light_colour_from_hit: the light's colour read from the sphere being shaded, whose
+        // emission is 0 unless it is a light itself.
+        const bool from_hit = opt_.mistakes.has(Mistake::light_colour_from_hit);
+        if (from_hit && !s.is_light()) continue;
         if (q.has(Quirk::no_pi_no_falloff)) {
-            c += s.surface_color * l_sphere.emission * (transmission * lambert);
+            c += s.surface_color * (from_hit ? s.emission : l_sphere.emission) *
+                 (transmission * lambert);
         } else {
             // Lambert albedo/pi times a point light's I/d^2; I = pi E d0^2 (light_units.h).
             const vec3 from_p = l_sphere.center - p;
