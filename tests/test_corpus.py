@@ -68,6 +68,34 @@ _STRAY = {
 }
 _NO_Q11 = "rtdemo without Q11-Q13 (the paper's direct light): rebuild it (make setup)"
 
+# Diagnoses that are wrong today (measured 2026-12-05 on main 0597f67, 320x240): each says
+# what the diagnosis said and what would make it right.
+_NO_STEP = "names no cause, and the diagnosis cannot localise an error to its step yet"
+_WAITS_B = "the named mistake is not in mistakes.json yet; "
+_DIAGNOSIS_PENDING = {
+    **dict.fromkeys(
+        (
+            "scratch-untinted_glass", "rust-fov35", "go-fov_on_x", "js-tan_full_fov",
+            "rust-no_aspect", "rust-eta_inverted", "rust-fresnel_constants_swapped",
+            "go-y_by_width", "js-reflect_half", "js-k_eta_unsquared",
+        ),
+        _NO_STEP,
+    ),
+    **dict.fromkeys(
+        (
+            "go-near_root_only", "js-ray_dir_unnormalized", "go-normal_not_normalized",
+            "js-reflect_sign", "go-reflection_untinted", "js-fresnel_weights_swapped",
+            "js-light_blocks_itself", "go-shadow_dir_unnormalized", "rust-light_dir_reversed",
+            "go-lambert_unclamped",
+        ),
+        _WAITS_B + _NO_STEP,
+    ),
+    "rust-negative_root_hit": _WAITS_B + "it names no_offset, a false cause",
+    "rust-refraction_bias_outside": _WAITS_B + "it names no_offset, a false cause",
+    "go-fresnel_facing_sign": _WAITS_B
+    + "it names +Q7, fresnel_missing and --no-refraction, false causes",
+}  # fmt: skip
+
 
 def _not_yet(v: Variant, what: str) -> str | None:
     """Why `what` ("passes", "scores 100", "diagnosed") cannot hold for v yet, or None."""
@@ -75,6 +103,8 @@ def _not_yet(v: Variant, what: str) -> str | None:
         return _NO_Q11
     if what == "scores 100" and v.name in _STRAY:
         return _STRAY[v.name]
+    if what == "diagnosed" and v.name in _DIAGNOSIS_PENDING:
+        return _DIAGNOSIS_PENDING[v.name]
     return None
 
 
@@ -195,6 +225,13 @@ def test_mistake_fails(corpus: Corpus, variant: Variant) -> None:
     assert o.score < 100
 
 
+def _true(cause: dict[str, Any], causes: frozenset[str]) -> bool:
+    """Whether a named cause is true of the program: its name, or one of the alternatives it
+    says the image cannot tell from it ("-Q6 (or, as well: max depth 7 or more ...)")."""
+    alternatives = [str(a).split(" (")[0] for a in cause.get("alternatives") or []]
+    return str(cause["name"]) in causes or any(a in causes for a in alternatives)
+
+
 def _localised(d: dict[str, Any]) -> set[str]:
     """The steps the diagnosis localises what it does not explain to."""
     where = list(d.get("localisation") or []) + list(d.get("unexplained_where") or [])
@@ -210,6 +247,6 @@ def test_diagnosis_names_a_true_cause(corpus: Corpus, variant: Variant) -> None:
     assert d is not None
     said = [str(c["name"]) for c in d["causes"]]
     text = f"causes {said}, localised to {sorted(_localised(d))}\n{d.get('text', '')}"
-    assert set(said) <= variant.causes, "a false cause: " + text
+    assert all(_true(c, variant.causes) for c in d["causes"]), "a false cause: " + text
     if not said:
         assert _localised(d) & variant.steps, text
