@@ -39,7 +39,7 @@ _DIAGNOSIS_PENDING = {
             "go-near_root_only", "js-ray_dir_unnormalized", "go-normal_not_normalized",
             "js-reflect_sign", "go-reflection_untinted", "js-fresnel_weights_swapped",
             "js-light_blocks_itself", "go-shadow_dir_unnormalized", "rust-light_dir_reversed",
-            "go-lambert_unclamped",
+            "go-lambert_unclamped", "js-refraction_unweighted",
         ),
         _WAITS_B + _NO_STEP,
     ),

@@ -18,6 +18,7 @@
 //   k_eta_unsquared          1 - eta (1 - cos^2) under the refraction's square root
 //   fresnel_weights_swapped  reflection weighted by 1 - fresnel and refraction by fresnel
 //   fresnel_exponent         0.1 + 0.9 (1 - facing)^2 instead of the cube
+//   refraction_unweighted    the refracted colour not multiplied by the transparency
 //   light_blocks_itself      the light is not skipped in its own shadow test
 //   no_shadows               the shadow test is left out
 //   ior=V                    the glass's index
@@ -51,7 +52,7 @@ const BIAS = 1e-4;
 const KNOWN = [
   'bgr', 'gamma2', 'tan_full_fov', 'ray_dir_unnormalized', 'reflect_sign', 'reflect_half',
   'no_inside_flip', 'k_eta_unsquared', 'fresnel_weights_swapped', 'fresnel_exponent',
-  'light_blocks_itself', 'no_shadows',
+  'refraction_unweighted', 'light_blocks_itself', 'no_shadows',
 ];
 const slips = new Set();
 
@@ -135,7 +136,8 @@ function shadeMirror(hit, p, n, d, inside, depth) {
     refracted = trace(sub(p, scale(n, BIAS)), tdir, depth + 1);
   }
   const kr = slips.has('fresnel_weights_swapped') ? 1 - fresnel : fresnel;
-  return mul(add(scale(reflected, kr), scale(refracted, (1 - kr) * hit.transp)), hit.color);
+  const kt = slips.has('refraction_unweighted') ? 1 - kr : (1 - kr) * hit.transp;
+  return mul(add(scale(reflected, kr), scale(refracted, kt)), hit.color);
 }
 
 // Whether a sphere other than light i lies along the shadow ray.

@@ -200,6 +200,9 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
     "rust-refraction_bias_outside": (RUST, "refraction_bias_outside",
                                      "the refracted ray starts outside the surface",
                                      _c("refraction_bias_outside"), GLASS),
+    "js-refraction_unweighted": (JS, "refraction_unweighted",
+                                 "the refraction not weighted by the transparency",
+                                 _c("refraction_unweighted"), GLASS),
     # Fresnel
     "go-fresnel_facing_sign": (GO, "fresnel_facing_sign", "the facing ratio +d.n",
                                _c("fresnel_facing_sign"), _c(FRESNEL)),
