@@ -29,7 +29,7 @@ _DIAGNOSIS_PENDING = {
     **dict.fromkeys(
         (
             "scratch-untinted_glass", "rust-fov35", "go-fov_on_x", "rust-eta_inverted", "rust-fresnel_constants_swapped",
-            "go-y_by_width", "js-reflect_half", "js-k_eta_unsquared",
+            "go-y_by_width", "js-reflect_half", "js-k_eta_unsquared", "go-lambert_unclamped",
         ),
         _NO_STEP,
     ),
@@ -38,7 +38,7 @@ _DIAGNOSIS_PENDING = {
             "go-near_root_only", "js-ray_dir_unnormalized", "go-normal_not_normalized",
             "js-reflect_sign", "go-reflection_untinted", "js-fresnel_weights_swapped",
             "js-light_blocks_itself", "go-shadow_dir_unnormalized", "rust-light_dir_reversed",
-            "go-lambert_unclamped", "js-refraction_unweighted", "js-tan_full_fov",
+            "js-refraction_unweighted", "js-tan_full_fov",
             "rust-no_aspect",
         ),
         _WAITS_B + _NO_STEP,

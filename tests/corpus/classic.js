@@ -15,6 +15,7 @@
 //   reflect_sign             d + 2 (d.n) n instead of d - 2 (d.n) n
 //   reflect_half             d - (d.n) n: the factor 2 forgotten
 //   no_inside_flip           the normal is not turned round inside a sphere
+//   inside_test_reversed     the inside test written d.n < 0: outside hits taken as inside
 //   k_eta_unsquared          1 - eta (1 - cos^2) under the refraction's square root
 //   fresnel_weights_swapped  reflection weighted by 1 - fresnel and refraction by fresnel
 //   fresnel_exponent         0.1 + 0.9 (1 - facing)^2 instead of the cube
@@ -51,7 +52,7 @@ const MAX_DEPTH = 5;
 const BIAS = 1e-4;
 const KNOWN = [
   'bgr', 'gamma2', 'tan_full_fov', 'ray_dir_unnormalized', 'reflect_sign', 'reflect_half',
-  'no_inside_flip', 'k_eta_unsquared', 'fresnel_weights_swapped', 'fresnel_exponent',
+  'no_inside_flip', 'inside_test_reversed', 'k_eta_unsquared', 'fresnel_weights_swapped', 'fresnel_exponent',
   'refraction_unweighted', 'light_blocks_itself', 'no_shadows',
 ];
 const slips = new Set();
@@ -97,7 +98,8 @@ function trace(o, d, depth) {
   const p = add(o, scale(d, tmin));
   let n = normalize(sub(p, hit.c));
   let inside = false;
-  if (dot(d, n) > 0) {
+  const away = slips.has('inside_test_reversed') ? dot(d, n) < 0 : dot(d, n) > 0;
+  if (away) {
     if (!slips.has('no_inside_flip')) n = scale(n, -1);
     inside = true;
   }
