@@ -250,6 +250,26 @@ def test_gradescope_mode_grades_the_autograders_layout(subs: Path, tmp_path: Pat
     assert data["score"] == 0 and "symbolic link" in data["tests"][0]["output"]
 
 
+def test_gradescope_mode_names_the_student_from_the_metadata(subs: Path, tmp_path: Path) -> None:
+    root = tmp_path / "autograder"
+    (root / "submission").mkdir(parents=True)
+    shutil.copyfile(subs / "carol.png", root / "submission" / "classic.png")
+    fixture = Path(__file__).resolve().parent / "gradescope" / "submission_metadata.json"
+    shutil.copyfile(fixture, root / "submission_metadata.json")  # Gradescope's documented shape
+    out = tmp_path / "out"
+    proc = run(
+        [RTVAL, "grade", "--gradescope", "--gradescope-root", str(root), *ARGS, "--out", str(out)],
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    group = "ada@example.edu+alan@example.edu"
+    assert f"gradescope: student {group} (Ada Student, Alan Student), from " in proc.stderr
+    assert "submission_metadata.json: users[].email" in proc.stderr
+    with (out / "gradebook.csv").open() as f:
+        assert [row["student"] for row in csv.DictReader(f)] == [group]
+    assert json.loads((root / "results" / "results.json").read_text())["score"] == 100.0
+
+
 def test_gradescope_mode_without_the_layout_writes_no_result(tmp_path: Path) -> None:
     proc = run([RTVAL, "grade", "--gradescope", "--gradescope-root", str(tmp_path), *ARGS])
     assert proc.returncode != 0 and "no submission folder" in proc.stderr

@@ -163,3 +163,29 @@ def test_a_match_within_the_allowance_is_not_called_a_look_alike_of_a_failed_mod
     assert _beside_verdict({"short": "no diagnosis: x"}, "classic", {"score": 0.0}) == (
         "no diagnosis: x"
     )
+
+
+def test_a_png_of_linear_values_is_diagnosed_with_its_encoding(tmp_path: Path) -> None:
+    # A student's PPM writer's bytes (Q2's refraction) saved as a PNG keeping every value:
+    # graded in both encodings, read as linear; the diagnosis names the encoding first,
+    # then what the pixels show.
+    from PIL import Image as PILImage
+
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    render_variant(load_scene(SCENE), "wrong_eta_leaving", 160, 120, tmp_path / "eta.ppm")
+    PILImage.open(tmp_path / "eta.ppm").save(subs / "eta.png")
+    out = tmp_path / "grades"
+    proc = run([RTVAL, "grade", str(subs), *ARGS, "--out", str(out), "--jobs", "1"])
+    assert proc.returncode == 0, proc.stderr
+    scene = json.loads((out / "results" / "eta.json").read_text())["scenes"][0]
+    assert scene["verdict"]["encoding"] == "linear"
+    causes = scene["diagnosis_detail"]["causes"]
+    assert causes[0]["kind"] == "image" and causes[0]["name"] == (
+        "encoding: the PNG holds linear values (a PPM writer's bytes saved as PNG)"
+    )
+    assert any(c["name"] == "+Q2" for c in causes[1:]), [c["name"] for c in causes]
+    # The class page's common causes name them in words (never a record's repr).
+    page = (out / "index.html").read_text()
+    assert "encoding: the PNG holds linear values" in page and "Q2 (eta = 1/ior" in page
+    assert "'kind'" not in page and "&#39;kind&#39;" not in page

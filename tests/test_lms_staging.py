@@ -4,12 +4,14 @@ of a submitted folder, however deep it is."""
 
 from __future__ import annotations
 
+import json
 import os
+import shutil
 from pathlib import Path
 
 import pytest
 
-from compare.grading.lms import stage_submission
+from compare.grading.lms import stage_submission, submission_identity
 from compare.sandbox.trees import TreeError, remove_tree
 
 
@@ -43,3 +45,36 @@ def test_a_deep_submission_is_refused_not_a_recursion_error(tmp_path: Path) -> N
     finally:  # pytest's own clean-up recurses
         remove_tree(tmp_path / "root")
         remove_tree(tmp_path / "out")
+
+
+FIXTURE = Path(__file__).resolve().parent / "gradescope" / "submission_metadata.json"
+
+
+def test_the_student_is_named_by_gradescopes_metadata(tmp_path: Path) -> None:
+    # The fixture has the shape of Gradescope's "Submission Metadata" page: users[] of
+    # {email, id, name}, two of them (a group submission).
+    shutil.copyfile(FIXTURE, tmp_path / "submission_metadata.json")
+    who = submission_identity(tmp_path)
+    assert who.student == "ada@example.edu+alan@example.edu"
+    assert who.names == "Ada Student, Alan Student" and who.source.endswith("users[].email")
+
+
+def test_without_emails_the_gradescope_user_id_names_the_student(tmp_path: Path) -> None:
+    meta = json.loads(FIXTURE.read_text())
+    meta["users"] = [{"id": 1815, "name": "Ada Student"}]
+    (tmp_path / "submission_metadata.json").write_text(json.dumps(meta))
+    who = submission_identity(tmp_path)
+    assert (who.student, who.source.rsplit(": ", 1)[1]) == ("1815", "users[].id")
+
+
+@pytest.mark.parametrize(
+    ("content", "why"),
+    [(None, "no "), ("{not json", "unreadable"), ('{"users": []}', "no users[]")],
+)
+def test_no_usable_metadata_is_the_id_submission_said_as_such(
+    tmp_path: Path, content: str | None, why: str
+) -> None:
+    if content is not None:
+        (tmp_path / "submission_metadata.json").write_text(content)
+    who = submission_identity(tmp_path)
+    assert who.student == "submission" and why in who.source

@@ -24,7 +24,11 @@ def run_grade(args: argparse.Namespace) -> int:
     from compare.grading.class_page import summarise, summary_lines
     from compare.grading.executors import Executor
     from compare.grading.gradebook import explain
-    from compare.grading.lms import stage_submission, write_autograder_results
+    from compare.grading.lms import (
+        stage_submission,
+        submission_identity,
+        write_autograder_results,
+    )
     from compare.grading.student_page import write_handouts
     from compare.render.cache import RenderCache
     from compare.render.progress import Progress
@@ -39,7 +43,11 @@ def run_grade(args: argparse.Namespace) -> int:
         raise ValueError("grade needs SUBMISSIONS and at least one --scene (or --explain ID)")
     scenes = [Path(s) for s in args.scene]
     root = Path(args.gradescope_root)
-    submissions = stage_submission(root, out) if args.gradescope else Path(args.submissions)
+    who = submission_identity(root) if args.gradescope else None
+    if who is not None:  # which of Gradescope's fields named the student, said once
+        named = f" ({who.names})" if who.names and who.names != who.student else ""
+        print(f"gradescope: student {who.student}{named}, from {who.source}", file=sys.stderr)
+    submissions = stage_submission(root, out, who.student) if who else Path(args.submissions)
     options = grade.GradingRun(
         rubric_path=args.rubric,
         executor=Executor(args.executor, args.scheduler, args.jobs, args.scheduler_timeout),
@@ -60,8 +68,8 @@ def run_grade(args: argparse.Namespace) -> int:
     if args.handout:
         write_handouts(results, out, Path(args.handout))
         print(Path(args.handout))
-    if args.gradescope:
-        print(write_autograder_results(results, root, args.gradescope_visibility))
+    if who is not None:
+        print(write_autograder_results(results, root, args.gradescope_visibility, who.student))
     return 0
 
 

@@ -31,12 +31,22 @@ class Mistake:
     same_as : str or None
         Another switch that renders the same image (shadow_past_light is "+Q5"): diagnose
         searches that switch and names the mistake beside it. Default None.
+    step : str
+        The step of the algorithm it lives in ("camera", "direct light", ...; the steps of
+        docs/diagnosis.md), "" where switches.MISTAKE_STEPS words it. Default "".
+    looks_like : str
+        What the image shows, for a student. Default "".
+    source : str
+        Where real programs or people made it. Default "".
     """
 
     name: str
     explanation: str
     effects: tuple[str, ...]
     same_as: str | None = None
+    step: str = ""
+    looks_like: str = ""
+    source: str = ""
 
 
 @cache
@@ -64,6 +74,9 @@ def catalogue() -> dict[str, Mistake]:
             entry["explanation"],
             tuple(entry["effect"].split(",")),
             entry.get("same_as"),
+            entry.get("step", ""),
+            entry.get("looks_like", ""),
+            entry.get("source", ""),
         )
     return out
 

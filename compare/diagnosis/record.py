@@ -21,7 +21,9 @@ from scene_model.scene import Scene
 # of the pixels that differed from the start match. Measured (tests/test_diagnose.py, 160x120
 # and 640x480): every named cause of the student variants makes 93-100 % match; the best
 # candidates for programs nothing explains make 0-19 % match (glass never multiplied by its
-# colour; a refracted ray that hits nothing): half is far from both.
+# colour; a refracted ray that hits nothing): half is far from both. Two switches that explain
+# one effect only together must match it exactly (search.joint_partial): a ray that never
+# leaves glass plus a hard-coded ior 1.2 made most of "a refracted ray that hits nothing" match.
 
 
 # The nearest mode wins outright only by a clear margin: more than MODE_CLOSE_SHARE of all
@@ -45,6 +47,7 @@ class Step:
     step: str = ""  # Switch.step: the step of the algorithm it changes
     # Other changes the image cannot tell from this one (a constant in place of a quirk).
     alternatives: tuple[str, ...] = ()
+    alternative_names: tuple[str, ...] = ()  # their Switch.cause: "light_blocks_itself"
 
 
 @dataclass(frozen=True)
@@ -111,6 +114,9 @@ class Diagnosis:
     image_transform_specs: list[list[Any]] = field(default_factory=list)  # of_spec's
     # The causes as the JSON's `causes` list: name, kind, effects, evidence, sentence.
     cause_list: list[dict[str, Any]] = field(default_factory=list)
+    # Where the pixels nothing explains lie (localise.py): the whole image's step ("overall",
+    # the JSON's `localisation`) and, per unexplained effect, its step and path classes.
+    where: dict[str, Any] = field(default_factory=dict)
 
     @property
     def exact(self) -> bool:
@@ -157,9 +163,11 @@ class Diagnosis:
                 "share": self.effects[k].final_differing / max(1, self.effects[k].pixels),
                 "box": self.effects[k].box,
                 "against": self.result,
+                **self.where.get("effects", {}).get(k, {}),
             }
             for k in self.unexplained
         ]
+        d["localisation"] = d.pop("where").get("overall", [])
         d["reason"] = self.reason()
         for k, f in self.effects.items():
             d["effects"][k]["fixed_share"] = f.fixed_share
@@ -171,6 +179,7 @@ class Diagnosis:
         return {
             **self.as_dict(),
             "record_candidates": {k: _candidate_fields(c) for k, c in cands.items()},
+            "record_where": self.where,
         }
 
     @staticmethod
@@ -179,14 +188,16 @@ class Diagnosis:
         is not one)."""
         cands = {k: _candidate(v) for k, v in raw["record_candidates"].items()}
         fields = {f.name for f in dataclasses.fields(Diagnosis)} - {"candidate", "candidates"}
-        d = {k: raw[k] for k in fields - {"cause_list"}}
+        d = {k: raw[k] for k in fields - {"cause_list", "where"}}
         d["cause_list"] = list(raw["causes"])
+        d["where"] = dict(raw["record_where"])
         d["steps"] = [
             Step(
                 **{
                     **st,
                     "explains": tuple(st["explains"]),
                     "alternatives": tuple(st.get("alternatives", ())),
+                    "alternative_names": tuple(st.get("alternative_names", ())),
                 }
             )
             for st in d["steps"]
@@ -412,7 +423,13 @@ def cause_list(found: Found, findings: dict[str, EffectFinding]) -> list[dict[st
             if k in findings
         }
         cause = _cause(st.cause, st.kind, st.step or st.change, ev, st.change + _alike(st))
-        out.append(cause | {"alternatives": list(st.alternatives)})
+        out.append(
+            cause
+            | {
+                "alternatives": list(st.alternatives),
+                "alternative_names": list(st.alternative_names),
+            }
+        )
     return out
 
 
@@ -456,6 +473,18 @@ def _sentences(found: Found, findings: dict[str, EffectFinding], text: str) -> l
     return out
 
 
+def _where_sentences(where: dict[str, Any]) -> list[str]:
+    """The localisation in words: the whole image's step, then each unexplained effect's
+    where it names another."""
+    overall = where.get("overall", [])
+    out = [f"where the error lives: {o['sentence']}" for o in overall]
+    named = {o["step"] for o in overall}
+    for effect, e in where.get("effects", {}).items():
+        if e["step"] not in named:
+            out.append(f"where the error lives in the {effect}: {e['sentence']}")
+    return out
+
+
 def diagnosis(
     scene: Scene,
     image_path: str,
@@ -492,7 +521,8 @@ def diagnosis(
         unexplained=[k for k, f in findings.items() if f.state == "unexplained"],
         matches=all(f.matched for f in findings.values()),
         summary=text,
-        sentences=_sentences(found, findings, text),
+        sentences=_sentences(found, findings, text)
+        + _where_sentences(facts.get("localisation", {})),
         renders=facts["renders"],
         seconds=facts["seconds"],
         candidate=c,
@@ -501,4 +531,5 @@ def diagnosis(
         image_transforms=[c.name for c in found.images],
         image_transform_specs=[list(c.spec) for c in found.images],
         cause_list=cause_list(found, findings),
+        where=facts.get("localisation", {}),
     )

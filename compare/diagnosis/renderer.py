@@ -22,6 +22,9 @@ from functools import cache
 from pathlib import Path
 from types import TracebackType
 
+import numpy as np
+from numpy.typing import NDArray
+
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.search import BASE_QUIRKS, LATER_QUIRKS
 from compare.errors import ToolError
@@ -292,6 +295,24 @@ class CandidateRenderer:
         self._count(hit=hit)
         self._cost(c, job)
         return image
+
+    def path_classes(self, what: TargetModel | Candidate) -> NDArray[np.int64] | None:
+        """The candidate's path-class AOV (rtdemo --exr-channels rgb+path; localise.py): one
+        render, cached like the others. None when this rtdemo cannot write it (an older
+        build) or the render fails: the diagnosis then localises nothing."""
+        c = self._seen(what)
+        job = self.job(c)
+        job.key, job.label = f"{job.key}-path", f"{job.label} (path classes)"
+        job.args = [a for a in job.args if a not in ("--exr-channels", "rgb")]
+        job.args += ["--exr-channels", "rgb+path"]
+        try:
+            hit = render_one(job, self.cache, extra_args=self._extra())
+            image = read_image(job.exr(self.cache), aovs=("path",))
+        except (ToolError, ImageError):
+            return None
+        self._count(hit=hit)
+        path = image.aovs.get("path")
+        return None if path is None else path.astype(np.int64)
 
     def _seen(self, what: TargetModel | Candidate) -> Candidate:
         if not self._open:

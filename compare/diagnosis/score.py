@@ -96,6 +96,9 @@ class Renderer(Protocol):
     def cost(self, what: TargetModel | Candidate) -> float:
         """Seconds its render took when made (0 when not known)."""
 
+    def path_classes(self, what: TargetModel | Candidate) -> NDArray[np.int64] | None:
+        """rtdemo's path-class AOV of the candidate (localise.py), None when not available."""
+
 
 class DiagnoseError(ValueError):
     """The image cannot be diagnosed against this scene (e.g. a renderer without AOVs)."""

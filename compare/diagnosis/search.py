@@ -23,13 +23,16 @@ import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import transforms
+from compare.diagnosis import localise, transforms
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
+from compare.diagnosis.localise import INT
 from compare.diagnosis.memo import keep, load, record_name
+from compare.diagnosis.mistakes import catalogue
 from compare.diagnosis.record import (
     MODE_CLOSE_RATIO,
     MODE_CLOSE_SHARE,
@@ -108,6 +111,15 @@ SEARCH_SECONDS = 15.0
 # Mistakes that move every pixel's tone: the nearest mode is chosen with and without them, so
 # that a gamma-encoded paper image is not taken for physical mode (it starts from paper).
 TONE_MISTAKES = ("double_gamma",)
+# A camera slip moves every silhouette, so the modes cannot be told apart until it is undone.
+# Where the nearest start leaves over CAMERA_TRY_SHARE of the pixels differing, each camera
+# mistake of the catalogue is tried on it; one that halves the count (CAMERA_RATIO) is tried on
+# every start, and the modes are compared through it, as through a tone mistake.
+CAMERA_TRY_SHARE = 0.25
+CAMERA_RATIO = 0.5
+# Where the nearest start is that far off, every start within this ratio of its count is
+# searched from too.
+FAR_MODE_RATIO = 1.5
 # The nearest mode is the one matching most pixels, unless none matches this share of them.
 MODE_MATCH_MIN = 0.05
 # The image is taken as mirrored when a flipped copy is at most MIRROR_RATIO as far from the
@@ -137,6 +149,9 @@ class Search:
         self.quirks, self.max_renders, self.say = tuple(quirks), max_renders, say
         self.gated: dict[tuple[Candidate, Candidate], dict[str, Gate]] = {}
         self.images: list[ImageCause] = []  # the writer's transforms found (transformed)
+        self.camera_slips: tuple[str, ...] = ()  # a camera mistake the modes are judged with
+        self.near_by_count: list[Candidate] = []  # the nearest start and those within its margin
+        self.banned: set[tuple[str, str]] = set()  # switches of a dead end (searched)
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
@@ -153,6 +168,7 @@ class Search:
         if len(begins) > 1:
             self.say(f"diagnose: told from {found.begin.name}, the better explanation")
         findings, text = self.report(found)
+        where = self.localised(found.result, findings)
         seconds = time.perf_counter() - self.t0
         self.say(f"diagnose: {found.result.name} after {len(t.scores)} renders in {seconds:.1f} s")
         facts = {
@@ -160,6 +176,7 @@ class Search:
             "renders": len(t.scores),
             "seconds": seconds,
             "candidates": found.candidates,
+            "localisation": where,
         }
         return diagnosis(self.scene, self.image.path, found, findings, text, facts)
 
@@ -170,6 +187,10 @@ class Search:
         first always."""
         out = [self.explain(begins[0], mirrored)]
         for b in begins[1:]:
+            exact = next((f for f in out if self.left_over(f)[0] == 0), None)
+            if exact is not None:
+                self.say(f"diagnose: {exact.result.name} matches exactly: {b.name} not searched")
+                break
             if time.perf_counter() - self.t0 > SEARCH_SECONDS:
                 self.say(f"diagnose: no time left to search from {b.name} too")
                 break
@@ -196,8 +217,12 @@ class Search:
         if limit is not None:
             self.say(f"diagnose: each candidate may render for {limit:.1f} s")
         mirrored = self.mirrored(starts + toned)
+        self.camera_slips = self.camera_slip(starts)
         begins = self.nearest(starts)
-        if self.transformed(begins):  # the modes are judged again through it
+        # The writer's transforms are fitted against the nearest start and those close to it by
+        # count, not against the far-off ones searched only because every start is far.
+        fitted_on = [c for c in begins if c in self.near_by_count]
+        if self.transformed(fitted_on):  # the modes are judged again through it
             begins = self.nearest(starts)
         self.trials.keep_only(set(begins))
         return mirrored, begins
@@ -263,9 +288,28 @@ class Search:
         return MIRRORS[key]
 
     def _toned_best(self, c: Candidate) -> Candidate:
-        """c or c with a tone mistake, whichever leaves fewer pixels differing."""
-        toned = [c, *(c.with_mistake(m, True) for m in TONE_MISTAKES)]
+        """c or c with a tone mistake (or the camera slip found), whichever leaves fewer
+        pixels differing."""
+        slips = TONE_MISTAKES + self.camera_slips
+        toned = [c, *(c.with_mistake(m, True) for m in slips)]
         return min(toned, key=self.trials.whole_differing)
+
+    def camera_slip(self, starts: list[Candidate]) -> tuple[str, ...]:
+        """The catalogue's camera mistake that, on some start, halves the fewest pixels
+        differing from any start, when every start is far off (CAMERA_TRY_SHARE): the mode
+        cannot be judged before the silhouettes fit. () when the starts place them."""
+        t = self.trials
+        plain = min(t.whole_differing(c) for c in starts)
+        if plain <= CAMERA_TRY_SHARE * t.total_pixels():
+            return ()
+        tried = {c.with_mistake(m, True): m for c in starts for m in camera_mistakes()}
+        t.evaluate(list(tried))
+        best = min(tried, key=t.whole_differing)
+        if t.whole_differing(best) > CAMERA_RATIO * plain:
+            return ()
+        slip = tried[best]
+        self.say(f"diagnose: the silhouettes fit {slip}; the modes are compared through it")
+        return (slip,)
 
     def nearest(self, starts: list[Candidate]) -> list[Candidate]:
         """The start whose pixels match the image most often, over the whole image: a program
@@ -289,7 +333,23 @@ class Search:
             + ("" if by_count else "; none matches, the nearest by how far pixels are off")
             + ")"
         )
-        close = [c for c in starts if c != nearest and by_count and self._close(counts, c, nearest)]
+        # Every start far off: a mistake that moves most pixels hides the mode, so each one
+        # about as far is searched too (a classic program with its normals turned in is a
+        # quarter nearer physical by count).
+        far = counts[nearest] > CAMERA_TRY_SHARE * total
+        self.near_by_count = [nearest] + [
+            c for c in starts if c != nearest and by_count and self._close(counts, c, nearest)
+        ]
+        close = [
+            c
+            for c in sorted(starts, key=lambda c: counts[c])
+            if c != nearest
+            and by_count
+            and (
+                (far and counts[c] <= FAR_MODE_RATIO * counts[nearest])
+                or self._close(counts, c, nearest)
+            )
+        ]
         if close:
             self.say(
                 f"diagnose: {', '.join(c.name for c in close)} as near: searched from each too"
@@ -308,12 +368,8 @@ class Search:
     def explain(self, begin: Candidate, mirrored: str) -> Found:
         """The search, then the result without what explains nothing, retold from the mode it
         differs least from in the quirks the scene shows."""
-        current = self.shallowest(self.greedy(begin))
-        # Most often the result: its FLIP and exact match while the steps are retold.
-        self.trials.flip_guess(current)
-        self.trials.exact_soon(current)
-        # Switches that explain nothing go first, so that they cannot decide the mode below.
-        current, _, _ = self.justified(begin, current, False)
+        self.banned = set()  # each begin's search may meet its own dead end
+        current = self.searched(begin)
         invisible = self.invisible(current)
         untested = set(range(1, QUIRK_COUNT + 1)) - set(self.quirks) - {10}
         simpler = simplest(current, invisible | untested)
@@ -328,6 +384,24 @@ class Search:
         or_more = or_more and current.depth(self.scene) == simpler.depth(self.scene)
         cands = {c.name: c for c in (begin, *path, current)}
         return Found(begin, current, steps, invisible, untested, or_more, mirrored, cands)
+
+    def searched(self, begin: Candidate) -> Candidate:
+        """The greedy search's result without the switches that explain nothing. Where it
+        kept switches and none explains anything, it walked into a dead end (a mistake that
+        lowers the distance without matching, such as a ray that never leaves glass for a
+        wrong index): it runs once more with those switches banned."""
+        found = self.shallowest(self.greedy(begin))
+        # Most often the result: its FLIP and exact match while the steps are retold.
+        self.trials.flip_guess(found)
+        self.trials.exact_soon(found)
+        # Switches that explain nothing go first, so that they cannot decide the mode below.
+        current, _, _ = self.justified(begin, found, False)
+        dead_end = differences(begin, found, self.scene) if current == begin else []
+        if not dead_end or self.banned:
+            return current
+        self.banned = {(sw.kind, sw.key) for sw in dead_end}
+        self.say(f"diagnose: a dead end; searching again without {found.name}'s switches")
+        return self.searched(begin)
 
     def greedy(self, current: Candidate) -> Candidate:
         """One switch at a time; later rounds retry only the switches that helped (and the
@@ -369,7 +443,8 @@ class Search:
         tried = [
             sw
             for sw in switches(current, self.scene, self.quirks, full=promising is None)
-            if promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth"
+            if (promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth")
+            and (sw.kind, sw.key) not in self.banned
         ]
         cands = [sw.apply(current, self.scene) for sw in tried]
         t = self.trials
@@ -501,7 +576,7 @@ class Search:
             worse = {k for k, g in passed.items() if g.worse}
             path = self.retell(begin, final)
             undo = {sw: self.undo_effects(begin, final, sw) for sw, _ in path}
-            needs = {sw: lose & gained for sw, (lose, _) in undo.items()}
+            needs = self.joint_partial(final, {sw: lose & gained for sw, (lose, _) in undo.items()})
             drop = [sw for sw, eff in needs.items() if not eff]
             culprits = [sw for sw, (_, win) in undo.items() if win & worse and sw not in drop]
             if worse and not culprits:  # together, not one by one: none of them is named
@@ -517,6 +592,23 @@ class Search:
             final = undone(final, begin, drop + culprits, self.scene)
         return final, self._steps(begin, path, needs, or_more), [after for _, after in path]
 
+    def joint_partial(
+        self, final: Candidate, needs: dict[Switch, set[str]]
+    ) -> dict[Switch, set[str]]:
+        """needs without the effects that a hard-coded constant explains only together with
+        another switch, and only in part (final does not match them exactly): a constant
+        fitted on top of a change mimics a bug neither is (a hard-coded ior on top of a ray
+        that never leaves glass). Quirks that together make another mode are not this."""
+        exact = self.trials.exact_of(final).per_effect
+
+        def joint(k: str) -> bool:
+            sharing = [sw for sw, eff in needs.items() if k in eff]
+            valued = any(sw.kind in VALUED for sw in sharing)
+            return len(sharing) >= 2 and valued and not exact[k].passed
+
+        dropped = {k for k in set().union(*needs.values()) if joint(k)}
+        return {sw: eff - dropped for sw, eff in needs.items()}
+
     def _steps(
         self,
         begin: Candidate,
@@ -531,21 +623,25 @@ class Search:
             explains = tuple(k for k in masks if k in needs[sw])
             cause = sw.cause(or_more=or_more)
             before, now = per(cur), per(after)
-            alike = self.alike(begin, path[-1][1], sw) if sw.kind == "quirk" else ()
-            steps.append(
-                Step(
-                    change, cause, after.name, before, now, explains, sw.cause_kind, sw.step, alike
-                )
-            )
+            alike = self.alike(begin, path[-1][1], sw) if sw.kind in ALIKE_KINDS else []
+            told, names = tuple(a[0] for a in alike), tuple(a[1] for a in alike)
+            step = Step(change, cause, after.name, before, now, explains, sw.cause_kind, sw.step)
+            steps.append(dataclasses.replace(step, alternatives=told, alternative_names=names))
             cur = after
         return steps
 
-    def alike(self, begin: Candidate, final: Candidate, sw: Switch) -> tuple[str, ...]:
-        """Constants (a depth, background, ior or bias) that, in place of the quirk toggle sw,
-        give an image the image cannot tell from final's: both are said, since naming the
-        quirk alone could be false (a program with a deeper limit of its own is not -Q6)."""
+    def alike(self, begin: Candidate, final: Candidate, sw: Switch) -> list[tuple[str, str]]:
+        """Constants (a depth, background, ior or bias) and named mistakes that, in place of
+        the quirk toggle or mistake sw, give an image the image cannot tell from final's: all
+        are said, since naming one alone could be false (a program with a deeper limit of its
+        own is not -Q6; a light that blocks its own shadow rays and a light direction turned
+        round both leave every lit surface black)."""
         without = undone(final, begin, [sw], self.scene)
-        options = [o for o in switches(without, self.scene, (), full=True) if o.kind in VALUED]
+        options = [
+            o
+            for o in switches(without, self.scene, (), full=True)
+            if (o.kind in VALUED or (o.kind == "mistake" and o.present)) and o != sw
+        ]
         cands = [o.apply(without, self.scene) for o in options]
         t = self.trials
         t.evaluate(cands)
@@ -557,10 +653,24 @@ class Search:
         depths = sorted((o for o in alike if o.kind == "depth"), key=lambda o: int(o.key))
         # Depths that all fit are one finding: the shallowest, "or more" when the deepest fits.
         more = bool(depths) and int(depths[-1].key) == MAX_SEARCH_DEPTH and len(depths) > 1
-        told = [o.change(self.scene) for o in alike if o.kind != "depth"]
+        told = [(o.change(self.scene), o.cause()) for o in alike if o.kind != "depth"]
         if depths:
-            told.insert(0, depths[0].change(self.scene, or_more=more))
-        return tuple(told)
+            d = depths[0]
+            told.insert(0, (d.change(self.scene, or_more=more), d.cause(or_more=more)))
+        return told
+
+    def localised(self, final: Candidate, findings: dict[str, EffectFinding]) -> dict[str, Any]:
+        """Where the pixels still differing from the result lie, by the result's path classes
+        (localise.py): one extra render of the result, with the path AOV."""
+        t = self.trials
+        if all(f.matched for f in findings.values()):
+            return {"overall": [], "effects": {}}
+        paths = t.render.path_classes(final)
+        if paths is None:
+            return {"overall": [], "effects": {}}
+        differing = ~t.exact_of(final).matches
+        unexplained = [k for k, f in findings.items() if f.state == "unexplained"]
+        return _located(paths, differing, t.target.masks, unexplained)
 
     def report(self, found: Found) -> tuple[dict[str, EffectFinding], str]:
         """Per effect: the exact match of the start and of the result, as the verdict judges
@@ -592,6 +702,32 @@ class Search:
         return findings, summary(found, findings, exact[begin])
 
 
+# The switches whose named cause could be told as well by another (alike).
+ALIKE_KINDS = ("quirk", "mistake", "effect")
+
+
+def camera_mistakes() -> tuple[str, ...]:
+    """The catalogue's mistakes of the camera step (mistakes.json), half_pixel_offset aside:
+    it moves silhouettes by half a pixel, which the greedy search finds as any switch."""
+    return tuple(
+        m.name for m in catalogue().values() if m.step == "camera" and m.name != "half_pixel_offset"
+    )
+
+
+def _located(
+    paths: INT, differing: BOOL, masks: dict[str, BOOL], effects: list[str]
+) -> dict[str, Any]:
+    """The localisation's record: the whole image's, and each effect's with its classes."""
+    overall = localise.locate(differing, paths)
+    per_effect = {}
+    for k in effects:
+        found = localise.locate(differing, paths, masks[k])
+        if found is not None:
+            classes = localise.classes(differing & masks[k], paths)
+            per_effect[k] = {"step": found.step, "sentence": found.sentence, "classes": classes}
+    return {"overall": [] if overall is None else [overall.as_dict()], "effects": per_effect}
+
+
 def _box(where: BOOL) -> tuple[int, int, int, int] | None:
     """x0, y0, x1, y1 (inclusive) of the True pixels; None for none."""
     ys, xs = np.nonzero(where)
@@ -617,6 +753,8 @@ class FunctionRenderer:
     search_quirks: tuple[int, ...] = SEARCH_QUIRKS
     store: Store | None = None
     time_limit: float | None = None
+    # The path-class AOV of a candidate (localise.py); None: the diagnosis localises nothing.
+    paths: Callable[[TargetModel | Candidate], INT | None] | None = None
 
     def __call__(self, what: TargetModel | Candidate) -> Image:
         return self.render(what)
@@ -629,6 +767,9 @@ class FunctionRenderer:
 
     def cost(self, what: TargetModel | Candidate) -> float:
         return 0.0
+
+    def path_classes(self, what: TargetModel | Candidate) -> INT | None:
+        return None if self.paths is None else self.paths(what)
 
 
 @dataclass(frozen=True)

@@ -92,7 +92,9 @@ class Switch:
     def cause_kind(self) -> str:
         """What kind of cause it is: quirk, mistake, camera, image, step or constant."""
         if self.kind == "mistake":
-            return {"half_pixel_offset": "camera", "double_gamma": "image"}.get(self.key, "mistake")
+            step = catalogue()[self.key].step
+            kind = {"camera": "camera", "image writing": "image"}.get(step, "mistake")
+            return {"half_pixel_offset": "camera", "double_gamma": "image"}.get(self.key, kind)
         return {"quirk": "quirk", "effect": "step"}.get(self.kind, "constant")
 
     @property
@@ -101,7 +103,8 @@ class Switch:
         if self.kind == "quirk":
             return QUIRK_STEPS.get(int(self.key), "")
         if self.kind == "mistake":
-            return MISTAKE_STEPS.get(self.key, catalogue()[self.key].explanation)
+            m = catalogue()[self.key]
+            return MISTAKE_STEPS.get(self.key) or f"{m.step} ({m.explanation})"
         if self.kind == "effect":
             return EFFECT_STEPS[self.key]
         return {"depth": "recursion (the depth limit)", "background": "the background colour",

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -112,6 +113,19 @@ def _wrap() -> Transform:
         return (wrapped / np.float32(255.0)).astype(np.float32)
 
     return Transform("wrap", "values over 1 not clamped: they wrap round to dark codes", apply)
+
+
+def encoding_cause(name: str) -> dict[str, Any]:
+    """The cause (kind "image", as the transforms') of an 8-bit file judged in the encoding its
+    format does not claim: grading judged it in both (compare/grading/encodings.py), so the
+    encoding is a finding of the verdict, not a fit of the search."""
+    return {
+        "name": f"encoding: {name}",
+        "kind": "image",
+        "effects": [],
+        "evidence": {},
+        "sentence": f"image writing: {name}",
+    }
 
 
 def _carrying(image: F32, render: F32) -> np.ndarray:

@@ -75,7 +75,8 @@ def _scene_causes(s: SceneResult) -> list[str]:
     start, assigned = detail.get("start"), detail.get("assigned")
     if start and assigned and start != assigned:  # nearer another mode than the model
         labels.append(f"looks like {start}")
-    labels += [describe_cause(str(c)) for c in detail.get("causes") or []]
+    # Each cause is a record (diagnosis/record.py cause_list): its name is what it names.
+    labels += [describe_cause(_cause_name(c)) for c in detail.get("causes") or []]
     if detail.get("unexplained"):
         labels.append("not explained by a known mistake")
     if labels:
@@ -84,6 +85,10 @@ def _scene_causes(s: SceneResult) -> list[str]:
         return [_unjudged_label(s.reason)]
     failing = [k for k, e in s.verdict.get("effects", {}).items() if e["status"] != "pass"]
     return [f"{k} differs" for k in failing] or ["score below the pass score"]
+
+
+def _cause_name(cause: Any) -> str:
+    return str(cause.get("name", "")) if isinstance(cause, dict) else str(cause)
 
 
 def _unjudged_label(reason: str) -> str:

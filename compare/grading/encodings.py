@@ -8,8 +8,9 @@ image was read in the encoding its format does not imply."""
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+from compare.diagnosis.transforms import encoding_cause
 from compare.judge.images import ImageError, read_image
 from compare.verdict.against import judge_against_model
 
@@ -24,6 +25,13 @@ _OTHER = {"srgb": "linear", "linear": "srgb"}
 _NOTES = {
     ("png", "linear"): "read as linear: the PNG holds the values a PPM writer stores",
     ("ppm", "srgb"): "read as sRGB: the PPM holds sRGB-encoded values, as a PNG writer stores",
+}
+
+
+# The diagnosis' cause for a file read in the other encoding: what the student's file is.
+_CAUSES = {
+    ("png", "linear"): "the PNG holds linear values (a PPM writer's bytes saved as PNG)",
+    ("ppm", "srgb"): "the PPM holds sRGB values (a PNG writer's bytes saved as PPM)",
 }
 
 
@@ -80,3 +88,14 @@ def with_encoding(result: SceneResult, image: Image) -> SceneResult:
     verdict = {**result.verdict, "encoding": image.encoding, "encoding_note": note}
     reason = "; ".join(x for x in (note, result.reason) if x)
     return dataclasses.replace(result, verdict=verdict, reason=reason)
+
+
+def with_encoding_cause(diagnosis: dict[str, Any], image: Image) -> dict[str, Any]:
+    """The diagnosis of an 8-bit image read in the encoding its format does not claim, with
+    that mismatch as its first cause (the rest were found on the image so read)."""
+    if image.encoding not in ENCODINGS or image.encoding == _implied(image):
+        return diagnosis
+    name = _CAUSES.get((_kind(image), image.encoding), f"read as {image.encoding}")
+    cause = encoding_cause(name)
+    causes = [c for c in diagnosis.get("causes") or [] if c != cause]
+    return {**diagnosis, "causes": [cause, *causes]}

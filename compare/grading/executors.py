@@ -5,11 +5,14 @@ Pool workers die with grade (`kill -9` or `kill -TERM` included): each asks the 
 SIGKILL when its parent goes (Linux's PR_SET_PDEATHSIG), instead of sitting forever under
 init. A Dask scheduler is tried first within --scheduler-timeout: a port that refuses, one that
 accepts and never answers, and one that speaks something else are each a clear error
-(SchedulerError, an OSError: exit 4), never a hang.
+(SchedulerError, an OSError: exit 4), never a hang. On Dask, run_on_dask sends what every task
+shares once per worker, and a task whose worker died or was lost arrives as its failure in
+words, so one machine's trouble is one row, never the end of the class.
 """
 
 from __future__ import annotations
 
+import asyncio
 import ctypes
 import ctypes.util
 import os
@@ -21,10 +24,11 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures import as_completed as pool_completed
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
 T = TypeVar("T")
 R = TypeVar("R")
+S = TypeVar("S")
 
 SCHEDULER_TIMEOUT = 10.0  # seconds; --scheduler-timeout
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
@@ -98,16 +102,62 @@ def _on_dask(
     scheduler: str,
     timeout: float,
 ) -> None:
-    from dask.distributed import Client, as_completed
+    with _dask_client(scheduler, timeout) as client:
+        for future in _completed(client.map(work, tasks, pure=False)):
+            arrived(future.result())
+
+
+def run_on_dask(
+    work: Callable[[T, S], R],
+    tasks: Sequence[T],
+    shared: S,
+    arrived: Callable[[R], None],
+    failed: Callable[[T, str], R],
+    where: Executor,
+) -> None:
+    """Each task as work(task, shared) on the cluster: `shared` travels once per worker
+    (scattered), not once per task. A task whose worker died (Dask's KilledWorker after its
+    retries) or was lost arrives as failed(task, why): the rest of the class goes on."""
+    assert where.scheduler is not None
+    with _dask_client(where.scheduler, where.scheduler_timeout) as client:
+        [common] = client.scatter([shared], broadcast=False)
+        futures = client.map(work, tasks, [common] * len(tasks), pure=False)
+        task_of = {f.key: t for f, t in zip(futures, tasks, strict=True)}
+        for future in _completed(futures):
+            try:
+                value = future.result()
+            except (Exception, asyncio.CancelledError) as e:  # the worker's failure: one row
+                arrived(failed(task_of[future.key], worker_failure(e)))
+                continue
+            arrived(value)
+
+
+def worker_failure(e: BaseException) -> str:
+    """A Dask failure in words (never an exception's name)."""
+    name = type(e).__name__
+    if name == "KilledWorker":
+        return "the Dask worker grading it died (out of memory, or killed)"
+    if isinstance(e, asyncio.CancelledError) or "Cancelled" in name:
+        return "the Dask scheduler dropped it (restarted, or the connection to it was lost)"
+    if isinstance(e, (OSError, EOFError)) or "Comm" in name:
+        return "the connection to the Dask worker grading it was lost"
+    return f"the Dask worker grading it failed: {str(e)[:200] or 'no message'}"
+
+
+def _dask_client(scheduler: str, timeout: float) -> Any:
+    from dask.distributed import Client
 
     probe_scheduler(scheduler, timeout)
     try:
-        client = Client(scheduler, timeout=timeout)
+        return Client(scheduler, timeout=timeout)
     except (OSError, ValueError) as e:  # TimeoutError is an OSError
         raise SchedulerError(f"{scheduler}: cannot connect to the Dask scheduler: {e}") from None
-    with client:
-        for future in as_completed(client.map(work, tasks, pure=False)):
-            arrived(future.result())
+
+
+def _completed(futures: list[Any]) -> Any:
+    from dask.distributed import as_completed
+
+    return as_completed(futures)
 
 
 def probe_scheduler(address: str, timeout: float) -> None:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import os
 import shutil
 import stat
@@ -39,8 +40,8 @@ from compare.diagnosis.evidence import EvidenceOptions, diagnose_image
 from compare.diagnosis.search import DiagnoseError
 from compare.errors import ToolError
 from compare.grading.class_page import write_class_page
-from compare.grading.encodings import choose_encoding, with_encoding
-from compare.grading.executors import Executor, run_tasks
+from compare.grading.encodings import choose_encoding, with_encoding, with_encoding_cause
+from compare.grading.executors import Executor, run_on_dask, run_tasks
 from compare.grading.gradebook import write_gradebook
 from compare.grading.lms import write_lms_exports
 from compare.grading.programs import (
@@ -58,6 +59,20 @@ from compare.grading.results import (
     StudentResult,
     discard_special,
     read_result,
+)
+from compare.grading.shipping import (
+    Returned,
+    Shipped,
+    ShippedModels,
+    cleanup,
+    client_names,
+    page_files,
+    renamed,
+    ship_images,
+    ship_models,
+    ship_program,
+    task_folder,
+    worker_paths,
 )
 from compare.grading.student_page import write_student_page
 from compare.grading.submissions import (
@@ -197,6 +212,7 @@ def _judge_scene(
         known = ev.known_flip()  # the verdict's FLIP: the diagnosis' starts from it
         seed = None if known is None else (model.reference.rgb, *known)
         diagnosis = _diagnose_scene(img, scene_name, task.models[scene_name], task, page_dir, seed)
+        diagnosis = with_encoding_cause(diagnosis, img)
         diagnosis["short"] = _beside_verdict(diagnosis, model.renders.model, verdict)
         reasons.append(diagnosis["short"])
     matches = ev.exact.matches if ev.exact is not None else None
@@ -364,12 +380,94 @@ def _run_all(
         done.add(r.student)
         arrived(r)
 
+    if where.kind == "dask":  # workers see nothing of this machine: inputs travel
+        _run_shipped(tasks, note, where)
+        return
     try:
         run_tasks(grade_safely, tasks, note, where)
     except BrokenProcessPool:
         for t in tasks:
             if t.student not in done:
                 note(not_graded(t, "a grading process died (the machine out of memory?)"))
+
+
+def _run_shipped(
+    tasks: list[GradeTask], arrived: Callable[[StudentResult], None], where: Executor
+) -> None:
+    """On a Dask cluster: a result stored here under the task's key is resumed here; every
+    other task travels with its inputs (shipping.py), and what comes back is written here."""
+    if not tasks:
+        return
+    out = Path(tasks[0].out_dir)
+    pending = []
+    for t in tasks:
+        key = task_key(t)
+        path = own_folder(out, "results") / f"{student_slug(t.student)}.json"
+        old, warnings = _stored_result(path, t.student, key)
+        if old is not None:
+            arrived(old.as_resumed())
+            continue
+        try:
+            images = ship_images(t.files)
+            program = ship_program(t.program.source) if t.program and not t.problem else None
+        except (OSError, ValueError) as e:  # too large, or gone: that student's row
+            arrived(not_graded(t, displayable(str(e)[:300])))
+            continue
+        pending.append(Shipped(t, key, images, program, warnings))
+    shared = ship_models(tasks[0].models, tasks[0].models_key)
+    run_on_dask(
+        grade_shipped,
+        pending,
+        shared,
+        lambda back: arrived(_write_returned(back, out)),
+        _shipped_failed,
+        where,
+    )
+
+
+def grade_shipped(shipped: Shipped, shared: ShippedModels) -> Returned:
+    """On a Dask worker: the task graded in a folder of the worker's own (under its TMPDIR),
+    with the worker's own render cache; the row, the result to store and the student's page
+    come back as bytes. The folder goes afterwards."""
+    task = shipped.task
+    assert isinstance(task, GradeTask)
+    folder = task_folder()
+    try:
+        local = dataclasses.replace(task, **worker_paths(shipped, shared, folder, RenderCache()))
+        names = client_names(local.files, task.files)
+        if local.program is not None and task.program is not None:
+            names[local.program.source] = task.program.source
+        result = dataclasses.replace(grade_safely(local), key=shipped.key)
+        result = StudentResult.from_json(json.loads(renamed(result.dumps(), names)))
+        slug = student_slug(task.student)
+        stored = (Path(local.out_dir) / "results" / f"{slug}.json").is_file()
+        pages = page_files(Path(local.out_dir), slug)
+        text = result.dumps() if stored else None
+        return Returned(dataclasses.replace(result, warnings=shipped.warnings), text, pages)
+    except Exception as e:  # the worker's disk or memory: that student's row says so
+        return Returned(not_graded(task, displayable(str(e)[:300]) or "an internal error"))
+    finally:
+        cleanup(folder)
+
+
+def _shipped_failed(shipped: Shipped, why: str) -> Returned:
+    assert isinstance(shipped.task, GradeTask)
+    return Returned(not_graded(shipped.task, why))
+
+
+def _write_returned(back: Returned, out: Path) -> StudentResult:
+    """A worker's result written under OUT: the page's files, and the result unless the
+    machine failed (then the next run grades it again)."""
+    r = back.result
+    assert isinstance(r, StudentResult)
+    slug = student_slug(r.student)
+    page_dir = own_folder(out, "students", slug)
+    for rel, data in back.page_files.items():
+        *folders, name = rel.split("/")
+        write_atomic(own_folder(page_dir, *folders) / name, data)
+    if back.stored is not None:
+        write_atomic(own_folder(out, "results") / f"{slug}.json", back.stored)
+    return r
 
 
 def _stored_result(

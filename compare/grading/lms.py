@@ -16,6 +16,7 @@ import math
 import os
 import shutil
 import stat
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +26,7 @@ from compare.grading.results import SceneResult, StudentResult
 from compare.sandbox.archives import TreeLimits
 from compare.sandbox.trees import open_regular, remove_tree, walk
 from compare.student_ids import student_slug
-from safe_files.paths import own_folder, write_atomic
+from safe_files.paths import own_folder, read_bounded, write_atomic
 
 VISIBILITIES = ("visible", "hidden", "after_due_date", "after_published")
 
@@ -119,11 +120,56 @@ def write_lms_exports(results: list[StudentResult], out: Path) -> None:
 # Gradescope's autograder layout: the harness unpacks the student's files into
 # ROOT/submission and uploads ROOT/results/results.json.
 GRADESCOPE_ROOT = Path("/autograder")
-GRADESCOPE_ID = "submission"  # the one student's id in OUT (Gradescope knows who it is)
+GRADESCOPE_ID = "submission"  # the id in OUT when Gradescope's metadata names no student
+METADATA = "submission_metadata.json"  # Gradescope's: ROOT/submission_metadata.json
+MAX_METADATA_BYTES = 4 << 20
+# A user's fields, in the order the id is taken from (its "Submission Metadata" page:
+# users[] of {email, id, name}; a group submission lists every member).
+_ID_FIELDS = ("email", "id", "name")
 
 
-def stage_submission(root: Path, out: Path) -> Path:
-    """A submissions folder holding ROOT/submission as its only entry, copied under
+@dataclass(frozen=True)
+class Identity:
+    """Who the submission is: its id in OUT, the names, and where the id came from."""
+
+    student: str
+    names: str
+    source: str  # words for the progress line
+
+
+def submission_identity(root: Path) -> Identity:
+    """The student(s) of ROOT/submission_metadata.json: the id is each user's email (else
+    Gradescope's user id, else the name), members of a group joined by '+'. Without the
+    file (or with one that names no user) the id is 'submission', said as such."""
+    path = root / METADATA
+    if not os.path.lexists(path):
+        return Identity(GRADESCOPE_ID, "", f"no {path}: the id is '{GRADESCOPE_ID}'")
+    try:
+        meta = json.loads(read_bounded(path, MAX_METADATA_BYTES))
+    except (OSError, ValueError) as e:
+        why = str(e).removeprefix(f"{path}: ")
+        return Identity(GRADESCOPE_ID, "", f"{path}: unreadable ({why}): the id is 'submission'")
+    users = meta.get("users") if isinstance(meta, dict) else None
+    users = [u for u in users if isinstance(u, dict)] if isinstance(users, list) else []
+    for key in _ID_FIELDS:
+        ids = [str(u[key]).strip() for u in users if str(u.get(key) or "").strip()]
+        if users and len(ids) == len(users):
+            names = ", ".join(str(u.get("name") or "").strip() for u in users)
+            return Identity(entry_name("+".join(ids)), names, f"{path}: users[].{key}")
+    return Identity(GRADESCOPE_ID, "", f"{path}: no users[] with an email, id or name")
+
+
+def entry_name(student: str) -> str:
+    """The id as the staged entry's name: itself when it is one plain file name (an email
+    is), else its slug."""
+    plain = student not in ("", ".", "..") and not student.startswith(".")
+    if plain and "/" not in student and "\0" not in student and len(student) <= 200:
+        return student
+    return student_slug(student)
+
+
+def stage_submission(root: Path, out: Path, student: str = GRADESCOPE_ID) -> Path:
+    """A submissions folder holding ROOT/submission as its only entry (named `student`), copied under
     OUT/autograder: regular files and folders are copied, a link is copied as a link (so
     grading refuses it, naming it) and nothing else (a FIFO, a device) is read."""
     source = root / "submission"
@@ -131,11 +177,12 @@ def stage_submission(root: Path, out: Path) -> Path:
         raise OSError(f"{source}: no submission folder (is this Gradescope's layout?)")
     out.mkdir(parents=True, exist_ok=True)
     staging = own_folder(out, "autograder")
-    target = staging / GRADESCOPE_ID
-    if target.is_symlink() or target.is_file():
-        target.unlink()
-    elif target.exists():
-        remove_tree(target)  # an earlier run's copy of a student's folder: any depth, no link
+    for old in staging.iterdir():  # an earlier run's student (maybe another id)
+        if old.is_symlink() or old.is_file():
+            old.unlink()
+        else:
+            remove_tree(old)  # a student's folder: any depth, no link followed
+    target = staging / entry_name(student)
     _copy_tree(source, target)
     return staging
 
@@ -158,10 +205,13 @@ def _copy_tree(source: Path, target: Path) -> None:
 
 
 def write_autograder_results(
-    results: list[StudentResult], root: Path, visibility: str = "visible"
+    results: list[StudentResult],
+    root: Path,
+    visibility: str = "visible",
+    student: str = GRADESCOPE_ID,
 ) -> Path:
     """ROOT/results/results.json of the one graded submission."""
-    mine = [r for r in results if r.student == GRADESCOPE_ID]
+    mine = [r for r in results if r.student == entry_name(student)]
     if len(mine) != 1:
         raise OSError(f"expected one graded submission, found {len(results)}")
     folder = root / "results"

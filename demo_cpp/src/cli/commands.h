@@ -8,7 +8,9 @@
 
 namespace rt {
 
-int run_render(const std::vector<std::string>& args);  // render_command.cpp
-int run_view(const std::vector<std::string>& args);    // view_command.cpp
+int run_render(const std::vector<std::string>& args);       // render_command.cpp
+int run_view(const std::vector<std::string>& args);         // view_command.cpp
+int run_trace_pixel(const std::vector<std::string>& args);  // trace_pixel_command.cpp
+void print_trace_pixel_help();                              // trace_pixel_command.cpp
 
 }  // namespace rt

@@ -14,6 +14,7 @@ const char* kTopHelp = R"(rtdemo - the course paper's Whitted ray tracer (CPU an
 usage:
   rtdemo render SCENE.json -o OUT.exr [options]   render a scene (rtdemo render --help)
   rtdemo view SCENE.json [options]                ray-trace it live in a window (rtdemo view --help)
+  rtdemo trace-pixel SCENE.json X Y [options]     one pixel's ray tree as JSON (trace-pixel --help)
   rtdemo --help | --version
 
 Exit codes: 0 ok, 1 out of memory ("rtdemo: error: out of memory ...") or another failure
@@ -57,6 +58,8 @@ outputs (at least one):
   --exr-compression C    none (default: fastest, ~10 MB at 640x480), rle or zip (~4 MB)
   --exr-channels C       all (default) or rgb: R, G, B alone, no AOVs (3.7 MB at 640x480;
                          what rtval diagnose renders its candidates with)
+                         all+path or rgb+path: also "path", each pixel's path-class bits
+                         (docs/diagnosis.md; a second pass of the scalar tracer)
   With one output, a PPM or an uncompressed EXR, the CPU tracer writes each band of rows to
   the file as soon as it is traced (no frame is kept; --keep-frame turns this off). The
   frame's time (header, summary line) then leaves out the writing: its time on the render

@@ -64,9 +64,14 @@ int run_command(const std::vector<std::string>& args) {
                 print_view_help();
                 return 0;
             }
+            if (args[0] == "trace-pixel") {
+                print_trace_pixel_help();
+                return 0;
+            }
         }
     if (args[0] == "render") return run_render(rest);
     if (args[0] == "view") return run_view(rest);
+    if (args[0] == "trace-pixel") return run_trace_pixel(rest);
     throw UsageError("unknown command '" + args[0] + "' (see rtdemo --help)");
 }
 

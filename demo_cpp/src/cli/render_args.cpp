@@ -207,7 +207,7 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
                          std::to_string(kMaxPixels) + " pixels)");
     settings.spp = a.spp;
     settings.engine = a.engine;
-    settings.aovs = !a.exr.empty() && a.exr_channels == ExrChannels::all;  // only in the EXR
+    settings.aovs = !a.exr.empty() && exr_has_aovs(a.exr_channels);  // only in the EXR
     settings.threads =
         a.threads > 0 ? a.threads : std::max(1u, std::thread::hardware_concurrency());
     return settings;

@@ -14,6 +14,7 @@
 
 #include "cli/commands.h"
 #include "cli/render_args.h"
+#include "core/pixel_trace.h"
 #include "gl/gl_backend.h"
 #include "io/scene_loader.h"
 #include "io/streamed_outputs.h"
@@ -87,6 +88,7 @@ void add_gl_attributes(const GlTiming& gl, std::map<std::string, std::string>& a
 bool streams_output(const RenderArgs& a, const RenderSettings& settings) {
     if (a.gl || a.keep_frame || a.frames != 1 || !renders_in_bands(settings) || !a.png.empty())
         return false;
+    if (!a.exr.empty() && exr_has_path(a.exr_channels)) return false;  // a second pass
     if (!a.ppm.empty()) return a.exr.empty();
     return a.compression == ExrCompression::none;
 }
@@ -142,9 +144,12 @@ Rendered render_frames_on_gl(const RenderArgs& a, const Scene& scene,
 }
 
 Rendered render(const RenderArgs& a, const Scene& scene, const RenderSettings& settings) {
-    if (a.gl) return render_frames_on_gl(a, scene, settings);
     if (streams_output(a, settings)) return render_streamed(a, scene, settings);
-    return render_frames_on_cpu(a, scene, settings);
+    Rendered r =
+        a.gl ? render_frames_on_gl(a, scene, settings) : render_frames_on_cpu(a, scene, settings);
+    // The path AOV: a second pass of the scalar tracer with its recorder (pixel_trace.h).
+    if (!a.exr.empty() && exr_has_path(a.exr_channels)) r.image.path = path_plane(scene, settings);
+    return r;
 }
 
 // Finishes the stream or writes each output; returns the time spent writing.

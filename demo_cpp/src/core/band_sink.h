@@ -20,6 +20,7 @@ struct BandPixels {
     const float *r, *g, *b, *id, *depth, *nx, *ny, *nz;
     int step;
     const unsigned char* rgb8 = nullptr;
+    const float* path = nullptr;  // the path-class AOV (ExrChannels::*_path), whole frames only
 };
 
 class BandSink {

@@ -6,9 +6,17 @@
 
 namespace rt {
 
+// Camera slips students make (named mistakes): the ray through a pixel computed without the
+// aspect ratio, with tan(fov) for tan(fov / 2), or left unnormalised.
+struct CameraSlips {
+    bool no_aspect = false;
+    bool full_angle_fov = false;
+    bool unnormalized = false;
+};
+
 class CameraRays {
 public:
-    CameraRays(const Camera& cam, int width, int height);
+    CameraRays(const Camera& cam, int width, int height, CameraSlips slips = {});
     // (px, py) in continuous pixel coordinates: the centre of pixel (x, y) is (x+0.5, y+0.5).
     ray render_from_camera(float px, float py) const;
 
@@ -18,6 +26,7 @@ private:
     float half_height_;  // tan(fov_y / 2)
     float aspect_;
     float width_, height_;
+    bool unnormalized_;
 };
 
 }  // namespace rt

@@ -6,6 +6,7 @@
 
 #include "core/camera_rays.h"
 #include "core/mistake_settings.h"
+#include "core/student_slips.h"
 #include "core/worker_threads.h"
 #include "packet/packet_engine.h"
 
@@ -17,7 +18,9 @@ int strata_per_axis(int spp) {
     return k * k == spp ? k : 0;
 }
 
-bool renders_in_bands(const RenderSettings& settings) { return settings.engine == Engine::packet; }
+bool renders_in_bands(const RenderSettings& settings) {
+    return settings.engine == Engine::packet && !needs_scalar_tracer(settings.trace.mistakes);
+}
 
 void render_cpu(const Scene& scene, const RenderSettings& settings, BandSink& sink,
                 RayCounts* rays) {
@@ -41,7 +44,11 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
         return render_packet(plain.scene, plain.settings, isa_from_environment(), rays);
     }
     RenderedImage image(settings.width, settings.height);
-    const CameraRays shared_camera(scene.camera, settings.width, settings.height);
+    const MistakeSet& m = settings.trace.mistakes;
+    const CameraRays shared_camera(
+        scene.camera, settings.width, settings.height,
+        {m.has(Mistake::aspect_ratio_missing), m.has(Mistake::fov_full_angle),
+         m.has(Mistake::ray_dir_unnormalized)});
     const Tracer shared_tracer(scene, settings.trace);
     const int k = strata_per_axis(settings.spp);
     const float inv_samples = 1.0f / static_cast<float>(k * k);

@@ -52,7 +52,8 @@ inline std::optional<float> intersect_paper(const Sphere& s, const ray& r) {
 // oc = origin - centre of a huge sphere (the floor, r = 10^4) keeps only ~1e-3 of the
 // origin's position, which moved floor hits by that much and flipped shadow and horizon
 // pixels against Mitsuba. Returns the nearest t in `range`. Precondition: |r.dir| = 1.
-inline std::optional<float> intersect_robust(const Sphere& s, const ray& r, interval range) {
+// The two roots t0 <= t1 of the robust test below, nothing where the ray misses the sphere.
+inline std::optional<std::pair<double, double>> robust_roots(const Sphere& s, const ray& r) {
     const double ox = double(r.origin.x) - s.center.x, oy = double(r.origin.y) - s.center.y,
                  oz = double(r.origin.z) - s.center.z;
     const double dx = r.dir.x, dy = r.dir.y, dz = r.dir.z;
@@ -66,8 +67,14 @@ inline std::optional<float> intersect_robust(const Sphere& s, const ray& r, inte
     double t0 = (q != 0.0) ? c / q : 0.0;
     double t1 = q;
     if (t0 > t1) std::swap(t0, t1);
-    if (range.surrounds(float(t0))) return float(t0);
-    if (range.surrounds(float(t1))) return float(t1);
+    return std::pair{t0, t1};
+}
+
+inline std::optional<float> intersect_robust(const Sphere& s, const ray& r, interval range) {
+    const auto roots = robust_roots(s, r);
+    if (!roots) return std::nullopt;
+    if (range.surrounds(float(roots->first))) return float(roots->first);
+    if (range.surrounds(float(roots->second))) return float(roots->second);
     return std::nullopt;
 }
 

@@ -7,6 +7,7 @@
 #include "core/fresnel.h"
 #include "core/light_units.h"
 #include "core/optics.h"
+#include "core/student_slips.h"
 
 namespace rt {
 
@@ -18,7 +19,8 @@ Tracer::Tracer(const Scene& scene, TraceOptions options)
     : scene_(scene),
       opt_(options),
       lanes_(scene.spheres),
-      use_lanes_(opt_.quirks.has(Quirk::paper_intersection) && lanes_.usable()) {
+      use_lanes_(opt_.quirks.has(Quirk::paper_intersection) && lanes_.usable() &&
+                 !has_root_slip(opt_.mistakes)) {
     if (opt_.mistakes.has(Mistake::depth_cut)) opt_.max_depth -= 1;
     for (int i = 0; i < static_cast<int>(scene.spheres.size()); ++i) {
         if (scene.spheres[i].is_light()) {
@@ -39,11 +41,16 @@ Tracer::Hit Tracer::nearest_hit(const ray& r, int skip) const {
     Hit best{-1, kInf};
     float t_near = kInf;
     const bool paper = opt_.quirks.has(Quirk::paper_intersection);
+    const bool slip = has_root_slip(opt_.mistakes);
     for (int i = 0; i < static_cast<int>(scene_.spheres.size()); ++i) {
         if (i == skip) continue;
-        const std::optional<float> t = paper
-                                           ? intersect_paper(scene_.spheres[i], r)
-                                           : intersect_robust(scene_.spheres[i], r, {0.0f, t_near});
+        const Sphere& sphere = scene_.spheres[i];
+        const interval range{0.0f, t_near};
+        const std::optional<float> t =
+            slip && paper ? intersect_with_root_slip(sphere, r, opt_.mistakes)
+            : slip        ? intersect_robust_with_root_slip(sphere, r, range, opt_.mistakes)
+            : paper       ? intersect_paper(sphere, r)
+                          : intersect_robust(sphere, r, range);
         if (t && *t < t_near) {
             t_near = *t;
             best = Hit{i, *t};
@@ -53,7 +60,17 @@ Tracer::Hit Tracer::nearest_hit(const ray& r, int skip) const {
 }
 
 bool Tracer::blocks(int j, const ray& shadow_ray, float max_t) const {
-    if (opt_.quirks.has(Quirk::paper_intersection)) {
+    const bool paper = opt_.quirks.has(Quirk::paper_intersection);
+    if (has_root_slip(opt_.mistakes) && paper) {
+        const std::optional<float> t =
+            intersect_with_root_slip(scene_.spheres[j], shadow_ray, opt_.mistakes);
+        return t && *t < max_t;
+    }
+    if (has_root_slip(opt_.mistakes))
+        return intersect_robust_with_root_slip(scene_.spheres[j], shadow_ray, {0.0f, max_t},
+                                               opt_.mistakes)
+            .has_value();
+    if (paper) {
         const std::optional<float> t = intersect_paper(scene_.spheres[j], shadow_ray);
         return t && *t < max_t;
     }
@@ -75,7 +92,15 @@ PrimaryHit Tracer::primary(const ray& r) const {
 }
 
 color Tracer::trace(const ray& r, int depth, PrimaryHit* first) const {
-    return trace_skipping(r, depth, -1, first);
+    return traced(RayKind::camera, r, depth, -1, first);
+}
+
+color Tracer::traced(RayKind kind, const ray& r, int depth, int skip, PrimaryHit* first) const {
+    if (!recorder_) return trace_skipping(r, depth, skip, first);
+    recorder_->begin_ray(kind, r, depth);
+    const color c = trace_skipping(r, depth, skip, first);
+    recorder_->end_ray(c);
+    return c;
 }
 
 color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* first) const {
@@ -84,6 +109,7 @@ color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* firs
     if (first) *first = hit ? primary_hit(scene_, r, hit.index, hit.t) : PrimaryHit{};
     if (!hit) return opt_.mistakes.has(Mistake::black_background) ? color(0.0f) : scene_.background;
 
+    if (recorder_) recorder_->hit(hit.index, hit.t);
     const Sphere& s = scene_.spheres[hit.index];
     const bool paper_light = opt_.quirks.has(Quirk::no_pi_no_falloff);
     // Q13: the hit sphere's own light is never added; a light is shaded like any surface.
@@ -91,14 +117,17 @@ color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* firs
     if (!paper_light && own_light && s.is_light()) return sphere_radiance(scene_, s);
 
     const point3 p = r.at(hit.t);
-    vec3 n = normalize(p - s.center);
+    vec3 n =
+        opt_.mistakes.has(Mistake::normal_not_normalized) ? p - s.center : normalize(p - s.center);
     bool inside = false;
-    if (dot(r.dir, n) > 0) {
+    // inside_test_reversed: the student's test reads "the ray is inside when d.n < 0".
+    if ((dot(r.dir, n) > 0) != opt_.mistakes.has(Mistake::inside_test_reversed)) {
         if (!opt_.mistakes.has(Mistake::no_inside_flip)) n = -n;
         inside = true;
     }
     if (opt_.mistakes.has(Mistake::flipped_normal)) n = -n;
 
+    if (recorder_) recorder_->surface(n, inside, s.has_specular_flags() && depth >= opt_.max_depth);
     color c;
     if (s.has_specular_flags() && depth < opt_.max_depth) {
         c = shade_specular(hit.index, r, p, n, inside, depth);
@@ -115,7 +144,8 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
     const Sphere& s = scene_.spheres[hit_index];
     const QuirkSet& q = opt_.quirks;
     const float d_dot_n = dot(r.dir, n);
-    const float facing = std::max(0.0f, -d_dot_n);
+    const float facing =
+        opt_.mistakes.has(Mistake::fresnel_facing_sign) ? d_dot_n : std::max(0.0f, -d_dot_n);
     const float offset = offset_at(p);
 
     bool total_internal = false;
@@ -127,7 +157,9 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
         total_internal =
             refraction_k(r.dir, n, eta) < 0 && !q.has(Quirk::nan_at_total_internal_reflection);
         if (!total_internal && opt_.refraction)
-            refracted = trace({p - n * offset, refract(r.dir, n, eta)}, depth + 1);
+            refracted =
+                traced(RayKind::refraction,
+                       {refraction_origin(p, n, offset), refract(r.dir, n, eta)}, depth + 1, -1);
         eta_ti_sq = eta * eta;
     }
 
@@ -144,19 +176,28 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
         fresnel = 1.0f;  // conductor material="none": an exact mirror tinted by its colour
     }
     if (!total_internal && opt_.mistakes.has(Mistake::fresnel_constant)) fresnel = 0.5f;
+    if (recorder_) recorder_->specular(fresnel, total_internal);
 
     color reflected(0.0f);
     if (opt_.reflection) {
-        const vec3 r_dir = reflect(r.dir, n);
+        const vec3 r_dir = opt_.mistakes.has(Mistake::reflect_sign) ? reflect_wrong_sign(r.dir, n)
+                                                                    : reflect(r.dir, n);
         // Leaving a convex sphere outward, the ray cannot meet it again (Q1 fixed only).
         const int skip = (!q.has(Quirk::paper_intersection) && !inside) ? hit_index : -1;
-        reflected = trace_skipping({p + n * offset, r_dir}, depth + 1, skip);
+        reflected = traced(RayKind::reflection, {p + n * offset, r_dir}, depth + 1, skip);
     }
     const float t_weight = q.has(Quirk::paper_fresnel) ? 1.0f : eta_ti_sq;
     if (opt_.mistakes.has(Mistake::fresnel_missing))  // both at full strength, unmixed
         return (reflected + refracted * (s.transparency * t_weight)) * s.surface_color;
+    if (has_mix_slip(opt_.mistakes))
+        return mix_with_slip(opt_.mistakes, {reflected, refracted}, fresnel,
+                             {s.transparency, t_weight, s.surface_color});
     return (reflected * fresnel + refracted * ((1.0f - fresnel) * s.transparency * t_weight)) *
            s.surface_color;
+}
+
+point3 Tracer::refraction_origin(const point3& p, const vec3& n, float offset) const {
+    return opt_.mistakes.has(Mistake::refraction_bias_outside) ? p + n * offset : p - n * offset;
 }
 
 color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const {
@@ -175,7 +216,7 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
         const Sphere& l_sphere = scene_.spheres[light];
         const vec3 to_light = l_sphere.center - aim_from;
         const float dist = length(to_light);
-        const vec3 l = to_light / dist;
+        const vec3 l = light_direction(opt_.mistakes, to_light, dist);
         // Q12: no Lambert cosine, so a light behind the surface counts too; its shadow ray is
         // then cast like any other (under Q1 the hit sphere itself can block it).
         const float lambert = q.has(Quirk::no_lambert_cosine) ? 1.0f : std::max(0.0f, dot(n, l));
@@ -184,6 +225,7 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
             (q.has(Quirk::shared_shadow_factor) || lambert > 0)) {
             ++counts_.shadow;
             const ray shadow_ray{origin, l};
+            const bool first_only = opt_.mistakes.has(Mistake::shadow_first_only);
             const float max_t = q.has(Quirk::shadow_rays_pass_light) ||
                                         opt_.mistakes.has(Mistake::shadow_past_light)
                                     ? kInf
@@ -192,10 +234,14 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
             const std::uint64_t blockers =
                 use_lanes_ ? lanes_.blockers_paper(shadow_ray, max_t) : 0;
             for (int j = 0; j < static_cast<int>(scene_.spheres.size()); ++j) {
-                if (j == light) continue;
+                if (j == light && !opt_.mistakes.has(Mistake::light_blocks_itself)) continue;
                 // Q1 fixed: a ray leaving a convex sphere outward cannot hit it again.
                 if (j == hit_index && !q.has(Quirk::paper_intersection)) continue;
-                if (use_lanes_ ? !(blockers >> j & 1) : !blocks(j, shadow_ray, max_t)) continue;
+                const bool blocked =
+                    use_lanes_ ? (blockers >> j & 1) != 0 : blocks(j, shadow_ray, max_t);
+                if (!blocked && first_only) break;
+                if (!blocked) continue;
+                if (recorder_) recorder_->blocker(j);
                 const float opacity = q.has(Quirk::glass_partial_shadow)
                                           ? 1.0f - scene_.spheres[j].transparency
                                           : 1.0f;
@@ -206,8 +252,10 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
                     transmission *= 1.0f - opacity;
                     if (transmission == 0.0f) break;
                 }
+                if (first_only) break;
             }
         }
+        if (recorder_) recorder_->light_sample(light, l, lambert, transmission);
         if (q.has(Quirk::no_pi_no_falloff)) {
             c += s.surface_color * l_sphere.emission * (transmission * lambert);
         } else {

@@ -7,6 +7,7 @@
 
 #include "core/mistakes.h"
 #include "core/quirks.h"
+#include "core/ray_recorder.h"
 #include "core/scene.h"
 #include "core/sphere_lanes.h"
 
@@ -59,10 +60,15 @@ public:
     // Rays traced by this tracer so far. A tracer is not shared between threads (each
     // render thread has its own copy), so counting needs no atomics.
     const RayCounts& ray_counts() const { return counts_; }
+    // Events of every ray traced from now on go to `recorder` (null: none, the default).
+    void set_recorder(RayRecorder* recorder) { recorder_ = recorder; }
 
 private:
     using Hit = SphereHit;
     color trace_skipping(const ray& r, int depth, int skip, PrimaryHit* first = nullptr) const;
+    // trace_skipping between the recorder's begin_ray and end_ray, when there is a recorder.
+    color traced(RayKind kind, const ray& r, int depth, int skip,
+                 PrimaryHit* first = nullptr) const;
     // Nearest sphere along r; `skip` (or -1) is a sphere the ray cannot hit again.
     // (A plain struct, not std::optional: storing its flag byte and reloading the whole
     // value stalled store forwarding; it was the hottest line of trace_skipping in perf.)
@@ -74,6 +80,8 @@ private:
     // Where a secondary ray leaves the surface: the paper's fixed bias, or (Q1 fixed) an
     // offset that grows with |p| so float32 rounding at large coordinates cannot re-hit.
     float offset_at(const point3& p) const;
+    // Where a refracted ray starts: bias inside the surface (or outside: refraction_bias_outside).
+    point3 refraction_origin(const point3& p, const vec3& n, float offset) const;
 
     const Scene& scene_;
     TraceOptions opt_;
@@ -81,7 +89,8 @@ private:
     std::vector<color> light_intensity_;  // physical: I = pi E d0^2 per light
     mutable RayCounts counts_;
     SphereLanes lanes_;
-    bool use_lanes_;  // Q1 present and at most SphereLanes::kMaxSpheres spheres
+    bool use_lanes_;
+    RayRecorder* recorder_ = nullptr;  // Q1 present and at most SphereLanes::kMaxSpheres spheres
 };
 
 }  // namespace rt

@@ -112,7 +112,7 @@ struct Channel {
     const float* data;
     int stride;
 };
-constexpr int kMaxChannels = 8;
+constexpr int kMaxChannels = 9;
 struct Channels {
     std::array<Channel, kMaxChannels> list;
     int count;
@@ -120,20 +120,29 @@ struct Channels {
     const Channel* end() const { return list.data() + count; }
 };
 
-int channel_count(ExrChannels set) { return set == ExrChannels::rgb ? 3 : kMaxChannels; }
+int channel_count(ExrChannels set) {
+    return (exr_has_aovs(set) ? 8 : 3) + (exr_has_path(set) ? 1 : 0);
+}
 
 Channels channels_of(const BandPixels& p, ExrChannels set) {
-    if (set == ExrChannels::rgb)
-        return {{{{"B", p.b, p.step}, {"G", p.g, p.step}, {"R", p.r, p.step}}}, 3};
-    return {{{{"B", p.b, p.step},
-              {"G", p.g, p.step},
-              {"N.X", p.nx, p.step},
-              {"N.Y", p.ny, p.step},
-              {"N.Z", p.nz, p.step},
-              {"R", p.r, p.step},
-              {"depth", p.depth, 1},
-              {"id", p.id, 1}}},
-            kMaxChannels};
+    Channels out{{}, 0};
+    auto add = [&out](const char* name, const float* data, int stride) {
+        out.list[static_cast<std::size_t>(out.count++)] = {name, data, stride};
+    };
+    add("B", p.b, p.step);
+    add("G", p.g, p.step);
+    if (exr_has_aovs(set)) {
+        add("N.X", p.nx, p.step);
+        add("N.Y", p.ny, p.step);
+        add("N.Z", p.nz, p.step);
+    }
+    add("R", p.r, p.step);
+    if (exr_has_aovs(set)) {
+        add("depth", p.depth, 1);
+        add("id", p.id, 1);
+    }
+    if (exr_has_path(set)) add("path", p.path, 1);
+    return out;
 }
 
 // The uncompressed bytes of lines [y0, y1): for each line, each channel's row of floats.
@@ -280,16 +289,20 @@ BandPixels frame_pixels(const RenderedImage& image, std::size_t first) {
     auto at = [first](const auto& plane, std::size_t per_pixel) {
         return plane.empty() ? nullptr : plane.data() + per_pixel * first;
     };
-    return interleaved_pixels(at(image.rgb, 3), at(image.id, 1), at(image.depth, 1),
-                              at(image.normal, 3));
+    BandPixels p = interleaved_pixels(at(image.rgb, 3), at(image.id, 1), at(image.depth, 1),
+                                      at(image.normal, 3));
+    p.path = at(image.path, 1);
+    return p;
 }
 
 void check_has_planes(const std::string& path, const RenderedImage& image, ExrChannels set) {
     const std::size_t pixels =
         static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height);
     if (image.rgb.size() != 3 * pixels) throw std::runtime_error(path + ": the frame has no RGB");
-    if (set == ExrChannels::all && (image.normal.size() != 3 * pixels ||
-                                    image.id.size() != pixels || image.depth.size() != pixels))
+    if (exr_has_path(set) && image.path.size() != pixels)
+        throw std::runtime_error(path + ": the frame has no path plane to write");
+    if (exr_has_aovs(set) && (image.normal.size() != 3 * pixels || image.id.size() != pixels ||
+                              image.depth.size() != pixels))
         throw std::runtime_error(path +
                                  ": the frame has no AOV planes to write (rendered "
                                  "with RenderSettings::aovs off)");

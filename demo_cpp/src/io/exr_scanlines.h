@@ -16,8 +16,16 @@
 namespace rt {
 
 enum class ExrCompression { none, rle, zip };
-// Every channel below, or R, G, B alone (no AOVs: a render judged by its colour only).
-enum class ExrChannels { all, rgb };
+// Every channel below, or R, G, B alone (no AOVs: a render judged by its colour only); the
+// *_path sets add the path-class AOV "path" (core/ray_tree.h), opt-in: the scalar tracer
+// traces the frame a second time for it.
+enum class ExrChannels { all, rgb, all_path, rgb_path };
+inline bool exr_has_aovs(ExrChannels c) {
+    return c == ExrChannels::all || c == ExrChannels::all_path;
+}
+inline bool exr_has_path(ExrChannels c) {
+    return c == ExrChannels::all_path || c == ExrChannels::rgb_path;
+}
 
 // The header of such a file (magic number to the end-of-header byte): `attributes` as string
 // attributes, the channels above, no line offset table.

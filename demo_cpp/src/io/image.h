@@ -43,6 +43,7 @@ struct RenderedImage {
     Plane id;      // sphere index of the camera ray's hit, -1 on a miss
     Plane depth;   // camera-ray distance, 0 on a miss
     Plane normal;  // 3 per pixel, facing the camera, 0 on a miss
+    Plane path;    // path-class bits (core/ray_tree.h) as floats; empty unless asked for
 
     RenderedImage() = default;
     RenderedImage(int w, int h)

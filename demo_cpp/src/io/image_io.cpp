@@ -115,7 +115,9 @@ ExrCompression parse_exr_compression(const std::string& text) {
 ExrChannels parse_exr_channels(const std::string& text) {
     if (text == "all") return ExrChannels::all;
     if (text == "rgb") return ExrChannels::rgb;
-    throw std::invalid_argument("expected all or rgb, got '" + text + "'");
+    if (text == "all+path") return ExrChannels::all_path;
+    if (text == "rgb+path") return ExrChannels::rgb_path;
+    throw std::invalid_argument("expected all, rgb, all+path or rgb+path, got '" + text + "'");
 }
 
 void write_exr(const std::string& path, const RenderedImage& image,

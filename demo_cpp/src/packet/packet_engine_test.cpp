@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/mistake_settings.h"
+#include "core/student_slips.h"
 #include "io/image_io.h"
 #include "io/scene_loader.h"
 #include "packet/packet_data.h"
@@ -227,6 +228,8 @@ TEST(PacketEngine, RendersEveryMistakeAsTheScalarTracer) {
                 settings.trace.quirks = quirks_for(mode);
                 settings.spp = mode == Mode::physical ? 4 : 1;
                 for (Mistake m : set) settings.trace.mistakes.add(m);
+                // Those the packet engine leaves to the scalar tracer: the next test.
+                if (needs_scalar_tracer(settings.trace.mistakes)) continue;
                 settings.engine = Engine::scalar;
                 RayCounts ref_rays;
                 const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
@@ -240,6 +243,28 @@ TEST(PacketEngine, RendersEveryMistakeAsTheScalarTracer) {
                     expect_same_frame(ref, ref_rays, img, rays);
                 }
             }
+}
+
+// A mistake of student_slips.h asked of the packet engine is rendered by the scalar tracer:
+// render_cpu gives the scalar tracer's bits and ray counts, and no band-streamed output.
+TEST(PacketEngine, LeavesScalarOnlyMistakesToTheScalarTracer) {
+    const Scene scene = load_scene_file(kScenes + "/classic.json");
+    int routed = 0;
+    for (int i = 0; i < kMistakeCount; ++i) {
+        RenderSettings settings = classic_settings(scene, 48, 36);
+        settings.trace.mistakes.add(static_cast<Mistake>(i));
+        if (!needs_scalar_tracer(settings.trace.mistakes)) continue;
+        SCOPED_TRACE(settings.trace.mistakes.list());
+        ++routed;
+        settings.engine = Engine::packet;
+        EXPECT_FALSE(renders_in_bands(settings));
+        RayCounts rays, ref_rays;
+        const RenderedImage img = render_cpu(scene, settings, &rays);
+        settings.engine = Engine::scalar;
+        const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
+        expect_same_frame(ref, ref_rays, img, rays);
+    }
+    EXPECT_GE(routed, 15);
 }
 
 // Every mistake shows on the classic scene (its image differs from the plain one) through

@@ -1,0 +1,231 @@
+"""Where an error nothing explains lives: the pixels that still differ from the diagnosis'
+result, grouped by the path class of the model's ray tree at each pixel (rtdemo's `path` AOV,
+docs/diagnosis.md "Where the error lives"), and the step of the algorithm the counts point to.
+
+For each path bit b (and each pair of bits), with D the differing pixels and P_b the pixels
+whose path has b: recall = |D∩P_b| / |D|, precision = |D∩P_b| / |P_b|. The step named is that
+of the bit (or pair) with recall at least RECALL_MIN and the highest precision; with no such
+bit the error is "spread over several steps" and only the largest classes are given.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+BOOL = NDArray[np.bool_]
+INT = NDArray[np.int64]
+
+# rtdemo's path-class bits (demo_cpp/src/core/ray_tree.h), in bit order.
+PATH_BITS: dict[str, int] = {
+    "CAMERA_MISS": 1,
+    "DIFFUSE_LIT": 2,
+    "DIFFUSE_SHADOW": 4,
+    "SHADOW_GLASS": 8,
+    "MIRROR": 16,
+    "GLASS_ENTER": 32,
+    "GLASS_LEAVE": 64,
+    "TIR": 128,
+    "DEPTH_LIMIT": 256,
+    "SECONDARY_MISS": 512,
+    "LIGHT_HIT": 1024,
+    "GLASS_HIT": 2048,
+    "MIRROR_HIT": 4096,
+}
+# The step of the algorithm (the shared vocabulary) each bit's pixels go through.
+BIT_STEPS: dict[str, str] = {
+    "CAMERA_MISS": "background",
+    "DIFFUSE_LIT": "direct light",
+    "DIFFUSE_SHADOW": "shadow rays",
+    "SHADOW_GLASS": "shadow through glass",
+    "MIRROR": "reflection",
+    "GLASS_ENTER": "refraction entering",
+    "GLASS_LEAVE": "refraction leaving",
+    "TIR": "fresnel",
+    "DEPTH_LIMIT": "depth limit",
+    "SECONDARY_MISS": "background",
+    "LIGHT_HIT": "emission",
+    "GLASS_HIT": "refraction entering",
+    "MIRROR_HIT": "reflection",
+}
+# What a pixel's path does, for the sentence: "those whose path leaves glass".
+BIT_PHRASES: dict[str, str] = {
+    "CAMERA_MISS": "sees the background directly",
+    "DIFFUSE_LIT": "reaches a diffuse surface the light shines on",
+    "DIFFUSE_SHADOW": "reaches a diffuse surface in an opaque sphere's shadow",
+    "SHADOW_GLASS": "has a shadow ray through a glass sphere",
+    "MIRROR": "is reflected",
+    "GLASS_ENTER": "enters glass",
+    "GLASS_LEAVE": "leaves glass",
+    "TIR": "is totally reflected inside glass",
+    "DEPTH_LIMIT": "reaches the depth limit on a specular surface",
+    "SECONDARY_MISS": "escapes to the background after a bounce",
+    "LIGHT_HIT": "hits the light",
+    "GLASS_HIT": "starts on a glass sphere",
+    "MIRROR_HIT": "starts on a mirror sphere",
+}
+# Where several bits mark the very same differing pixels (every glass path is also
+# reflected), the image cannot tell their steps apart: all are given, the most specific first.
+SPECIFIC_FIRST = (
+    "GLASS_LEAVE",
+    "GLASS_ENTER",
+    "TIR",
+    "SHADOW_GLASS",
+    "DEPTH_LIMIT",
+    "DIFFUSE_SHADOW",
+    "DIFFUSE_LIT",
+    "SECONDARY_MISS",
+    "LIGHT_HIT",
+    "CAMERA_MISS",
+    "MIRROR",
+    "MIRROR_HIT",
+    "GLASS_HIT",
+)
+# A step is named only when its pixels hold at least this share of the differing ones
+# (recall); below it the error is spread over several steps.
+RECALL_MIN = 0.9
+# Above this precision the differing pixels are "exactly" those of the class, else "mostly".
+EXACT_PRECISION = 0.9
+TOP_CLASSES = 4
+# Bits that say where the camera ray lands, not a step the path goes through: they group the
+# classes but never name the step.
+FIRST_SURFACE = ("GLASS_HIT", "MIRROR_HIT")
+# A pair of bits is named instead of its best single bit only when it is this much more
+# precise: one bit is the plainer statement.
+PAIR_GAIN = 0.15
+
+
+@dataclass(frozen=True)
+class Located:
+    step: str  # a step of the vocabulary, or "spread over several steps"
+    sentence: str
+    bits: tuple[str, ...]  # the bit (or pair) named; () when spread
+    differing: int  # |D|
+    pixels: int  # |P| of the bits named (0 when spread)
+    recall: float
+    precision: float
+    # Other steps whose pixels are the same differing ones (the image cannot tell them apart).
+    alternatives: tuple[str, ...] = ()
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "step": self.step,
+            "sentence": self.sentence,
+            "differing": self.differing,
+            "pixels": self.pixels,
+            "recall": self.recall,
+            "precision": self.precision,
+            "alternatives": list(self.alternatives),
+        }
+
+
+def class_name(bits: int) -> str:
+    """ "GLASS_HIT|GLASS_ENTER|GLASS_LEAVE" for a path value; "NONE" for 0."""
+    names = [n for n, b in PATH_BITS.items() if bits & b]
+    return "|".join(names) or "NONE"
+
+
+def classes(differing: BOOL, path: INT, top: int = TOP_CLASSES) -> list[dict[str, Any]]:
+    """The path classes (whole values) holding the most differing pixels, with how many
+    pixels each class has within the region `differing` was taken from."""
+    values, counts = np.unique(path[differing], return_counts=True)
+    order = np.argsort(-counts, kind="stable")[:top]
+    return [
+        {
+            "class": class_name(int(values[i])),
+            "bits": int(values[i]),
+            "differing": int(counts[i]),
+            "pixels": int(np.count_nonzero(path == values[i])),
+        }
+        for i in order
+    ]
+
+
+def _candidates(path: INT) -> list[tuple[tuple[str, ...], BOOL]]:
+    """Every bit's pixels, and every pair's (both bits set)."""
+    single: list[tuple[tuple[str, ...], BOOL]] = [
+        ((n,), (path & b) != 0) for n, b in PATH_BITS.items() if n not in FIRST_SURFACE
+    ]
+    pairs: list[tuple[tuple[str, ...], BOOL]] = [
+        ((a[0][0], b[0][0]), a[1] & b[1])
+        for a, b in combinations(single, 2)
+        if BIT_STEPS[a[0][0]] != BIT_STEPS[b[0][0]]
+    ]
+    return single + pairs
+
+
+def locate(differing: BOOL, path: INT, region: BOOL | None = None) -> Located | None:
+    """The step the differing pixels point to within `region` (default: everywhere); None
+    when no pixel differs there."""
+    within = np.ones_like(differing) if region is None else region
+    d = differing & within
+    n = int(np.count_nonzero(d))
+    if not n:
+        return None
+    scored = []
+    for names, where in _candidates(path):
+        p = int(np.count_nonzero(where & within))
+        hit = int(np.count_nonzero(where & d))
+        if p and hit >= RECALL_MIN * n:
+            scored.append(((hit / p, hit / n), names, hit, p))
+    singles = [x for x in scored if len(x[1]) == 1]
+    pairs = [x for x in scored if len(x[1]) == 2]
+    if singles and pairs and max(pairs)[0][0] < max(singles)[0][0] + PAIR_GAIN:
+        scored = singles
+    elif pairs:
+        scored = pairs
+    if not scored:
+        return _spread(d, path, n)
+    top = max(k for k, *_ in scored)
+    tied = sorted((x for x in scored if x[0] == top), key=lambda x: _rank(x[1]))
+    (precision, recall), names, hit, p = tied[0]
+    steps = list(dict.fromkeys(_step(x[1]) for x in tied))
+    return Located(
+        steps[0],
+        _sentence(names, (hit, n, precision), steps),
+        names,
+        n,
+        p,
+        recall,
+        precision,
+        tuple(steps[1:]),
+    )
+
+
+def _rank(names: tuple[str, ...]) -> int:
+    return min(SPECIFIC_FIRST.index(x) for x in names)
+
+
+def _step(names: tuple[str, ...]) -> str:
+    """The step of a bit; of a pair, that of its more specific bit."""
+    return BIT_STEPS[min(names, key=SPECIFIC_FIRST.index)]
+
+
+def _sentence(names: tuple[str, ...], counts: tuple[int, int, float], steps: list[str]) -> str:
+    hit, n, precision = counts
+    how = "exactly" if precision >= EXACT_PRECISION else "mostly"
+    what = " and ".join(BIT_PHRASES[x] for x in names)
+    blame = f"the {steps[0]} is wrong"
+    if len(steps) > 1:
+        blame = (
+            f"the error lies in a step every such path takes: the {', the '.join(steps[:-1])} "
+            f"or the {steps[-1]} (the image cannot tell which)"
+        )
+    return (
+        f"the differing pixels are {how} those whose path {what} ({hit:,} of {n:,}; "
+        f"{precision:.0%} of such pixels differ): {blame}"
+    )
+
+
+def _spread(d: BOOL, path: INT, n: int) -> Located:
+    top = classes(d, path, 3)
+    listed = ", ".join(f"{c['class']} ({c['differing']:,})" for c in top)
+    sentence = (
+        f"the {n:,} differing pixels are spread over several steps: no single kind of path "
+        f"holds {RECALL_MIN:.0%} of them (largest: {listed})"
+    )
+    return Located("spread over several steps", sentence, (), n, 0, 0.0, 0.0)

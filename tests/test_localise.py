@@ -1,0 +1,103 @@
+"""Where the error lives (compare/diagnosis/localise.py): differing pixels grouped by rtdemo's
+path-class AOV, and the step of the algorithm the counts point to."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from helpers import SCENES, render_demo
+from student_variants import render_variant
+
+from compare.diagnosis.localise import PATH_BITS, RECALL_MIN, classes, locate
+from compare.diagnosis.renderer import CandidateRenderer
+from compare.diagnosis.search import DiagnoseOptions, FunctionRenderer, diagnose
+from compare.judge.images import read_image
+from compare.judge.target_model import parse_model
+from scene_model.scene import load_scene
+
+CLASSIC = SCENES / "classic.json"
+W, H = 160, 120
+
+
+def _paths(rtdemo: str, tmp_path: Path) -> np.ndarray:
+    image = render_demo(
+        rtdemo, CLASSIC, tmp_path / "p.exr", "-q", "--mode", "classic",
+        "--exr-channels", "rgb+path", size=(W, H),
+    )  # fmt: skip
+    return image.aovs["path"].astype(np.int64)
+
+
+def test_path_aov_marks_sky_glass_and_glass_shadow(rtdemo: str, tmp_path: Path) -> None:
+    paths = _paths(rtdemo, tmp_path)
+    assert paths[0, 0] == PATH_BITS["CAMERA_MISS"]  # the top-left corner is sky
+    centre = int(paths[H // 2, W // 2])  # the glass sphere's centre
+    for bit in ("GLASS_HIT", "GLASS_ENTER", "GLASS_LEAVE", "MIRROR"):
+        assert centre & PATH_BITS[bit], bit
+    ground_in_glass_shadow = (paths & PATH_BITS["SHADOW_GLASS"]) != 0
+    assert ground_in_glass_shadow[H // 2 :].sum() > 100  # the glass's shadow on the ground
+
+
+def test_differing_pixels_of_one_bit_name_its_step(rtdemo: str, tmp_path: Path) -> None:
+    paths = _paths(rtdemo, tmp_path)
+    through_glass = (paths & PATH_BITS["SHADOW_GLASS"]) != 0
+    found = locate(through_glass, paths)
+    assert found is not None and found.step == "shadow through glass"
+    assert found.recall == 1.0 and found.precision == 1.0
+    assert f"{int(through_glass.sum()):,} of {int(through_glass.sum()):,}" in found.sentence
+    sky = paths == PATH_BITS["CAMERA_MISS"]
+    sky_found = locate(sky, paths)
+    assert sky_found is not None and sky_found.step == "background"
+    # A few pixels of another class do not hide the step; their class is listed.
+    mixed = through_glass.copy()
+    mixed[0, :3] = True  # three sky pixels
+    assert (located := locate(mixed, paths)) is not None
+    assert located.step == "shadow through glass" and located.recall < 1.0
+    assert {c["class"] for c in classes(mixed, paths, top=50)} >= {"CAMERA_MISS"}
+
+
+def test_pixels_spread_over_the_image_name_no_step(rtdemo: str, tmp_path: Path) -> None:
+    paths = _paths(rtdemo, tmp_path)
+    noise = np.random.default_rng(7).random(paths.shape) < 0.2
+    found = locate(noise, paths)
+    assert found is not None and found.step == "spread over several steps"
+    assert found.bits == () and "several steps" in found.sentence
+    assert locate(np.zeros_like(noise), paths) is None
+
+
+def test_synthetic_pair_is_named_only_when_clearly_more_precise() -> None:
+    glass = PATH_BITS["GLASS_ENTER"] | PATH_BITS["GLASS_LEAVE"]
+    paths = np.full((20, 20), PATH_BITS["DIFFUSE_LIT"], np.int64)
+    paths[:10] = glass
+    paths[:5, :10] |= PATH_BITS["SHADOW_GLASS"]
+    paths[10:15, :10] |= PATH_BITS["SHADOW_GLASS"]
+    differing = np.zeros((20, 20), bool)
+    differing[:5, :10] = True  # only the glass paths whose shadow ray passes glass
+    found = locate(differing, paths)
+    assert found is not None and found.bits == ("SHADOW_GLASS", "GLASS_LEAVE")
+    assert found.precision == 1.0 and found.recall >= RECALL_MIN
+
+
+def test_wrong_eta_leaving_nothing_explains_is_localised(tmp_path: Path) -> None:
+    """WrongEtaLeaving (1/ior also leaving glass) with the search denied Q2, the switch that
+    explains it: the refraction is then unexplained, and the localisation names the step."""
+    scene = load_scene(CLASSIC)
+    image = read_image(render_variant(scene, "wrong_eta_leaving", W, H, tmp_path / "s.ppm"))
+    with CandidateRenderer(CLASSIC, W, H, cache=tmp_path / "cache") as r:
+        no_q2 = tuple(q for q in r.search_quirks if q != 2)
+        render = FunctionRenderer(r, r.turns, r.grows, no_q2, paths=r.path_classes)
+        d = diagnose(image, scene, render, DiagnoseOptions(start=parse_model("classic")))
+    out = d.as_dict()
+    assert "refraction" in d.unexplained
+    top = out["localisation"][0]
+    assert top["step"] == "refraction leaving" and top["recall"] >= RECALL_MIN
+    assert "leaves glass" in top["sentence"]
+    where = {e["effect"]: e for e in out["unexplained_where"]}
+    assert where["refraction"]["step"] == "refraction leaving"
+    assert (
+        sum(c["differing"] for c in where["refraction"]["classes"])
+        <= where["refraction"]["differing"]
+    )
+    again = type(d).from_record(d.record())  # the memo keeps it
+    assert again.as_dict()["localisation"] == out["localisation"]
+    assert any(s.startswith("where the error lives: ") and "leaves glass" in s for s in d.sentences)
