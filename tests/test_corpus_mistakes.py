@@ -21,33 +21,38 @@ from corpus.harness import Corpus, open_corpus, params, report
 from corpus.programs import Variant
 from corpus.variants import MISTAKES, PAPER_VARIANTS
 
-# Diagnoses that are wrong today (measured 2026-12-05 on main 0597f67, 320x240): each says
-# what the diagnosis said and what would make it right.
-_NO_STEP = "names no cause, and the diagnosis cannot localise an error to its step yet"
-_WAITS_B = "the named mistake is not in mistakes.json yet; "
+# Diagnoses that are wrong today (measured 2026-12-05 on main aedc5f4 merged into e, 320x240):
+# each says what the diagnosis said and what is wrong with it.
+_NO_CAMERA_STEP = (
+    "names no cause and localises it to {said}: no path class is the camera's, so a camera "
+    "slip that no switch renders cannot be placed in its step"
+)
+# Measured with rtval diagnose cold: it searches from physical first (nearer by a few thousand
+# pixels) for 11-13 s, then from classic, which names the mistake exactly; in the test run, the
+# corpus's other processes sharing the cores, the 15 s search budget is spent before classic's
+# sweep, and the result is no cause, "spread over several steps".
+_LOAD = (
+    "(load) named ({name}) on an idle machine (14 s cold); under the test run's load the 15 s "
+    "search budget ends before the classic start is searched: no cause, 'spread over several "
+    "steps'"
+)
 _DIAGNOSIS_PENDING = {
-    **dict.fromkeys(
-        (
-            "scratch-untinted_glass", "rust-fov35", "go-fov_on_x", "rust-eta_inverted", "rust-fresnel_constants_swapped",
-            "go-y_by_width", "js-reflect_half", "js-k_eta_unsquared", "go-lambert_unclamped",
-        ),
-        _NO_STEP,
+    "go-normal_not_normalized": _LOAD.format(name="normal_not_normalized"),
+    "go-fresnel_facing_sign": _LOAD.format(name="fresnel_facing_sign"),
+    "go-fresnel_facing_clamped": (
+        "a false cause: told as physical+Q7 (physical's mirrors have a Fresnel weight of 1, "
+        "as this program's do; +Q7 fixes its direct light), though it is the classic program "
+        "with a Fresnel slip; the refraction is left unexplained"
     ),
-    **dict.fromkeys(
-        (
-            "go-near_root_only", "js-ray_dir_unnormalized", "go-normal_not_normalized",
-            "js-reflect_sign", "go-reflection_untinted", "js-fresnel_weights_swapped",
-            "js-light_blocks_itself", "go-shadow_dir_unnormalized", "rust-light_dir_reversed",
-            "js-refraction_unweighted", "js-tan_full_fov",
-            "rust-no_aspect",
-        ),
-        _WAITS_B + _NO_STEP,
+    "rust-fov35": _NO_CAMERA_STEP.format(said="'spread over several steps'"),
+    "go-fov_on_x": _NO_CAMERA_STEP.format(said="'spread over several steps'"),
+    "go-y_by_width": _NO_CAMERA_STEP.format(said="'spread over several steps'"),
+    "rust-fresnel_constants_swapped": (
+        "names no cause and localises it to direct light, reflection, refraction leaving and "
+        "'spread over several steps', not to the Fresnel weight (no path class is Fresnel's "
+        "but total internal reflection)"
     ),
-    "rust-negative_root_hit": _WAITS_B + "it names no_offset, a false cause",
-    "rust-refraction_bias_outside": _WAITS_B + "it names no_offset, a false cause",
-    "go-fresnel_facing_sign": _WAITS_B
-    + "it names +Q7, fresnel_missing and --no-refraction, false causes",
-}  # fmt: skip
+}
 
 
 def _not_yet(v: Variant, what: str) -> str | None:
@@ -97,9 +102,14 @@ def _true(cause: dict[str, Any], causes: frozenset[str]) -> bool:
 
 
 def _localised(d: dict[str, Any]) -> set[str]:
-    """The steps the diagnosis localises what it does not explain to."""
+    """The steps the diagnosis localises what it does not explain to: each localisation's
+    step and the steps it says the image cannot tell from it (its tied `alternatives`)."""
     where = list(d.get("localisation") or []) + list(d.get("unexplained_where") or [])
-    return {str(w["step"]) for w in where if isinstance(w, dict) and w.get("step")}
+    out: set[str] = set()
+    for w in where:
+        if isinstance(w, dict) and w.get("step"):
+            out |= {str(w["step"]), *(str(a) for a in w.get("alternatives") or [])}
+    return out
 
 
 @pytest.mark.parametrize("variant", params(ALL_MISTAKES, "diagnosed", _not_yet))

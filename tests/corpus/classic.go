@@ -19,6 +19,8 @@
 //	reflection_untinted     the reflected colour is not multiplied by the surface colour
 //	eta_leaving             1/ior at both crossings (leaving glass too)
 //	fresnel_facing_sign     the facing ratio +d.n instead of -d.n
+//	fresnel_facing_clamped  max(0, +d.n): the sign lost inside the clamp, so the facing ratio is
+//	                        0 at every outside hit (a Fresnel weight of 1, no refraction)
 //	shadow_dir_unnormalized the shadow ray's direction light - p is not normalised
 //	lambert_unclamped       n.l without max(0, .)
 //	depth=N, bias=V         the recursion limit and the offset of secondary rays
@@ -97,7 +99,7 @@ var (
 
 var known = []string{
 	"rows_bottom_up", "no_clamp", "fov_on_x", "pixel_corners", "y_by_width", "near_root_only",
-	"normal_not_normalized", "reflection_untinted", "eta_leaving", "fresnel_facing_sign",
+	"normal_not_normalized", "reflection_untinted", "eta_leaving", "fresnel_facing_sign", "fresnel_facing_clamped",
 	"shadow_dir_unnormalized", "lambert_unclamped",
 }
 
@@ -171,6 +173,8 @@ func trace(o, d Vec, depth int) Vec {
 func mirror(s *Sphere, p, n, d Vec, inside bool, depth int) Vec {
 	facing := math.Max(0, -d.Dot(n))
 	if slips["fresnel_facing_sign"] {
+		facing = d.Dot(n)
+	} else if slips["fresnel_facing_clamped"] {
 		facing = math.Max(0, d.Dot(n))
 	}
 	fresnel := 0.1 + 0.9*math.Pow(1-facing, 3)

@@ -65,7 +65,8 @@ def params(
     variants: list[Variant], what: str, not_yet: Callable[[Variant, str], str | None]
 ) -> list[object]:
     """The variants as pytest parameters: full-size ones marked slow, and a strict xfail
-    where not_yet(variant, what) says why `what` cannot hold yet."""
+    where not_yet(variant, what) says why `what` cannot hold yet (a non-strict one where the
+    reason starts with "(load)": it holds on an idle machine only)."""
     out = []
     for v in variants:
         marks: list[pytest.MarkDecorator] = []
@@ -73,7 +74,9 @@ def params(
             marks.append(pytest.mark.slow)
         why = not_yet(v, what)
         if why:
-            marks.append(pytest.mark.xfail(strict=True, reason=why))
+            # "(load)": the outcome depends on how busy the machine is: not strict.
+            strict = not why.startswith("(load)")
+            marks.append(pytest.mark.xfail(strict=strict, reason=why))
         out.append(pytest.param(v, id=v.name, marks=marks))
     return out
 

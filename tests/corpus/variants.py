@@ -87,9 +87,11 @@ NO_SHADOWS = frozenset({"--no-shadows", "no_shadows"})
 # Causes the classic scene cannot tell apart (measured: the images are identical): the ground,
 # the first sphere tested, never shadows a point of its own top, so a loop that stops after it
 # blocks nothing; and with the light direction reversed every lit face gets no light, as when
-# the light sphere blocks every shadow ray.
+# the light sphere blocks every shadow ray, or when an unnormalised shadow direction makes the
+# unit-direction sphere test see a blocker in every sphere ahead (the Go program's image is
+# rtdemo's light_dir_reversed render within one level at every pixel).
 FIRST_ONLY = NO_SHADOWS | {"shadow_first_only"}
-DARK_DIRECT = frozenset({"light_dir_reversed", "light_blocks_itself"})
+DARK_DIRECT = frozenset({"light_dir_reversed", "light_blocks_itself", "shadow_dir_unnormalized"})
 # A normal turned inward makes the Fresnel weight 1 at every outside hit, so whether the inside
 # flag is right or not no refracted ray counts: the images are identical.
 INWARD = frozenset({"flipped_normal", "inside_test_reversed"})
@@ -211,6 +213,8 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
     # Fresnel
     "go-fresnel_facing_sign": (GO, "fresnel_facing_sign", "the facing ratio +d.n",
                                _c("fresnel_facing_sign"), _c(FRESNEL)),
+    "go-fresnel_facing_clamped": (GO, "fresnel_facing_clamped", "the facing ratio max(0, +d.n)",
+                                  frozenset(), _c(FRESNEL)),
     "js-fresnel_weights_swapped": (JS, "fresnel_weights_swapped", "the weights swapped",
                                    _c("fresnel_weights_swapped"), _c(FRESNEL)),
     "rust-fresnel_exponent": (RUST, "fresnel_exponent", "(1 - facing)^2",
@@ -222,7 +226,7 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
                                FIRST_ONLY, _c(SHADOW)),
     "go-shadow_dir_unnormalized": (GO, "shadow_dir_unnormalized",
                                    "the shadow ray's direction not normalised",
-                                   _c("shadow_dir_unnormalized"), _c(SHADOW)),
+                                   DARK_DIRECT, _c(SHADOW)),
     "js-no_shadows": (JS, "no_shadows", "no shadow test", FIRST_ONLY, _c(SHADOW)),
     # direct light
     "rust-light_dir_reversed": (RUST, "light_dir_reversed", "the light direction p - light",
