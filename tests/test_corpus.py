@@ -7,11 +7,14 @@ C++ of the paper's listing), each built the ways people build them (GCC and Clan
 FMA contraction, -ffast-math, -march=native). The design (docs/metrics.md, "Exact match"):
 
 - every correct variant passes against its model: exit 0, every effect passing, score 100;
-- every mistake variant fails, and `rtval diagnose` names what it does wrong (the named
-  mistake, the recursion depth, or "nothing explains this region" for a bug that has no name).
+- every mistake variant fails, and `rtval diagnose` names one of its true causes or, naming
+  none, localises it to the step where it lives (a bug that has no name); it never names a
+  cause that is not true of the program (tests/corpus/variants.py lists each variant's;
+  tests/test_corpus_mistakes.py tests them).
 
-Each variant is built and rendered once per session in a temporary folder (builds and runs
-are time-bounded, tests/corpus/programs.py), two at a time; the tests only read the outcome.
+Each variant is built and rendered once per module in a temporary folder (builds and runs
+are time-bounded, tests/corpus/programs.py), two at a time (tests/corpus/harness.py); the
+tests only read the outcome.
 Cases that other work still has to make true are strict xfails naming the missing piece, so
 they turn into failures ("XPASS(strict)") the moment that work lands and the marker must go.
 `python tests/corpus/measure.py OUT.md` writes the measured table behind the expectations.
@@ -22,14 +25,11 @@ from __future__ import annotations
 import functools
 import subprocess
 from collections.abc import Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
-from pathlib import Path
 
 import pytest
-from corpus.programs import Builder, Outcome, Variant, differences, missing, run_variant
-from corpus.variants import CORRECT, MISTAKES, PAPER_VARIANTS, SMALL
-
-JOBS = 2  # the machine's cores; every variant is a single-threaded program
+from corpus.harness import Corpus, open_corpus, params, report
+from corpus.programs import Variant
+from corpus.variants import CORRECT, PAPER_VARIANTS
 
 # --- what the other work has yet to make true ----------------------------------------------
 
@@ -68,7 +68,7 @@ _NO_Q11 = "rtdemo without Q11-Q13 (the paper's direct light): rebuild it (make s
 
 
 def _not_yet(v: Variant, what: str) -> str | None:
-    """Why `what` ("passes", "scores 100", "diagnosed") cannot hold for v yet, or None."""
+    """Why `what` ("passes", "scores 100") cannot hold for v yet, or None."""
     if v.against == "paper" and not _rtdemo_has_direct_light_quirks() and v.scene == "lit":
         return _NO_Q11
     if what == "scores 100" and v.name in _STRAY:
@@ -76,75 +76,11 @@ def _not_yet(v: Variant, what: str) -> str | None:
     return None
 
 
-# --- running the corpus ----------------------------------------------------------------------
-
-
-class Corpus:
-    """Every variant the session runs, started two at a time as soon as the session begins."""
-
-    def __init__(self, folder: Path) -> None:
-        self.folder = folder
-        self.builder = Builder(folder)
-        self.pool = ThreadPoolExecutor(JOBS)
-        self.futures: dict[str, Future[Outcome]] = {}
-
-    def start(self, v: Variant) -> None:
-        if v.name not in self.futures and missing(v.build) is None:
-            diagnose = v.mistake is not None
-            self.futures[v.name] = self.pool.submit(
-                run_variant, self.builder, v, self.folder / v.name, with_diagnosis=diagnose
-            )
-
-    def outcome(self, v: Variant) -> Outcome:
-        why = missing(v.build)
-        if why:
-            if v.build.tool in ("g++", "gcc") and not v.build.needs_fma:
-                pytest.fail(f"{v.name}: {why}; the GNU toolchain is required")
-            pytest.skip(f"{v.name}: {why}")
-        self.start(v)
-        return self.futures[v.name].result()
-
-
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def corpus(
     request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
 ) -> Iterator[Corpus]:
-    c = Corpus(tmp_path_factory.mktemp("corpus"))
-    # Start what this session will ask for (after -k / -m selection), in order.
-    for item in request.session.items:
-        spec = getattr(item, "callspec", None)
-        if spec is not None and isinstance(spec.params.get("variant"), Variant):
-            c.start(spec.params["variant"])
-    yield c
-    c.pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _params(variants: list[Variant], what: str) -> list[object]:
-    out = []
-    for v in variants:
-        marks: list[pytest.MarkDecorator] = []
-        if v.size != SMALL and v.size[0] * v.size[1] > SMALL[0] * SMALL[1] * 2:
-            marks.append(pytest.mark.slow)
-        why = _not_yet(v, what)
-        if why:
-            marks.append(pytest.mark.xfail(strict=True, reason=why))
-        out.append(pytest.param(v, id=v.name, marks=marks))
-    return out
-
-
-def _report(o: Outcome) -> str:
-    lines = [
-        f"{o.variant.name} ({o.variant.build.describe()}, {o.variant.size[0]}x{o.variant.size[1]}) "
-        f"against {o.variant.against}: {o.status}, score {o.score:.4f}, exit {o.compare_rc}",
-        f"differing px per effect: {o.differing()}",
-        f"unstable px per effect: {o.unstable()}",
-        *o.compare.get("reasons", []),
-    ]
-    try:
-        lines += [p.line() for p in differences(o, limit=12) if p.kind == "differs"]
-    except Exception as e:  # the listing only explains a failure; never hide the failure
-        lines.append(f"(no pixel listing: {e})")
-    return "\n".join(lines)
+    yield from open_corpus(request, tmp_path_factory.mktemp("corpus"))
 
 
 # --- correct programs ------------------------------------------------------------------------
@@ -152,77 +88,15 @@ def _report(o: Outcome) -> str:
 CORRECT_ALL = CORRECT + [v for v in PAPER_VARIANTS if v.mistake is None]
 
 
-@pytest.mark.parametrize("variant", _params(CORRECT_ALL, "passes"))
+@pytest.mark.parametrize("variant", params(CORRECT_ALL, "passes", _not_yet))
 def test_correct_program_passes(corpus: Corpus, variant: Variant) -> None:
     o = corpus.outcome(variant)
-    assert (o.compare_rc, o.status, o.failing_effects) == (0, "pass", []), _report(o)
-    assert o.compare["exact"]["status"] == "pass", _report(o)
+    assert (o.compare_rc, o.status, o.failing_effects) == (0, "pass", []), report(o)
+    assert o.compare["exact"]["status"] == "pass", report(o)
 
 
-@pytest.mark.parametrize("variant", _params(CORRECT_ALL, "scores 100"))
+@pytest.mark.parametrize("variant", params(CORRECT_ALL, "scores 100", _not_yet))
 def test_correct_program_scores_100(corpus: Corpus, variant: Variant) -> None:
     o = corpus.outcome(variant)
-    assert o.score == 100.0, _report(o)
-    assert not any(o.differing().values()), _report(o)
-
-
-# --- mistakes --------------------------------------------------------------------------------
-
-# variant -> the effects that must fail against the model (measured; more may fail too)
-FAILING = {
-    "scratch-depth10": {"reflection", "refraction"},
-    "scratch-depth3": {"reflection", "refraction"},
-    "scratch-eta_inverted": {"refraction"},
-    "scratch-fresnel_exponent": {"reflection", "refraction"},
-    "scratch-black_background": {"background"},
-    "scratch-no_inside_flip": {"refraction"},
-    "scratch-no_offset": {"reflection", "refraction"},
-    "scratch-half_pixel_offset": {"edges"},
-    "scratch-untinted_glass": {"refraction"},
-    "scratch-ior1.5": {"refraction"},
-    "paper-mirrored": {"background", "reflection", "refraction"},
-}
-ALL_MISTAKES = MISTAKES + [v for v in PAPER_VARIANTS if v.mistake is not None]
-
-
-@pytest.mark.parametrize("variant", _params(ALL_MISTAKES, "fails"))
-def test_mistake_fails(corpus: Corpus, variant: Variant) -> None:
-    o = corpus.outcome(variant)
-    assert (o.compare_rc, o.status) == (2, "fail"), _report(o)
-    assert FAILING[variant.name] <= set(o.failing_effects), _report(o)
-    assert o.score < 100
-
-
-# variant -> what diagnose must say: its mode, the named mistakes, the recursion depth, the
-# scene constants it changed, and the effects it must call unexplained (a bug with no name)
-DIAGNOSIS: dict[str, tuple[str, set[str], int, dict[str, float], set[str]]] = {
-    "scratch-depth10": ("classic", set(), 10, {}, set()),
-    "scratch-depth3": ("classic", set(), 3, {}, set()),
-    "scratch-eta_inverted": ("classic", {"eta_inverted"}, 5, {}, set()),
-    "scratch-fresnel_exponent": ("classic", {"fresnel_exponent"}, 5, {}, set()),
-    "scratch-black_background": ("classic", {"black_background"}, 5, {}, set()),
-    "scratch-no_inside_flip": ("classic", {"no_inside_flip"}, 5, {}, set()),
-    "scratch-no_offset": ("classic", {"no_offset"}, 5, {}, set()),
-    "scratch-half_pixel_offset": ("classic", {"half_pixel_offset"}, 5, {}, set()),
-    "scratch-untinted_glass": ("classic", set(), 5, {}, {"refraction"}),
-    "scratch-ior1.5": ("classic", set(), 5, {"ior": 1.5}, set()),
-    "paper-mirrored": ("paper", {"mirrored"}, 10, {}, set()),
-}
-
-
-@pytest.mark.parametrize("variant", _params(ALL_MISTAKES, "diagnosed"))
-def test_diagnosis_names_the_mistake(corpus: Corpus, variant: Variant) -> None:
-    o = corpus.outcome(variant)
-    d = o.diagnosis
-    assert d is not None
-    mode, mistakes, depth, constants, unexplained = DIAGNOSIS[variant.name]
-    text = d.get("text", d)
-    said = (d["mode"], set(d["mistakes"]), d.get("scene_changes", {}))
-    assert said == (mode, mistakes, constants), text
-    # "max depth 7 or more": every limit from 7 up renders this image, so 10 is among them
-    found, or_more = d["max_depth"], d.get("depth_or_more", False)
-    assert found == depth or (or_more and found <= depth), text
-    if unexplained:  # a bug with no name: said so, and not passed off as a named one
-        assert unexplained <= set(d.get("unexplained", [])), text
-    else:
-        assert not d.get("unexplained"), text
+    assert o.score == 100.0, report(o)
+    assert not any(o.differing().values()), report(o)

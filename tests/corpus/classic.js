@@ -4,7 +4,25 @@
 // rounding (Math.round). Independent code written for rtval's corpus from the model's
 // description; the scene (scenes/classic.json) is hard-coded. No packages.
 //
-//   node classic.js WIDTH HEIGHT OUT.ppm
+//   node classic.js WIDTH HEIGHT OUT.ppm [--mistake NAME[,NAME...]]
+//
+// The corpus's mistake variants (tests/corpus/variants.py) are run-time switches: each NAME
+// turns on one slip, NAME=VALUE sets one of the program's constants:
+//   bgr                      the writer puts blue first: B, G, R
+//   gamma2                   Math.sqrt(v) written ("gamma 2" encoding) instead of v
+//   tan_full_fov             tan(fov) instead of tan(fov / 2)
+//   ray_dir_unnormalized     camera rays (x, y, -1) as they are, not normalised
+//   reflect_sign             d + 2 (d.n) n instead of d - 2 (d.n) n
+//   reflect_half             d - (d.n) n: the factor 2 forgotten
+//   no_inside_flip           the normal is not turned round inside a sphere
+//   inside_test_reversed     the inside test written d.n < 0: outside hits taken as inside
+//   k_eta_unsquared          1 - eta (1 - cos^2) under the refraction's square root
+//   fresnel_weights_swapped  reflection weighted by 1 - fresnel and refraction by fresnel
+//   fresnel_exponent         0.1 + 0.9 (1 - facing)^2 instead of the cube
+//   refraction_unweighted    the refracted colour not multiplied by the transparency
+//   light_blocks_itself      the light is not skipped in its own shadow test
+//   no_shadows               the shadow test is left out
+//   ior=V                    the glass's index
 'use strict';
 
 const fs = require('fs');
@@ -32,6 +50,27 @@ const spheres = [
 const BACKGROUND = vec(2, 2, 2);
 const MAX_DEPTH = 5;
 const BIAS = 1e-4;
+const KNOWN = [
+  'bgr', 'gamma2', 'tan_full_fov', 'ray_dir_unnormalized', 'reflect_sign', 'reflect_half',
+  'no_inside_flip', 'inside_test_reversed', 'k_eta_unsquared', 'fresnel_weights_swapped', 'fresnel_exponent',
+  'refraction_unweighted', 'light_blocks_itself', 'no_shadows',
+];
+const slips = new Set();
+
+// Reads "name,name,ior=V"; returns an error message or null.
+function setMistakes(list) {
+  for (const item of list.split(',').filter((s) => s !== '')) {
+    const [key, value] = item.split('=');
+    if (key === 'ior' && value !== undefined && Number(value) > 0) {
+      spheres.filter((s) => s.transp > 0).forEach((s) => { s.ior = Number(value); });
+    } else if (value === undefined && KNOWN.includes(key)) {
+      slips.add(key);
+    } else {
+      return `unknown mistake ${item}`;
+    }
+  }
+  return null;
+}
 
 // Distance to the sphere, or null; the classic test gives up when the centre is behind.
 function intersect(s, o, d) {
@@ -59,58 +98,89 @@ function trace(o, d, depth) {
   const p = add(o, scale(d, tmin));
   let n = normalize(sub(p, hit.c));
   let inside = false;
-  if (dot(d, n) > 0) {
-    n = scale(n, -1);
+  const away = slips.has('inside_test_reversed') ? dot(d, n) < 0 : dot(d, n) > 0;
+  if (away) {
+    if (!slips.has('no_inside_flip')) n = scale(n, -1);
     inside = true;
   }
   let color = BLACK;
   if ((hit.transp > 0 || hit.refl > 0) && depth < MAX_DEPTH) {
-    const facing = Math.max(0, -dot(d, n));
-    const fresnel = 0.1 + 0.9 * Math.pow(1 - facing, 3);
-    const rdir = normalize(sub(d, scale(n, 2 * dot(d, n))));
-    const reflected = trace(add(p, scale(n, BIAS)), rdir, depth + 1);
-    let refracted = BLACK;
-    if (hit.transp > 0) {
-      const eta = inside ? hit.ior : 1 / hit.ior;
-      const cosi = -dot(n, d);
-      const k = 1 - eta * eta * (1 - cosi * cosi);
-      const tdir = normalize(add(scale(d, eta), scale(n, eta * cosi - Math.sqrt(k))));
-      refracted = trace(sub(p, scale(n, BIAS)), tdir, depth + 1);
-    }
-    color = mul(add(scale(reflected, fresnel), scale(refracted, (1 - fresnel) * hit.transp)), hit.color);
+    color = shadeMirror(hit, p, n, d, inside, depth);
   } else {
     spheres.forEach((light, i) => {
       if (light.emit.x <= 0) return;
       const l = normalize(sub(light.c, p));
-      const from = add(p, scale(n, BIAS));
-      const blocked = spheres.some((s, j) => j !== i && intersect(s, from, l) !== null);
-      if (!blocked) color = add(color, scale(mul(hit.color, light.emit), Math.max(0, dot(n, l))));
+      if (!inShadow(i, add(p, scale(n, BIAS)), l)) {
+        color = add(color, scale(mul(hit.color, light.emit), Math.max(0, dot(n, l))));
+      }
     });
   }
   return add(color, hit.emit);
 }
 
+function reflectDir(d, n) {
+  if (slips.has('reflect_sign')) return normalize(add(d, scale(n, 2 * dot(d, n))));
+  if (slips.has('reflect_half')) return normalize(sub(d, scale(n, dot(d, n))));
+  return normalize(sub(d, scale(n, 2 * dot(d, n))));
+}
+
+function shadeMirror(hit, p, n, d, inside, depth) {
+  const facing = Math.max(0, -dot(d, n));
+  const power = slips.has('fresnel_exponent') ? 2 : 3;
+  const fresnel = 0.1 + 0.9 * Math.pow(1 - facing, power);
+  const reflected = trace(add(p, scale(n, BIAS)), reflectDir(d, n), depth + 1);
+  let refracted = BLACK;
+  if (hit.transp > 0) {
+    const eta = inside ? hit.ior : 1 / hit.ior;
+    const cosi = -dot(n, d);
+    const k = 1 - (slips.has('k_eta_unsquared') ? eta : eta * eta) * (1 - cosi * cosi);
+    const tdir = normalize(add(scale(d, eta), scale(n, eta * cosi - Math.sqrt(k))));
+    refracted = trace(sub(p, scale(n, BIAS)), tdir, depth + 1);
+  }
+  const kr = slips.has('fresnel_weights_swapped') ? 1 - fresnel : fresnel;
+  const kt = slips.has('refraction_unweighted') ? 1 - kr : (1 - kr) * hit.transp;
+  return mul(add(scale(reflected, kr), scale(refracted, kt)), hit.color);
+}
+
+// Whether a sphere other than light i lies along the shadow ray.
+function inShadow(i, from, l) {
+  if (slips.has('no_shadows')) return false;
+  const itself = slips.has('light_blocks_itself');
+  return spheres.some((s, j) => (itself || j !== i) && intersect(s, from, l) !== null);
+}
+
 function main() {
-  const [w, h] = [Number(process.argv[2]), Number(process.argv[3])];
-  const out = process.argv[4];
-  if (process.argv.length !== 5 || !(w >= 1 && h >= 1)) {
-    process.stderr.write('usage: node classic.js WIDTH HEIGHT OUT.ppm\n');
+  const args = process.argv.slice(2);
+  if (args.length === 5 && args[3] === '--mistake') {
+    const error = setMistakes(args.pop());
+    if (error) {
+      process.stderr.write(`${error}\n`);
+      process.exit(64);
+    }
+    args.pop();
+  }
+  const [w, h] = [Number(args[0]), Number(args[1])];
+  const out = args[2];
+  if (args.length !== 3 || !(w >= 1 && h >= 1)) {
+    process.stderr.write('usage: node classic.js WIDTH HEIGHT OUT.ppm [--mistake NAME[,NAME...]]\n');
     process.exit(64);
   }
-  const half = Math.tan(((30 / 2) * Math.PI) / 180);
+  const fov = (30 * Math.PI) / 180;
+  const half = Math.tan(slips.has('tan_full_fov') ? fov : fov / 2);
   const aspect = w / h;
   const header = Buffer.from(`P6\n${w} ${h}\n255\n`, 'ascii');
   const pixels = Buffer.alloc(w * h * 3);
-  const byte = (v) => (Number.isNaN(v) ? 0 : Math.round(Math.min(1, Math.max(0, v)) * 255));
+  const encode = slips.has('gamma2') ? Math.sqrt : (v) => v;
+  const byte = (v) => (Number.isNaN(v) ? 0 : Math.round(encode(Math.min(1, Math.max(0, v))) * 255));
+  const order = slips.has('bgr') ? ['z', 'y', 'x'] : ['x', 'y', 'z'];
   let i = 0;
   for (let y = 0; y < h; y++) {
     for (let x = 0; x < w; x++) {
       const xx = ((2 * (x + 0.5)) / w - 1) * half * aspect;
       const yy = (1 - (2 * (y + 0.5)) / h) * half;
-      const c = trace(BLACK, normalize(vec(xx, yy, -1)), 0);
-      pixels[i++] = byte(c.x);
-      pixels[i++] = byte(c.y);
-      pixels[i++] = byte(c.z);
+      const dir = vec(xx, yy, -1);
+      const c = trace(BLACK, slips.has('ray_dir_unnormalized') ? dir : normalize(dir), 0);
+      for (const k of order) pixels[i++] = byte(c[k]);
     }
   }
   fs.writeFileSync(out, Buffer.concat([header, pixels]));

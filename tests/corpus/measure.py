@@ -37,6 +37,13 @@ def _diagnosis(o: Outcome) -> str:
         bits.append(f"causes: {', '.join(c['name'] for c in d['causes'])}")
     if d.get("unexplained"):
         bits.append(f"unexplained: {', '.join(d['unexplained'])}")
+    where = list(d.get("localisation") or []) + list(d.get("unexplained_where") or [])
+    steps = sorted({str(w["step"]) for w in where if isinstance(w, dict) and w.get("step")})
+    if steps:
+        bits.append(f"localised: {', '.join(steps)}")
+    if o.variant.causes or o.variant.steps:
+        true = ", ".join(sorted(o.variant.causes)) or "none named"
+        bits.append(f"true: {true} / {', '.join(sorted(o.variant.steps))}")
     return "; ".join(bits)
 
 
@@ -66,7 +73,9 @@ def report(results: list[tuple[Variant, Outcome | str]]) -> str:
     details = []
     for v, o in results:
         expected = "fail" if v.mistake else "pass 100"
-        build = f"`{v.build.describe()}`" + (f" `{' '.join(v.argv)}`" if v.argv[0] != "{w}" else "")
+        build = f"`{v.build.describe()}`" + (
+            f" `{' '.join(v.argv)}`" if v.argv != ("{w}", "{h}", "{out}") else ""
+        )
         size = f"{v.size[0]}x{v.size[1]}"
         if isinstance(o, str):
             lines.append(f"| {v.name} | {build} | {size} | {expected} | {o} | | | | |")

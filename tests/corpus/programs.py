@@ -111,6 +111,12 @@ class Variant:
     argv: tuple[str, ...] = ("{w}", "{h}", "{out}")  # the program's arguments
     mistake: str | None = None  # what the variant does wrong; None: a correct program
     note: str = ""
+    # What `rtval diagnose` may say of a mistake: `causes`, the cause names (the diagnosis
+    # JSON's causes[*].name) that are true of it, one of which it should name and none
+    # outside which it may name; `steps`, the steps of the algorithm (docs/diagnosis.md's
+    # vocabulary) where the error lives, where it names no cause.
+    causes: frozenset[str] = frozenset()
+    steps: frozenset[str] = frozenset()
 
     @property
     def scene_file(self) -> Path:
