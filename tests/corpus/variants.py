@@ -91,7 +91,16 @@ NO_SHADOWS = frozenset({"--no-shadows", "no_shadows"})
 # unit-direction sphere test see a blocker in every sphere ahead (the Go program's image is
 # rtdemo's light_dir_reversed render within one level at every pixel).
 FIRST_ONLY = NO_SHADOWS | {"shadow_first_only"}
-DARK_DIRECT = frozenset({"light_dir_reversed", "light_blocks_itself", "shadow_dir_unnormalized"})
+# The diagnosis names their shared symptom (mistakes.json "symptom"), not one of them.
+DARK_DIRECT = frozenset(
+    {
+        "direct light lost",
+        "light_dir_reversed",
+        "light_blocks_itself",
+        "light_colour_from_hit",
+        "shadow_dir_unnormalized",
+    }
+)
 # A normal turned inward makes the Fresnel weight 1 at every outside hit, so whether the inside
 # flag is right or not no refracted ray counts: the images are identical.
 INWARD = frozenset({"flipped_normal", "inside_test_reversed"})
