@@ -392,3 +392,32 @@ def test_handout_folders_are_the_pages_and_all_they_show(
         assert all(not f.is_symlink() for f in folder.iterdir())
         for link in _links(page):
             assert link.startswith("#") or (folder / link).is_file(), link
+
+
+def test_a_marked_pixel_opens_the_models_ray_tree_by_mouse_and_keyboard(
+    graded: tuple[Path, str],
+) -> None:
+    out, _ = graded
+    assert "The model's rays" not in (out / "students" / "alice" / "index.html").read_text()
+    p, browser = _browser()
+    try:
+        page = browser.new_page(viewport={"width": 1200, "height": 900})
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto((out / "students" / "eve" / "index.html").as_uri())
+        marks, trees = page.locator("a.ray-mark"), page.locator("details.ray-tree")
+        assert marks.count() == trees.count() == 8
+        assert not trees.nth(0).evaluate("d => d.open")
+        marks.nth(0).click()
+        first = trees.nth(0)
+        assert first.evaluate("d => d.open")
+        text = first.inner_text()
+        assert "camera ray" in text and "returns" in text and "your image (" in text
+        assert any(name in text for name in ("ground", "glass", "gold", "blue", "silver"))
+        marks.nth(3).focus()
+        page.keyboard.press("Enter")
+        assert trees.nth(3).evaluate("d => d.open")
+    finally:
+        browser.close()
+        p.stop()
+    assert not errors, errors

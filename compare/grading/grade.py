@@ -86,6 +86,7 @@ from compare.judge.scoring import student_passes, student_score
 from compare.judge.sentences import difference_sentences
 from compare.render.cache import RenderCache
 from compare.render.progress import Progress
+from compare.render.ray_trees import page_trees
 from compare.sandbox.bwrap import require_sandbox
 from compare.student_ids import displayable, student_slug
 from compare.verdict.against import (
@@ -216,6 +217,10 @@ def _judge_scene(
         diagnosis["short"] = _beside_verdict(diagnosis, model.renders.model, verdict)
         reasons.append(diagnosis["short"])
     matches = ev.exact.matches if ev.exact is not None else None
+    if diagnosis is not None and matches is not None:
+        diagnosis["ray_trees"] = page_trees(
+            model.renders.scene_file, model.target.rtdemo_args(), img.rgb, ~matches, model.masks
+        )
     _write_scene_pictures(page_dir, scene_name, model.reference.rgb, img.rgb, matches)
     return SceneResult(
         scene_name,
