@@ -27,18 +27,7 @@ _NO_CAMERA_STEP = (
     "names no cause and localises it to {said}: no path class is the camera's, so a camera "
     "slip that no switch renders cannot be placed in its step"
 )
-# Measured with rtval diagnose cold: it searches from physical first (nearer by a few thousand
-# pixels) for 11-13 s, then from classic, which names the mistake exactly; in the test run, the
-# corpus's other processes sharing the cores, the 15 s search budget is spent before classic's
-# sweep, and the result is no cause, "spread over several steps".
-_LOAD = (
-    "(load) named ({name}) on an idle machine (14 s cold); under the test run's load the 15 s "
-    "search budget ends before the classic start is searched: no cause, 'spread over several "
-    "steps'"
-)
 _DIAGNOSIS_PENDING = {
-    "go-normal_not_normalized": _LOAD.format(name="normal_not_normalized"),
-    "go-fresnel_facing_sign": _LOAD.format(name="fresnel_facing_sign"),
     "go-fresnel_facing_clamped": (
         "a false cause: told as physical+Q7 (physical's mirrors have a Fresnel weight of 1, "
         "as this program's do; +Q7 fixes its direct light), though it is the classic program "
