@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -54,3 +55,14 @@ def diagnosed(
         d = diagnose(image, load_scene(scene_file), render).as_dict()
     d.pop("seconds")
     return d, list(render.seen)
+
+
+def chromium_browser():  # type: ignore[no-untyped-def]
+    """(playwright, browser): Debian's Chromium under Playwright, as the page tests click."""
+    from playwright.sync_api import sync_playwright  # deferred: only the page tests need it
+
+    chromium = shutil.which("chromium")
+    assert chromium, "Debian's chromium is installed by make setup"
+    p = sync_playwright().start()
+    args = ["--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-sync"]
+    return p, p.chromium.launch(executable_path=chromium, args=args)

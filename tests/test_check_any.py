@@ -15,7 +15,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
-from helpers import ROOT, SCENES, run
+from helpers import ROOT, SCENES, chromium_browser, run
 
 from compare.check import run as check
 from compare.render import foreign
@@ -52,6 +52,28 @@ def _junit_failures(path: Path) -> dict[tuple[str, str], str]:
         if failure is not None:
             out[(case.get("classname", ""), case.get("name", ""))] = failure.get("message", "")
     return out
+
+
+def _ray_tree_opens(page_file: Path) -> None:
+    """The diagnosis' model's ray trees at differing pixels: a numbered mark, clicked, opens
+    its tree; focused, Enter opens another (Chromium, as a user does)."""
+    p, browser = chromium_browser()
+    try:
+        page = browser.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto(page_file.as_uri())
+        marks, trees = page.locator("a.ray-mark"), page.locator("details.ray-tree")
+        assert marks.count() == trees.count() > 1
+        marks.nth(0).click()
+        assert trees.nth(0).evaluate("d => d.open") and "camera ray" in trees.nth(0).inner_text()
+        marks.nth(1).focus()
+        page.keyboard.press("Enter")
+        assert trees.nth(1).evaluate("d => d.open")
+        assert not errors, errors
+    finally:
+        browser.close()
+        p.stop()
 
 
 def _regression_cycle(tmp_path: Path, renderer: list[str], name: str, scenes: list[str]) -> None:
@@ -106,6 +128,7 @@ def _regression_cycle(tmp_path: Path, renderer: list[str], name: str, scenes: li
     # The diagnosis slot (compare.diagnosis.search) names the switch that reproduces the bug.
     assert "<h3>Diagnosis</h3>" in page and "looks like classic --no-shadows" in page
     assert "Content-Security-Policy" in page
+    _ray_tree_opens(html / "index.html")
     for kind in ("reference", "render", "difference", "flip"):
         assert (html / "images" / f"case000-{kind}.png").stat().st_size > 100
     text = summary.read_text()

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import ROOT, SCENES, render_demo, run
+from helpers import ROOT, SCENES, chromium_browser, render_demo, run
 from PIL import Image as PILImage
 
 pytestmark = pytest.mark.slow
@@ -115,13 +115,7 @@ def test_effect_points_add_up_to_the_score(graded: tuple[Path, str]) -> None:
 
 
 def _browser():  # type: ignore[no-untyped-def]
-    from playwright.sync_api import sync_playwright
-
-    chromium = shutil.which("chromium")
-    assert chromium, "Debian's chromium is installed by make setup"
-    p = sync_playwright().start()
-    args = ["--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-sync"]
-    return p, p.chromium.launch(executable_path=chromium, args=args)
+    return chromium_browser()
 
 
 def _heading(page, name: str):  # type: ignore[no-untyped-def]

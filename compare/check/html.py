@@ -15,12 +15,14 @@ from typing import Any
 import numpy as np
 
 from compare.check.run import CaseResult
+from compare.diagnosis.record import Diagnosis
 from compare.diagnosis.renderer import CandidateRenderer
 from compare.diagnosis.search import DiagnoseOptions, diagnose
 from compare.judge.images import Image
 from compare.judge.png import display_values, write_display_png
 from compare.judge.tolerances import diff_image
 from compare.pages.writer import write_page
+from compare.render.ray_trees import page_trees
 from safe_files.paths import UnsafePathError
 from scene_model.scene import load_scene
 
@@ -38,10 +40,11 @@ def _magma(values: np.ndarray) -> np.ndarray:
     return rgb
 
 
-def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> list[str] | None:
+def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> dict[str, Any] | None:
     """The nearest demo model, quirks and named mistakes that explain a failing render
-    (compare.diagnosis.search), as lines for the page. Optional: when it cannot be made (no
-    pictures, rtdemo fails, the search fails), the page says so and `note` is told."""
+    (compare.diagnosis.search), as lines for the page, with that model's ray trees at a few
+    pixels that differ. Optional: when it cannot be made (no pictures, rtdemo fails, the
+    search fails), the page says so and `note` is told."""
     if case.pictures is None or not case.scene_file:
         return None
 
@@ -54,8 +57,21 @@ def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> list[str] | Non
     except Exception as e:  # an optional slot: its failure must not lose the page
         message = f"no diagnosis for {case.name}: {e}"
         note(message)
-        return [message]
-    return [found.reason(), *found.sentences]
+        return {"lines": [message]}
+    return {"lines": [found.reason(), *found.sentences], "rays": _rays(case, found)}
+
+
+def _rays(case: CaseResult, found: Diagnosis) -> dict[str, Any]:
+    """The diagnosis' result model's ray trees where the render differs from the reference
+    by more than one 8-bit level (a scene copy's result is not traced: no file holds it)."""
+    assert case.pictures is not None
+    if found.candidate.scene_changes():
+        return {"error": "the explaining model changes the scene (" + found.result + ")"}
+    ref, test = display_values(case.pictures.ref), display_values(case.pictures.test)
+    differing = np.nan_to_num(np.abs(ref - test)).max(axis=2) > 1.5 / 255
+    args = found.candidate.rtdemo_args()
+    trees = page_trees(case.scene_file, args, case.pictures.test, differing, {})
+    return {"model": found.result, **trees}
 
 
 def write_html(
