@@ -91,7 +91,7 @@ def test_dask_cluster_gives_the_same_gradebook(
     out, _expected, root = graded
     dask_out = tmp_path / "dask"  # the model's render comes from the session's render cache
     with LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as cluster:
         proc = _grade(
             root / "subs",

@@ -136,7 +136,7 @@ def test_dask_workers_diagnose_too(graded: tuple[Path, Path], tmp_path: Path) ->
     root, out = graded
     dask_out = tmp_path / "dask"
     with LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as cluster:
         proc = run(
             [RTVAL, "grade", str(root / "subs"), *ARGS, "--out", str(dask_out), "--executor",

@@ -422,7 +422,7 @@ def test_dask_workers_build_and_run_in_their_sandbox(
         src = graded["subs"] / name  # type: ignore[operator]
         (shutil.copytree if src.is_dir() else shutil.copy)(src, subs / name)
     with LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as cluster:
         proc = _grade(
             subs, tmp_path / "grades", "--build", "make", "--run", RUN,
