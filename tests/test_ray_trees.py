@@ -20,9 +20,25 @@ def test_the_sample_is_spread_over_the_differing_effects_and_always_the_same() -
     masks["shadow"][20:] = True
     first = sample_differing(differing, masks)
     assert first == sample_differing(differing.copy(), masks)
-    assert len(first) == 5  # 4 from the first effect's share, then the lone pixel
+    # 4 from the first effect's share, its lone pixel from the second (whose unused 3 pass
+    # on), then 3 more of the differing pixels: 8, each once, each differing.
+    assert len(first) == len(set(first)) == 8
     assert all(differing[y, x] for x, y in first) and (30, 30) in first
+    assert all(y < 20 for _, y in first[:4]) and first[4] == (30, 30)
     assert sample_differing(np.zeros((40, 60), bool), masks) == []
+
+
+def test_overlapping_effects_and_no_effects_still_sample_differing_pixels_only() -> None:
+    rng = np.random.default_rng(7)
+    differing = rng.random((30, 40)) < 0.05
+    everywhere = {"a": np.ones((30, 40), bool), "b": np.ones((30, 40), bool)}
+    for masks in (everywhere, {}):
+        picks = sample_differing(differing, masks)
+        assert len(picks) == len(set(picks)) == 8
+        assert all(differing[y, x] for x, y in picks)
+    few = np.zeros((30, 40), bool)
+    few[3, 4] = few[20, 9] = True
+    assert sorted(sample_differing(few, everywhere)) == [(4, 3), (9, 20)]
 
 
 def test_an_untraceable_pixel_is_said_not_raised(tmp_path: Path) -> None:
