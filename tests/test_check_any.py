@@ -62,6 +62,8 @@ def _ray_tree_opens(page_file: Path) -> None:
         page = browser.new_page()
         errors: list[str] = []
         page.on("pageerror", lambda e: errors.append(str(e)))
+        # a script the Content-Security-Policy refused is a console error
+        page.on("console", lambda m: m.type == "error" and errors.append(m.text))
         page.goto(page_file.as_uri())
         marks, trees = page.locator("a.ray-mark"), page.locator("details.ray-tree")
         assert marks.count() == trees.count() > 1

@@ -398,6 +398,8 @@ def test_a_marked_pixel_opens_the_models_ray_tree_by_mouse_and_keyboard(
         page = browser.new_page(viewport={"width": 1200, "height": 900})
         errors: list[str] = []
         page.on("pageerror", lambda e: errors.append(str(e)))
+        # a script the Content-Security-Policy refused is a console error
+        page.on("console", lambda m: m.type == "error" and errors.append(m.text))
         page.goto((out / "students" / "eve" / "index.html").as_uri())
         marks, trees = page.locator("a.ray-mark"), page.locator("details.ray-tree")
         assert marks.count() == trees.count() == 8

@@ -218,8 +218,10 @@ def _judge_scene(
         reasons.append(diagnosis["short"])
     matches = ev.exact.matches if ev.exact is not None else None
     if diagnosis is not None and matches is not None:
+        assert ev.score is not None  # _verdict needs it too
+        failing = {k: model.masks[k] for k in ev.score.failing_effects if k in model.masks}
         diagnosis["ray_trees"] = page_trees(
-            model.renders.scene_file, model.target.rtdemo_args(), img.rgb, ~matches, model.masks
+            model.renders.scene_file, model.target.rtdemo_args(), img.rgb, ~matches, failing
         )
     _write_scene_pictures(page_dir, scene_name, model.reference.rgb, img.rgb, matches)
     return SceneResult(

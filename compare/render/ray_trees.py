@@ -23,20 +23,25 @@ TIMEOUT_SECONDS = 20.0
 def sample_differing(
     differing: BOOL, masks: dict[str, BOOL], n: int = MAX_PIXELS
 ) -> list[tuple[int, int]]:
-    """Up to n differing pixels (x, y), spread over the effects that differ (most first, in
-    turn) and evenly over each effect's differing pixels in row order: the same pixels every
-    time for the same image."""
+    """Up to n differing pixels (x, y), spread over the effects in `masks` (the failing ones,
+    worst first: each gets its share in turn, evenly over its differing pixels in row order),
+    then topped up from every differing pixel: the same pixels every time for the same image."""
     pools = [np.flatnonzero(differing & m) for m in masks.values()]
-    pools = sorted((p for p in pools if p.size), key=lambda p: -p.size)
-    if not pools:
-        pools = [np.flatnonzero(differing)] if differing.any() else []
-    share = [n // len(pools) + (i < n % len(pools)) for i in range(len(pools))] if pools else []
+    pools = [p for p in pools if p.size]
     chosen: list[int] = []
-    for pool, k in zip(pools, share, strict=True):
-        picks = pool[((np.arange(min(k, pool.size)) + 0.5) * pool.size / max(k, 1)).astype(int)]
-        chosen += [int(i) for i in picks if int(i) not in chosen]
+    for i, pool in enumerate(pools):
+        share = (n - len(chosen)) // (len(pools) - i)  # an effect's unused share passes on
+        chosen += [j for j in _evenly(pool, share) if j not in chosen]
+    rest = np.setdiff1d(np.flatnonzero(differing), chosen)
+    chosen += _evenly(rest, n - len(chosen))
     width = differing.shape[1]
     return [(i % width, i // width) for i in chosen[:n]]
+
+
+def _evenly(pool: np.ndarray, k: int) -> list[int]:
+    """k of a sorted pool's indices, spread evenly over it (the centres of k equal parts)."""
+    k = min(k, pool.size)
+    return [int(pool[int((j + 0.5) * pool.size / k)]) for j in range(k)] if k > 0 else []
 
 
 def trace_trees(scene_file: str, model_args: list[str], pixels: list[tuple[int, int]],
