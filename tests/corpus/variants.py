@@ -91,6 +91,8 @@ NO_SHADOWS = frozenset({"--no-shadows", "no_shadows"})
 # unit-direction sphere test see a blocker in every sphere ahead (the Go program's image is
 # rtdemo's light_dir_reversed render within one level at every pixel).
 FIRST_ONLY = NO_SHADOWS | {"shadow_first_only"}
+# refraction_unweighted's image is glass of transparency 1: the diagnosis names that symptom.
+UNWEIGHTED = "glass passes all its light (transparency 1, or not applied)"
 # The diagnosis names their shared symptom (mistakes.json "symptom"), not one of them.
 DARK_DIRECT = frozenset(
     {
@@ -218,7 +220,7 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
                                      _c("refraction_bias_outside"), GLASS),
     "js-refraction_unweighted": (JS, "refraction_unweighted",
                                  "the refraction not weighted by the transparency",
-                                 _c("refraction_unweighted"), GLASS),
+                                 _c("refraction_unweighted", UNWEIGHTED), GLASS),
     # Fresnel
     "go-fresnel_facing_sign": (GO, "fresnel_facing_sign", "the facing ratio +d.n",
                                _c("fresnel_facing_sign"), _c(FRESNEL)),
