@@ -7,6 +7,7 @@ The gradebook must be the local executor's, row for row; a worker that dies is o
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import os
@@ -88,9 +89,10 @@ def _wait_for(path: Path, proc: subprocess.Popen[bytes], seconds: float) -> None
     """Until `path` exists (the scheduler wrote its file); fails if the process ended."""
     deadline = time.monotonic() + seconds
     while not path.exists():
-        assert proc.poll() is None, "the scheduler exited before writing its file"
         assert time.monotonic() < deadline, f"no {path.name} within {seconds} s"
-        time.sleep(0.05)
+        with contextlib.suppress(subprocess.TimeoutExpired):  # its exit ends the wait at once
+            proc.wait(timeout=0.05)
+            raise AssertionError("the scheduler exited before writing its file")
 
 
 def _wait_for_worker(address: str, proc: subprocess.Popen[bytes], log: Path) -> None:
@@ -99,10 +101,13 @@ def _wait_for_worker(address: str, proc: subprocess.Popen[bytes], log: Path) -> 
 
     with Client(address, timeout=30) as client:
         deadline = time.monotonic() + 120
-        while not client.scheduler_info()["workers"]:
-            assert proc.poll() is None, f"the worker exited: {log.read_text()[-3000:]}"
-            assert time.monotonic() < deadline, f"no worker: {log.read_text()[-3000:]}"
-            time.sleep(0.1)
+        while True:
+            try:
+                client.wait_for_workers(1, timeout=1)  # the scheduler's event: it registered
+                return
+            except TimeoutError:
+                assert proc.poll() is None, f"the worker exited: {log.read_text()[-3000:]}"
+                assert time.monotonic() < deadline, f"no worker: {log.read_text()[-3000:]}"
 
 
 def _stop(proc: subprocess.Popen[bytes]) -> None:
@@ -210,12 +215,12 @@ def test_workers_need_nothing_of_the_teachers_machine(cluster: tuple[str, Path, 
 
 
 def _sometimes_dies(task: int, marker: str) -> int:
-    """A student's task; -1 kills its worker once the others' rows have arrived (the marker:
-    then no other task is on that worker to be suspected with it)."""
+    """A student's task; -1 kills its worker once the others' rows have arrived (the event
+    named `marker`: then no other task is on that worker to be suspected with it)."""
+    from distributed import Event
+
     if task < 0:
-        deadline = time.monotonic() + 120
-        while not Path(marker).exists() and time.monotonic() < deadline:
-            time.sleep(0.05)
+        Event(marker).wait(timeout=120)
         os._exit(3)  # the worker process dies mid-task, as the OOM killer would end it
     return task * 10
 
@@ -226,20 +231,22 @@ def test_a_dead_worker_is_one_row_and_the_rest_go_on(tmp_path: Path) -> None:
     from dask.distributed import LocalCluster
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])
-    marker = tmp_path / "others-arrived"
+    from distributed import Event
+
+    marker = f"others-arrived-{tmp_path.name}"
     got: list[object] = []
 
     def arrived(value: object) -> None:
         got.append(value)
         if sum(isinstance(g, int) for g in got) == 2:
-            marker.touch()
+            Event(marker).set()  # run_on_dask's client is the default one here
 
     with (
         dask.config.set({"distributed.scheduler.allowed-failures": 0}),
         LocalCluster(n_workers=1, threads_per_worker=3, dashboard_address=":0") as c,
     ):
         where = Executor("dask", c.scheduler_address, scheduler_timeout=30)
-        run_on_dask(_sometimes_dies, [1, -1, 2], str(marker), arrived, _failed, where)
+        run_on_dask(_sometimes_dies, [1, -1, 2], marker, arrived, _failed, where)
     assert sorted(g for g in got if isinstance(g, int)) == [10, 20]
     [dead] = [g for g in got if isinstance(g, tuple)]
     assert dead[:2] == ("failed", -1) and "worker grading it died" in str(dead[2])
