@@ -346,19 +346,10 @@ class Search:
         # about as far is searched too (a classic program with its normals turned in is a
         # quarter nearer physical by count).
         far = counts[nearest] > CAMERA_TRY_SHARE * total
-        self.near_by_count = [nearest] + [
-            c for c in starts if c != nearest and by_count and self._close(counts, c, nearest)
-        ]
-        close = [
-            c
-            for c in sorted(starts, key=lambda c: counts[c])
-            if c != nearest
-            and by_count
-            and (
-                (far and counts[c] <= FAR_MODE_RATIO * counts[nearest])
-                or self._close(counts, c, nearest)
-            )
-        ]
+        others = [c for c in sorted(starts, key=lambda c: counts[c]) if c != nearest and by_count]
+        self.near_by_count = [nearest] + [c for c in others if self._close(counts, c, nearest)]
+        far_too = [c for c in others if far and counts[c] <= FAR_MODE_RATIO * counts[nearest]]
+        close = [c for c in others if c in self.near_by_count or c in far_too]
         if close:
             self.say(
                 f"diagnose: {', '.join(c.name for c in close)} as near: searched from each too"

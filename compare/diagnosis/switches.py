@@ -95,8 +95,7 @@ class Switch:
             if catalogue()[self.key].symptom:
                 return "step"  # a symptom several mistakes share: the step, not one of them
             step = catalogue()[self.key].step
-            kind = {"camera": "camera", "image writing": "image"}.get(step, "mistake")
-            return {"half_pixel_offset": "camera", "double_gamma": "image"}.get(self.key, kind)
+            return {"camera": "camera", "image writing": "image"}.get(step, "mistake")
         return {"quirk": "quirk", "effect": "step"}.get(self.kind, "constant")
 
     @property
