@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from helpers import ROOT, SCENES, chromium_browser, run
+from playwright.sync_api import expect
 
 from compare.check import run as check
 from compare.render import foreign
@@ -67,11 +68,13 @@ def _ray_tree_opens(page_file: Path) -> None:
         page.goto(page_file.as_uri())
         marks, trees = page.locator("a.ray-mark"), page.locator("details.ray-tree")
         assert marks.count() == trees.count() > 1
+        # the tree opens on the hashchange event, after the click returns: wait for it
         marks.nth(0).click()
-        assert trees.nth(0).evaluate("d => d.open") and "camera ray" in trees.nth(0).inner_text()
+        expect(trees.nth(0)).to_have_js_property("open", True)
+        assert "camera ray" in trees.nth(0).inner_text()
         marks.nth(1).focus()
         page.keyboard.press("Enter")
-        assert trees.nth(1).evaluate("d => d.open")
+        expect(trees.nth(1)).to_have_js_property("open", True)
         assert not errors, errors
     finally:
         browser.close()

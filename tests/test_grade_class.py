@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 from helpers import ROOT, SCENES, chromium_browser, render_demo, run
 from PIL import Image as PILImage
+from playwright.sync_api import expect
 
 pytestmark = pytest.mark.slow
 RTVAL = str(Path(sys.executable).with_name("rtval"))
@@ -404,15 +405,16 @@ def test_a_marked_pixel_opens_the_models_ray_tree_by_mouse_and_keyboard(
         marks, trees = page.locator("a.ray-mark"), page.locator("details.ray-tree")
         assert marks.count() == trees.count() == 8
         assert not trees.nth(0).evaluate("d => d.open")
+        # the tree opens on the hashchange event, after the click returns: wait for it
         marks.nth(0).click()
         first = trees.nth(0)
-        assert first.evaluate("d => d.open")
+        expect(first).to_have_js_property("open", True)
         text = first.inner_text()
         assert "camera ray" in text and "returns" in text and "your image (" in text
         assert any(name in text for name in ("ground", "glass", "gold", "blue", "silver"))
         marks.nth(3).focus()
         page.keyboard.press("Enter")
-        assert trees.nth(3).evaluate("d => d.open")
+        expect(trees.nth(3)).to_have_js_property("open", True)
     finally:
         browser.close()
         p.stop()
