@@ -1,5 +1,8 @@
 #include "cli/cli_args.h"
 
+#include <cmath>
+#include <cstdio>
+
 namespace rt {
 
 int parse_int_arg(const std::string& option, const std::string& text, int lo, int hi) {
@@ -14,6 +17,22 @@ int parse_int_arg(const std::string& option, const std::string& text, int lo, in
     if (used != text.size() || v < lo || v > hi)
         throw UsageError(option + ": expected " + rule + ", got '" + text + "'");
     return static_cast<int>(v);
+}
+
+float parse_float_arg(const std::string& option, const std::string& text, float lo, float hi) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "a number from %g to %g", lo, hi);
+    const std::string rule = buf;
+    float v = 0;
+    std::size_t used = 0;
+    try {
+        v = std::stof(text, &used);
+    } catch (const std::exception&) {
+        throw UsageError(option + ": expected " + rule + ", got '" + text + "'");
+    }
+    if (used != text.size() || !std::isfinite(v) || v < lo || v > hi)
+        throw UsageError(option + ": expected " + rule + ", got '" + text + "'");
+    return v;
 }
 
 }  // namespace rt

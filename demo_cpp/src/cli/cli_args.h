@@ -13,6 +13,8 @@ public:
 };
 
 int parse_int_arg(const std::string& option, const std::string& text, int lo, int hi);
+// A finite decimal number from lo to hi.
+float parse_float_arg(const std::string& option, const std::string& text, float lo, float hi);
 
 // `parse(text)` for the value of `option`. The parsers throw std::invalid_argument saying what
 // they expected and what they got ("unknown mode 'x' ..."); that becomes "OPTION: <what>".

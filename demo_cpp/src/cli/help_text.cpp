@@ -85,6 +85,9 @@ algorithm:
                          centres of a sqrt(N) x sqrt(N) grid, box filter. N > 1 needs Q10
                          fixed (physical mode or --fix Q10). Default 1 (pixel centre).
   --max-depth N          recursion limit, 0-64 (default: the scene's max_depth)
+  --fresnel-mix A        the paper's Fresnel curve (Q8) A + (1 - A) (1 - cos)^P with
+  --fresnel-power P      other constants: A from 0 to 1 (default 0.1), P an integer
+                         from 0 to 16 (default 3); CPU tracer only
   --no-shadows, --no-reflection, --no-refraction
                          switch one effect off (per-effect ablation in the judge)
 

@@ -57,6 +57,10 @@ const std::map<std::string, ValuedOption>& valued_options() {
          [](RenderArgs& r, S o, S v) { r.mistakes = parse_option(o, v, parse_mistake_list); }},
         {"--spp", [](RenderArgs& r, S o, S v) { r.spp = parse_int_arg(o, v, 1, 4096); }},
         {"--max-depth", [](RenderArgs& r, S o, S v) { r.max_depth = parse_int_arg(o, v, 0, 64); }},
+        {"--fresnel-mix",
+         [](RenderArgs& r, S o, S v) { r.fresnel_mix = parse_float_arg(o, v, 0.0f, 1.0f); }},
+        {"--fresnel-power",
+         [](RenderArgs& r, S o, S v) { r.fresnel_power = parse_int_arg(o, v, 0, 16); }},
         {"--width", [](RenderArgs& r, S o, S v) { r.width = parse_int_arg(o, v, 1, kMaxSide); }},
         {"--height", [](RenderArgs& r, S o, S v) { r.height = parse_int_arg(o, v, 1, kMaxSide); }},
         {"--threads", [](RenderArgs& r, S o, S v) { r.threads = parse_int_arg(o, v, 1, 1024); }},
@@ -121,6 +125,21 @@ void check_named_format(const std::string& option, const std::string& path,
         throw UsageError(option + " " + path + ": writes a " + format + " but the name says " +
                          named + "; name it ." + (format == "PNG" ? "png" : "ppm") +
                          " (-o picks the format from the name)");
+}
+
+// --fresnel-mix and --fresnel-power change the paper's curve, so they need it (Q8) and the
+// CPU tracer; the defaults are the paper's 0.1 and 3.
+FresnelCurve fresnel_curve_for(const RenderArgs& a, const QuirkSet& quirks) {
+    FresnelCurve c;
+    if (!a.fresnel_mix && !a.fresnel_power) return c;
+    if (!quirks.has(Quirk::paper_fresnel))
+        throw UsageError(
+            "--fresnel-mix/--fresnel-power change the paper's Fresnel curve (Q8), "
+            "which this mode does not use (add --quirk Q8)");
+    if (a.gl) throw UsageError("--fresnel-mix/--fresnel-power need the CPU tracer (--backend cpu)");
+    c.mix = a.fresnel_mix.value_or(c.mix);
+    c.power = a.fresnel_power.value_or(c.power);
+    return c;
 }
 
 }  // namespace
@@ -196,6 +215,7 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
         throw UsageError("--spp " + std::to_string(a.spp) +
                          " needs quirk Q10 fixed (use --mode physical or --fix Q10)");
     settings.trace.max_depth = a.max_depth.value_or(scene.max_depth);
+    settings.trace.fresnel_curve = fresnel_curve_for(a, settings.trace.quirks);
     settings.trace.shadows = a.shadows;
     settings.trace.reflection = a.reflection;
     settings.trace.refraction = a.refraction;

@@ -30,6 +30,8 @@ struct RenderArgs {
     std::vector<std::pair<Quirk, bool>> quirk_changes;  // (quirk, present) in command order
     MistakeSet mistakes;
     std::optional<int> width, height, max_depth;
+    std::optional<float> fresnel_mix;
+    std::optional<int> fresnel_power;
     int spp = 1;
     int threads = 0;
     int frames = 1;

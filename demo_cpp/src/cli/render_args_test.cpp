@@ -107,6 +107,26 @@ TEST(RenderArgs, AWrongValueNamesTheOptionAndTheValue) {
     EXPECT_EQ(with("--spp", "3"), "--spp: expected a perfect square (1, 4, 9, 16, ...), got 3");
     EXPECT_NE(with("--mistake", "no_ofset").find("--mistake: unknown mistake 'no_ofset'"),
               std::string::npos);
+    EXPECT_EQ(with("--fresnel-mix", "1.5"),
+              "--fresnel-mix: expected a number from 0 to 1, got '1.5'");
+    EXPECT_EQ(with("--fresnel-mix", "nan"),
+              "--fresnel-mix: expected a number from 0 to 1, got 'nan'");
+    EXPECT_EQ(with("--fresnel-mix", "0.5x"),
+              "--fresnel-mix: expected a number from 0 to 1, got '0.5x'");
+    EXPECT_EQ(with("--fresnel-power", "2.5"),
+              "--fresnel-power: expected an integer from 0 to 16, got '2.5'");
+}
+
+// The curve's constants change Q8's curve: refused where the mode has none, kept otherwise.
+TEST(RenderArgs, FresnelCurveNeedsThePapersCurve) {
+    const Scene scene;
+    RenderArgs a = parse_render_args({"s.json", "-o", "a.exr", "--fresnel-mix", "0.9"});
+    a.mode = Mode::physical;
+    EXPECT_THROW(settings_for(a, scene), UsageError);
+    a.mode = Mode::classic;
+    const RenderSettings s = settings_for(a, scene);
+    EXPECT_FLOAT_EQ(s.trace.fresnel_curve.mix, 0.9f);
+    EXPECT_EQ(s.trace.fresnel_curve.power, 3);
 }
 
 TEST(RenderArgs, MalformedCommandLinesSayWhatIsWrong) {

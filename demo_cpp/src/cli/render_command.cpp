@@ -66,6 +66,10 @@ std::map<std::string, std::string> render_attributes(const RenderArgs& a, const 
         {"rtval.effects_off", effects.empty() ? "none" : effects},
         {"rtval.render_seconds", format_seconds(seconds)},
     };
+    if (!settings.trace.fresnel_curve.is_papers()) {
+        attributes["rtval.fresnel_mix"] = std::to_string(settings.trace.fresnel_curve.mix);
+        attributes["rtval.fresnel_power"] = std::to_string(settings.trace.fresnel_curve.power);
+    }
     if (!a.gl) {
         attributes["rtval.threads"] = std::to_string(settings.threads);
         attributes["rtval.rays_camera"] = std::to_string(rays.camera);

@@ -106,8 +106,8 @@ options:
   --pixels FILE       many pixels in one call: FILE holds "X Y" lines (# comments); the
                       output is one object with the header fields and a "pixels" list
   --json              the output format (the only one; accepted for clarity)
-  --mode, --fix, --quirk, --mistake, --max-depth, --width, --height, --no-shadows,
-  --no-reflection, --no-refraction
+  --mode, --fix, --quirk, --mistake, --max-depth, --fresnel-mix, --fresnel-power,
+  --width, --height, --no-shadows, --no-reflection, --no-refraction
                       the model, as for rtdemo render (see rtdemo render --help)
 
 Exit codes as for render; 2 also for a pixel outside the image.

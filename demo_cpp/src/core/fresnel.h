@@ -6,10 +6,20 @@
 
 namespace rt {
 
-// The paper's `mix(pow(1 - facing, 3), 1, 0.1)` = 0.1 + 0.9 (1 - facing)^3.
-inline float paper_fresnel(float facing) {
+// The paper's curve `mix(pow(1 - facing, 3), 1, 0.1)` = mix + (1 - mix) (1 - facing)^power,
+// with the two numbers a student may type otherwise (rtdemo --fresnel-mix, --fresnel-power).
+struct FresnelCurve {
+    float mix = 0.1f;
+    int power = 3;
+    bool is_papers() const { return mix == 0.1f && power == 3; }
+};
+
+// The product left to right, (1 - mix) * f * f * f, as the paper's expression rounds it.
+inline float paper_fresnel(float facing, FresnelCurve c = {}) {
     const float f = 1.0f - facing;
-    return 0.1f + 0.9f * f * f * f;
+    float rise = 1.0f - c.mix;
+    for (int i = 0; i < c.power; ++i) rise *= f;
+    return c.mix + rise;
 }
 
 // Unpolarised Fresnel reflectance of a smooth dielectric interface, as Mitsuba's fresnel():

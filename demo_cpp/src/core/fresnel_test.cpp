@@ -13,6 +13,20 @@ TEST(PaperFresnel, MixOfCubeWithTenPercentFloor) {
     EXPECT_FLOAT_EQ(paper_fresnel(0.5f), 0.1f + 0.9f * 0.125f);
 }
 
+// The default curve is the paper's expression to the bit (renders made before the curve had
+// parameters stay valid); other constants follow mix + (1 - mix) (1 - facing)^power.
+TEST(PaperFresnel, DefaultCurveIsThePapersExpressionBitForBit) {
+    for (float facing = 0.0f; facing <= 1.0f; facing += 1.0f / 64) {
+        const float f = 1.0f - facing;
+        EXPECT_EQ(paper_fresnel(facing), 0.1f + 0.9f * f * f * f);
+        EXPECT_EQ(paper_fresnel(facing, {0.1f, 2}), 0.1f + 0.9f * f * f);
+    }
+    EXPECT_FLOAT_EQ(paper_fresnel(0.25f, {1.0f, 3}), 1.0f);  // a mirror at every angle
+    EXPECT_FLOAT_EQ(paper_fresnel(0.5f, {0.9f, 3}), 0.9f + 0.1f * 0.125f);
+    EXPECT_FLOAT_EQ(paper_fresnel(0.5f, {0.04f, 5}), 0.04f + 0.96f / 32);  // Schlick's form
+    EXPECT_FLOAT_EQ(paper_fresnel(0.5f, {0.3f, 0}), 1.0f);
+}
+
 TEST(DielectricFresnel, NormalIncidenceIsSquaredIndexRatio) {
     EXPECT_NEAR(dielectric_fresnel(1.0f, 1.5f), 0.04f, 1e-6f);
     EXPECT_NEAR(dielectric_fresnel(-1.0f, 1.5f), 0.04f, 1e-6f);  // from inside

@@ -167,9 +167,7 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
     if (total_internal) {
         fresnel = 1.0f;
     } else if (q.has(Quirk::paper_fresnel)) {
-        fresnel = opt_.mistakes.has(Mistake::fresnel_exponent)
-                      ? 0.1f + 0.9f * (1 - facing) * (1 - facing)
-                      : paper_fresnel(facing);
+        fresnel = paper_fresnel(facing, paper_curve(opt_));
     } else if (s.transparency > 0) {
         fresnel = dielectric_fresnel(inside ? -facing : facing, s.ior);
     } else {

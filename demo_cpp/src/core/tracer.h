@@ -5,6 +5,7 @@
 #include <optional>
 #include <vector>
 
+#include "core/fresnel.h"
 #include "core/mistakes.h"
 #include "core/quirks.h"
 #include "core/ray_recorder.h"
@@ -23,7 +24,17 @@ struct TraceOptions {
     // Named mistakes (mistakes.h) on top: this tracer and the packet engine implement each
     // (the packet engine some as other settings, mistake_settings.h).
     MistakeSet mistakes;
+    // The paper's Fresnel curve (Q8) with other constants (a student's, or a fitted one).
+    FresnelCurve fresnel_curve;
 };
+
+// The paper's Fresnel curve as a render uses it: the mistake fresnel_exponent squares instead
+// of cubing.
+inline FresnelCurve paper_curve(const TraceOptions& opt) {
+    FresnelCurve c = opt.fresnel_curve;
+    if (opt.mistakes.has(Mistake::fresnel_exponent)) c.power = 2;
+    return c;
+}
 
 // Rays traced, for rays/s in the benchmark: camera rays (one per sample, plus the centre ray
 // for the AOVs when spp > 1), secondary (reflection, refraction) and shadow rays (one per

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 
+#include "core/fresnel.h"
 #include "core/mistakes.h"
 #include "core/quirks.h"
 
@@ -42,7 +43,8 @@ struct Options {
     QuirkFlags quirk;
     int max_depth;
     bool shadows, reflection, refraction;
-    MistakeSet mistakes;  // those the kernels read; the others are settings
+    MistakeSet mistakes;         // those the kernels read; the others are settings
+    FresnelCurve fresnel_curve;  // Q8's constants, fresnel_exponent's power included
 };
 
 // Camera rays exactly as CameraRays::render_from_camera computes them.

@@ -303,6 +303,7 @@ packet::Options options_for(const TraceOptions& trace) {
     opt.reflection = trace.reflection;
     opt.refraction = trace.refraction;
     opt.mistakes = trace.mistakes;
+    opt.fresnel_curve = paper_curve(trace);
     return opt;
 }
 

@@ -594,6 +594,30 @@ TEST(PacketEngine, EqualsScalarOnStressScenes) {
             expect_same({scene, mode, {}});
 }
 
+// The paper's Fresnel curve with other constants (--fresnel-mix, --fresnel-power), also with
+// fresnel_exponent (which squares whatever the power): the scalar tracer's bits.
+TEST(PacketEngine, EqualsScalarWithOtherFresnelCurves) {
+    const FresnelCurve curves[] = {{1.0f, 3}, {0.9f, 3}, {0.04f, 5}, {0.37f, 0}, {0.1f, 1}};
+    for (const char* name : kProjectScenes)
+        for (const FresnelCurve& curve : curves)
+            for (bool exponent_slip : {false, true}) {
+                const Scene scene = load_scene_file(kScenes + "/" + name);
+                RenderSettings settings = classic_settings(scene, 48, 36);
+                settings.trace.fresnel_curve = curve;
+                if (exponent_slip) settings.trace.mistakes.add(Mistake::fresnel_exponent);
+                settings.engine = Engine::scalar;
+                RayCounts ref_rays;
+                const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
+                for (Isa isa : supported_isas()) {
+                    SCOPED_TRACE(std::string(name) + " mix " + std::to_string(curve.mix) +
+                                 " power " + std::to_string(curve.power) + " isa " + isa_name(isa));
+                    RayCounts rays;
+                    expect_same_frame(ref, ref_rays, render_packet(scene, settings, isa, &rays),
+                                      rays);
+                }
+            }
+}
+
 TEST(PacketEngine, EqualsScalarOnAThousandSpheres) {
     // More spheres than the scalar tracer's 64 lanes: its plain loop is the reference there.
     for (Mode mode : {Mode::paper, Mode::physical}) {
