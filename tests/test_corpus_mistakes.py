@@ -28,19 +28,9 @@ _NO_CAMERA_STEP = (
     "slip that no switch renders cannot be placed in its step"
 )
 _DIAGNOSIS_PENDING = {
-    "go-fresnel_facing_clamped": (
-        "a false cause: told as physical+Q7 (physical's mirrors have a Fresnel weight of 1, "
-        "as this program's do; +Q7 fixes its direct light), though it is the classic program "
-        "with a Fresnel slip; the refraction is left unexplained"
-    ),
     "rust-fov35": _NO_CAMERA_STEP.format(said="'spread over several steps'"),
     "go-fov_on_x": _NO_CAMERA_STEP.format(said="'spread over several steps'"),
     "go-y_by_width": _NO_CAMERA_STEP.format(said="'spread over several steps'"),
-    "rust-fresnel_constants_swapped": (
-        "names no cause and localises it to direct light, reflection, refraction leaving and "
-        "'spread over several steps', not to the Fresnel weight (no path class is Fresnel's "
-        "but total internal reflection)"
-    ),
 }
 
 

@@ -21,6 +21,8 @@ if TYPE_CHECKING:
     from scene_model.scene import Scene
 
 RGB = tuple[float, float, float]
+FRESNEL_QUIRK = 8  # the paper's Fresnel curve, whose constants --fresnel-mix/-power change
+PAPERS_FRESNEL = (0.1, 3)
 
 
 def rgb_text(rgb: RGB) -> str:
@@ -51,6 +53,10 @@ class Candidate:
         Every glass sphere's index of refraction; default None: the scene's.
     bias : float or None
         The offset of secondary rays a program hard-codes; default None: the scene's.
+    fresnel : tuple[float, int] or None
+        The paper's Fresnel curve (Q8) with other constants (mix, power): mix + (1 - mix)
+        (1 - cos)^power, rtdemo's ``--fresnel-mix`` and ``--fresnel-power``; default None:
+        the paper's (0.1, 3). Set only while Q8 is present.
     turn : tuple[float, float] or None
         The camera turned by (dx, dy) pixels: not an explanation but a way to judge one;
         default None.
@@ -71,6 +77,7 @@ class Candidate:
     background: RGB | None = None
     ior: float | None = None
     bias: float | None = None
+    fresnel: tuple[float, int] | None = None
     turn: tuple[float, float] | None = None
     grow: int | None = None
 
@@ -96,6 +103,8 @@ class Candidate:
             parts.append(f"--max-depth {self.max_depth}")
         if self.mistakes:
             parts.append("--mistake " + ",".join(self.ordered_mistakes()))
+        if self.fresnel is not None:
+            parts.append(f"--fresnel-mix {self.fresnel[0]:g} --fresnel-power {self.fresnel[1]}")
         # Scene constants in brackets: they are a scene copy, not rtdemo options.
         if self.background is not None:
             parts.append(f"[background {rgb_text(self.background)}]")
@@ -120,6 +129,13 @@ class Candidate:
             args += ["--max-depth", str(self.max_depth)]
         if self.mistakes:
             args += ["--mistake", ",".join(self.ordered_mistakes())]
+        if self.fresnel is not None:
+            args += [
+                "--fresnel-mix",
+                f"{self.fresnel[0]:g}",
+                "--fresnel-power",
+                str(self.fresnel[1]),
+            ]
         return args
 
     def scene_changes(self) -> dict[str, Any]:
@@ -136,7 +152,9 @@ class Candidate:
 
     def with_quirk(self, quirk: int, present: bool) -> Candidate:
         q = self.quirks | {quirk} if present else self.quirks - {quirk}
-        return dataclasses.replace(self, quirks=frozenset(q))
+        # The curve's constants belong to Q8's curve: without it there is none to change.
+        fresnel = self.fresnel if FRESNEL_QUIRK in q else None
+        return dataclasses.replace(self, quirks=frozenset(q), fresnel=fresnel)
 
     def with_effect(self, effect: str, on: bool) -> Candidate:
         off = self.effects_off - {effect} if on else self.effects_off | {effect}
@@ -166,6 +184,9 @@ class Candidate:
 
     def with_bias(self, bias: float | None) -> Candidate:
         return dataclasses.replace(self, bias=bias)
+
+    def with_fresnel(self, curve: tuple[float, int] | None) -> Candidate:
+        return dataclasses.replace(self, fresnel=curve)
 
     def turned(self, turn: tuple[float, float] | None) -> Candidate:
         return dataclasses.replace(self, turn=turn)

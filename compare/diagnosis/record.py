@@ -226,6 +226,7 @@ def _candidate_fields(c: Candidate) -> dict[str, Any]:
         "background": list(c.background) if c.background is not None else None,
         "ior": c.ior,
         "bias": c.bias,
+        "fresnel": list(c.fresnel) if c.fresnel is not None else None,
     }
 
 
@@ -240,7 +241,12 @@ def _candidate(raw: dict[str, Any]) -> Candidate:
         None if bg is None else (float(bg[0]), float(bg[1]), float(bg[2])),
         None if raw["ior"] is None else float(raw["ior"]),
         None if raw.get("bias") is None else float(raw["bias"]),
+        _fresnel(raw.get("fresnel")),
     )
+
+
+def _fresnel(raw: Any) -> tuple[float, int] | None:
+    return None if raw is None else (float(raw[0]), int(raw[1]))
 
 
 @dataclass(frozen=True)

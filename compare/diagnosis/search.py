@@ -29,6 +29,7 @@ import numpy as np
 
 from compare.diagnosis import localise, transforms
 from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.fresnel_fit import fitted_curve
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
 from compare.diagnosis.localise import INT
 from compare.diagnosis.memo import keep, load, record_name
@@ -432,6 +433,9 @@ class Search:
                 f"{objective(t.per(current)):.3f} -> {objective(t.per(cands[best])):.3f}"
             )
             current = cands[best]
+            if tried[best].kind == "fresnel" and tried[best].present:
+                current = fitted_curve(t, current)
+                self.say(f"diagnose: the Fresnel curve fitted: {current.name}")
             self.trials.flip_guess(current)  # while the search goes on: often the result
         return current
 
@@ -735,7 +739,10 @@ ALIKE_KINDS = ("quirk", "mistake", "effect")
 
 def may_help(sw: Switch, still: set[str]) -> bool:
     """Whether sw can explain an effect still open: a named mistake is added only where one
-    of the effects it shows in (mistakes.json) differs; every other switch may."""
+    of the effects it shows in (mistakes.json) differs, a Fresnel curve where reflection or
+    refraction does; every other switch may."""
+    if sw.kind == "fresnel" and sw.present:
+        return bool({"reflection", "refraction"} & set(still))
     if sw.kind != "mistake" or not sw.present:
         return True
     return bool(set(catalogue()[sw.key].effects) & set(still))

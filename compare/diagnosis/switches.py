@@ -10,7 +10,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from compare.diagnosis.candidate import RGB, Candidate, rgb_text
+from compare.diagnosis.candidate import FRESNEL_QUIRK, PAPERS_FRESNEL, RGB, Candidate, rgb_text
 from compare.diagnosis.mistakes import catalogue
 from compare.judge.quirks import QUIRKS
 from compare.judge.target_model import MODE_QUIRKS, SWITCHABLE_EFFECTS
@@ -20,7 +20,11 @@ MAX_SEARCH_DEPTH = 32
 BACKGROUNDS: tuple[RGB, ...] = ((1.0, 1.0, 1.0), (2.0, 2.0, 2.0))  # black: black_background
 IORS = (1.1, 1.2, 1.33, 1.5)
 # The kinds whose switch sets a value (any value of one kind sets the same thing).
-VALUED = ("depth", "background", "ior", "bias")
+VALUED = ("depth", "background", "ior", "bias", "fresnel")
+# Where the paper's Fresnel curve (Q8) is on, the sweep tries these constants (mix, power) of
+# it: a mirror at every angle (the facing ratio's sign lost), half and half, and Schlick's
+# curve for glass of ior 1.5; one that helps is then fitted as a value (fresnel_fit.py).
+FRESNEL_SEEDS = ((1.0, 3), (0.5, 3), (0.04, 5))
 # Offsets of secondary rays programs hard-code (the scenes ask 1e-4): CAPBenchmarks' 1e-3.
 BIASES = (1e-5, 1e-3, 1e-2)
 # The step of the algorithm each quirk, mistake and effect lives in (what a student reads).
@@ -65,8 +69,10 @@ def glass_iors(scene: Scene) -> set[float]:
 class Switch:
     """One switch tried on top of a candidate."""
 
-    kind: str  # "quirk" | "effect" | "depth" | "mistake" | "background" | "ior"
-    key: str  # "2" | "shadows" | "10" (the new depth) | "no_offset" | "1,1,1" | "1.5"
+    # "quirk" | "effect" | "depth" | "mistake" | "background" | "ior" | "bias" | "fresnel"
+    kind: str
+    # "2" | "shadows" | "10" (the new depth) | "no_offset" | "1,1,1" | "1.5" | "0.9,3" (mix, power)
+    key: str
     present: bool  # quirk/mistake added, effect off, depth raised, constant not the scene's
 
     def apply(self, c: Candidate, scene: Scene) -> Candidate:
@@ -82,7 +88,14 @@ class Switch:
             return c.with_ior(float(self.key) if self.present else None)
         if self.kind == "bias":
             return c.with_bias(float(self.key) if self.present else None)
+        if self.kind == "fresnel":
+            return c.with_fresnel(self.curve() if self.present else None)
         return c.at_depth(int(self.key), scene)
+
+    def curve(self) -> tuple[float, int]:
+        """A fresnel switch's (mix, power)."""
+        mix, power = self.key.split(",")
+        return float(mix), int(power)
 
     def _rgb(self) -> RGB:
         r, g, b = (float(v) for v in self.key.split(","))
@@ -110,7 +123,8 @@ class Switch:
             return EFFECT_STEPS[self.key]
         return {"depth": "recursion (the depth limit)", "background": "the background colour",
                 "ior": "refraction (the glass index)",
-                "bias": "secondary and shadow rays (their offset)"}[self.kind]  # fmt: skip
+                "bias": "secondary and shadow rays (their offset)",
+                "fresnel": "Fresnel (its curve's constants)"}[self.kind]  # fmt: skip
 
     def sets_same(self, other: Switch) -> bool:
         """Whether both set the same thing (a depth, a background, an ior, or one quirk,
@@ -132,6 +146,8 @@ class Switch:
             return f"ior {float(self.key):g}" if self.present else "scene ior"
         if self.kind == "bias":
             return f"bias {float(self.key):g}" if self.present else "scene bias"
+        if self.kind == "fresnel":
+            return f"Fresnel {curve_text(self.curve())}" if self.present else "paper's Fresnel"
         symptom = catalogue()[self.key].symptom if self.kind == "mistake" else ""
         if symptom and self.present:
             return symptom
@@ -156,6 +172,11 @@ class Switch:
             return f"the scene's bias {scene.bias:g}"
         if self.kind in ("background", "ior"):
             return self._constant_change(scene)
+        if self.kind == "fresnel":
+            papers = curve_text(PAPERS_FRESNEL)
+            if self.present:
+                return f"the Fresnel curve {curve_text(self.curve())} (the paper's: {papers})"
+            return f"the paper's Fresnel curve {papers}"
         m = catalogue()[self.key]
         if self.present and m.symptom:
             alike = [o.name for o in catalogue().values() if o.symptom == m.symptom]
@@ -185,6 +206,15 @@ class Switch:
                 f"ior {float(self.key):g} hard-coded for every glass sphere (the scene's: {theirs})"
             )
         return f"the scene's ior {theirs}"
+
+
+def curve_text(curve: tuple[float, int]) -> str:
+    """(0.9, 3) -> "0.9 + 0.1 (1 - cos)^3": the Fresnel weight of the reflection; (1, 3) ->
+    "1 at every angle"."""
+    mix, power = curve
+    if mix == 1 or power == 0:
+        return f"{1 if power == 0 else mix:g} at every angle"
+    return f"{mix:g} + {1 - mix:.4g} (1 - cos)^{power}"
 
 
 def switches(c: Candidate, scene: Scene, quirks: Sequence[int], *, full: bool) -> list[Switch]:
@@ -222,6 +252,12 @@ def _constant_switches(c: Candidate, scene: Scene) -> list[Switch]:
     out += [Switch("bias", f"{v:g}", True) for v in BIASES if v not in (scene.bias, c.bias)]
     if c.bias is not None:
         out.append(Switch("bias", "scene", False))
+    if FRESNEL_QUIRK in c.quirks:
+        out += [
+            Switch("fresnel", f"{m:g},{p}", True) for m, p in FRESNEL_SEEDS if (m, p) != c.fresnel
+        ]
+        if c.fresnel is not None:
+            out.append(Switch("fresnel", "paper", False))
     theirs = glass_iors(scene)
     if theirs:
         out += [Switch("ior", f"{v:g}", True) for v in IORS if {v} != theirs and v != c.ior]
@@ -250,6 +286,9 @@ def differences(a: Candidate, b: Candidate, scene: Scene) -> list[Switch]:
         out.append(Switch("ior", f"{b.ior or a.ior:g}", b.ior is not None))
     if a.bias != b.bias:
         out.append(Switch("bias", f"{b.bias or a.bias:g}", b.bias is not None))
+    if a.fresnel != b.fresnel:
+        mix, power = b.fresnel or a.fresnel or PAPERS_FRESNEL
+        out.append(Switch("fresnel", f"{mix:g},{power}", b.fresnel is not None))
     return out
 
 

@@ -224,8 +224,9 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
     # Fresnel
     "go-fresnel_facing_sign": (GO, "fresnel_facing_sign", "the facing ratio +d.n",
                                _c("fresnel_facing_sign"), _c(FRESNEL)),
+    # facing = 0 on every hit: the paper's curve gives 1, as the curve fitted with mix 1
     "go-fresnel_facing_clamped": (GO, "fresnel_facing_clamped", "the facing ratio max(0, +d.n)",
-                                  frozenset(), _c(FRESNEL)),
+                                  _c("Fresnel 1 at every angle"), _c(FRESNEL)),
     "js-fresnel_weights_swapped": (JS, "fresnel_weights_swapped", "the weights swapped",
                                    _c("fresnel_weights_swapped"), _c(FRESNEL)),
     "rust-fresnel_exponent": (RUST, "fresnel_exponent", "(1 - facing)^2",
@@ -264,9 +265,11 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
                           _c(BGR, FIRST_ONLY), _c(WRITING, SHADOW)),
     "go-rows_bottom_up-depth3": (GO, "rows_bottom_up,depth=3", "bottom row first, depth 3",
                                  _c(UPSIDE_DOWN, depths(3)), _c(WRITING, DEPTH)),
-    # in no catalogue: a typo no switch reproduces, so only its step can be told
+    # in no catalogue: the curve's constants are fitted as values
     "rust-fresnel_constants_swapped": (RUST, "fresnel_constants_swapped",
-                                       "0.9 + 0.1 (1 - cos)^3", frozenset(), _c(FRESNEL)),
+                                       "0.9 + 0.1 (1 - cos)^3",
+                                       _c("Fresnel 0.9 + 0.1 (1 - cos)^3"), _c(FRESNEL)),
+    # in no catalogue: a typo no switch reproduces, so only its step can be told
     "go-y_by_width": (GO, "y_by_width", "the row divided by the width", frozenset(),
                       _c(CAMERA)),
     "js-reflect_half": (JS, "reflect_half", "d - (d.n) n: the 2 forgotten", frozenset(),
