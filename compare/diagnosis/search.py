@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import localise, transforms
+from compare.diagnosis import localise, noise, transforms
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.fresnel_fit import fitted_curve
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
@@ -153,6 +153,7 @@ class Search:
         self.camera_slips: tuple[str, ...] = ()  # a camera mistake the modes are judged with
         self.near_by_count: list[Candidate] = []  # the nearest start and those within its margin
         self.banned: set[tuple[str, str]] = set()  # switches of a dead end (searched)
+        self.noisy = False  # the image carries random noise (denoised)
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
@@ -232,10 +233,32 @@ class Search:
         # The writer's transforms are fitted against the nearest start and those close to it by
         # count, not against the far-off ones searched only because every start is far.
         fitted_on = [c for c in begins if c in self.near_by_count]
+        if self.denoised(begins[0]):  # the modes are judged again without the noise
+            begins = self.nearest(starts)
+            fitted_on = [c for c in begins if c in self.near_by_count]
         if self.transformed(fitted_on):  # the modes are judged again through it
             begins = self.nearest(starts)
         self.trials.keep_only(set(begins))
         return mirrored, begins
+
+    def denoised(self, begin: Candidate) -> bool:
+        """Fits random noise (noise.py) on the image against begin's render; where it passes
+        the gates, it is named and the search judges the image without it from then on."""
+        t = self.trials
+        render = t.centre(begin).rgb
+        tr = noise.fitted(t.target.test, render, t.target.codes)
+        if tr is None or tr.undo is None:
+            return False
+        g = self._transform_gates(render, tr, tr.undo(t.target.test))
+        named = tuple(k for k in t.target.masks if k in g and g[k].passed)
+        if not named:
+            self.say(f"diagnose: {tr.name}, but it fails the gates")
+            return False
+        self.say(f"diagnose: the image has {tr.name}")
+        self.images.append(ImageCause(tr.family, tr.name, named, {k: g[k] for k in named}, tr.spec))
+        t.set_test(tr.undo(t.target.test))
+        self.noisy = True
+        return True
 
     def transformed(self, begins: list[Candidate]) -> bool:
         """Fits the writer's transforms (transforms.py) on the image against each begin's
@@ -263,16 +286,21 @@ class Search:
             t.set_values(tr)
         return True
 
-    def _transform_gates(self, render: F32, tr: transforms.Transform) -> dict[str, Gate]:
-        """gates.py for begin's render as it is and transformed, judged at pixel centres."""
+    def _transform_gates(
+        self, render: F32, tr: transforms.Transform, undone: F32 | None = None
+    ) -> dict[str, Gate]:
+        """gates.py for begin's render as it is and transformed, judged at pixel centres
+        against the image, or, given `undone`, as it is against the image and the image
+        undone (the noise taken out)."""
         t = self.trials
         test, enc, masks = t.target.test, t.target.image.encoding, t.target.masks
         shown = tr.apply(render)
+        after = test if undone is None else undone
         e0 = exact_match([render], test, enc, model="start", masks=masks)
-        e1 = exact_match([shown], test, enc, model=tr.name, masks=masks)
-        flips = tuple(
-            flip_crops.cropped_ldr_flip(metrics.display(r), metrics.display(test))
-            for r in (render, shown)
+        e1 = exact_match([shown], after, enc, model=tr.name, masks=masks)
+        flips = (
+            flip_crops.cropped_ldr_flip(metrics.display(render), metrics.display(test)),
+            flip_crops.cropped_ldr_flip(metrics.display(shown), metrics.display(after)),
         )
         none = np.zeros(test.shape[:2], bool)
         out = gates(e0, e1, none, lambda: (flips[0], flips[1]), masks)
@@ -409,6 +437,11 @@ class Search:
         depth one up or down), a full sweep again only while some effect is still not
         reproduced."""
         t = self.trials
+        if self.noisy:
+            # No candidate's codes can match noisy pixels exactly: what differs beyond the
+            # noise is localised, not searched.
+            self.say("diagnose: no search through the noise: what differs beyond it is localised")
+            return current
         promising: set[tuple[str, str]] | None = None  # None: try every switch this round
         for round_no in range(1, MAX_ROUNDS + 1):
             full = promising is None

@@ -162,6 +162,21 @@ def _fitted_powers(image: F32, render: F32) -> list[Transform]:
     return [_gamma(q) for q in ordered if abs(q - DOUBLE_GAMMA) > 0.01 and q > 0]
 
 
+def _unchanged(rgb: F32) -> F32:
+    return rgb
+
+
+def noise_transform(sigma: float, undo: Callable[[F32], F32] | None = None) -> Transform:
+    """Random noise (noise.py): `apply` leaves a render as it is (the noise is no value the
+    render has); `undo`, where the fit knows it, takes the noise out of the image."""
+    name = (
+        f"random noise on every pixel (about {sigma:.1f} levels of 255 either way, "
+        "unrelated from pixel to pixel): no step of the algorithm makes it; the image is "
+        "judged with the noise taken out"
+    )
+    return Transform("noise", name, _unchanged, undo, sigma)
+
+
 def of_spec(spec: list[str | float]) -> Transform:
     """The transform a spec names (Transform.spec); ValueError for one that is none."""
     family, value, name = str(spec[0]), float(spec[1]), str(spec[2])
@@ -174,6 +189,8 @@ def of_spec(spec: list[str | float]) -> Transform:
         "gamma": lambda: _gamma(value),
         "srgb": _srgb,
         "wrap": _wrap,
+        # judged without the noise; shown as it is (what was taken out is not kept)
+        "noise": lambda: noise_transform(value),
     }
     if family not in made:
         raise ValueError(f"no image transform {family!r}")
