@@ -419,3 +419,20 @@ def test_a_marked_pixel_opens_the_models_ray_tree_by_mouse_and_keyboard(
         browser.close()
         p.stop()
     assert not errors, errors
+
+
+def test_a_noisy_ppm_is_read_as_linear_and_its_noise_named(tmp_path: Path, rtdemo: str) -> None:
+    """Noise matches a few more pixels by chance read as sRGB, but looks far nearer read as
+    the PPM it is (bench_grade.py's noisy students were told "the PPM holds sRGB values")."""
+    folder = tmp_path / "subs"
+    folder.mkdir()
+    right = render_demo(rtdemo, SCENES / "classic.json", tmp_path / "r.exr", "--mode", "classic",
+                        "-q", size=(160, 120))  # fmt: skip
+    rgb = np.clip(np.nan_to_num(right.rgb), 0, 1)
+    noisy = rgb + np.random.default_rng(5).normal(0, 0.01, rgb.shape)
+    codes = np.floor(255 * np.clip(noisy, 0, 1)).astype(np.uint8)
+    (folder / "gina.ppm").write_bytes(b"P6\n160 120\n255\n" + codes.tobytes())
+    _grade(folder, tmp_path / "out")
+    gina = _book(tmp_path / "out")["gina"]
+    assert gina["status"] == "fail" and "read as sRGB" not in gina["reasons"], gina
+    assert "random noise on every pixel" in gina["diagnosis"], gina

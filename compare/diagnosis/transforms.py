@@ -183,7 +183,7 @@ def of_spec(spec: list[str | float]) -> Transform:
     if family == "channels":
         digits = f"{int(value):03d}"
         return _perm((int(digits[0]), int(digits[1]), int(digits[2])))
-    made = {
+    made: dict[str, Callable[[], Transform]] = {
         "transposed": _transposed,
         "scale": lambda: _scale(value, name),
         "gamma": lambda: _gamma(value),
