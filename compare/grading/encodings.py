@@ -2,7 +2,7 @@
 codes a PPM writer stores), but students convert one into the other keeping the bytes: a
 correct PPM saved as a PNG holds linear codes. Unless the teacher fixes the encoding
 (`grade --test-encoding`), an 8-bit image is judged in both: it passes when it matches in
-either, and otherwise counts in the one that looks nearer the model (mean FLIP). The scene's row says when the
+either, and otherwise counts in the one that looks nearer the model. The scene's row says when the
 image was read in the encoding its format does not imply."""
 
 from __future__ import annotations
@@ -10,15 +10,18 @@ from __future__ import annotations
 import dataclasses
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from compare.diagnosis.transforms import encoding_cause
-from compare.judge.images import ImageError, read_image
+from compare.judge.arrays import F32
+from compare.judge.images import ImageError, linear_to_srgb, read_image
 from compare.verdict.against import judge_against_model
 
 if TYPE_CHECKING:
     from compare.grading.results import SceneResult
+    from compare.judge.evaluate import Evaluation
     from compare.judge.images import Image
     from compare.judge.rubric import Rubric
-    from compare.judge.scoring import Score
     from compare.verdict.against import LoadedModel
 
 ENCODINGS = ("srgb", "linear")
@@ -59,40 +62,49 @@ def reread(image: Image, encoding: str) -> Image:
     return read_image(image.path, encoding=encoding, expected_size=image.shape)
 
 
-def choose_encoding(image: Image, model: LoadedModel, rubric: Rubric, forced: str | None) -> Image:
-    """The image to judge: decoded as `forced` when the teacher says so; else, for an
-    8-bit file, in whichever encoding passes (the one its format implies first); where
-    neither does, the one that looks nearer (its format's own on a tie)."""
-    if image.encoding not in ENCODINGS:
-        return image
-    if forced is not None:
-        return reread(image, forced)
-    first = judge_against_model(image, model, rubric).score
-    if first is None or first.status == "pass":
-        return image
+def choose_encoding(
+    image: Image, model: LoadedModel, rubric: Rubric, forced: str | None
+) -> tuple[Image, Evaluation]:
+    """The image to judge, with its evaluation: decoded as `forced` when the teacher says so;
+    else, for an 8-bit file, in whichever encoding passes (the one its format implies
+    first); where neither does, the one that looks nearer (its format's own on a tie).
+    Against a demo model the choice is made by exact match and a display distance, so no
+    FLIP is computed for the encoding not kept."""
+    if image.encoding in ENCODINGS and forced is not None:
+        image = reread(image, forced)
+    first = judge_against_model(image, model, rubric)
+    if image.encoding not in ENCODINGS or forced is not None or _passes(first):
+        return image, first
     try:
         other = reread(image, _OTHER[image.encoding])
     except ImageError:  # it was readable a moment ago: keep the first reading
-        return image
-    second = judge_against_model(other, model, rubric).score
-    if second is not None and (second.status == "pass" or _looks_nearer(second, first)):
-        return other
-    return image
+        return image, first
+    # A look first (exact match, no FLIP): the full verdict only if this reading is kept.
+    if _passes(judge_against_model(other, model, rubric, scored=False)) or _looks_nearer(
+        other, image, model
+    ):
+        return other, judge_against_model(other, model, rubric)
+    return image, first
 
 
-def _looks_nearer(other: Score, implied: Score) -> bool:
-    """Whether the image read in the other encoding looks nearer the model: its mean FLIP
-    over the effects, weighted by their pixels, is lower. Not the score (the share of
-    pixels that match): noise on a PPM matches a few more pixels read as sRGB, by chance,
-    while it looks seven times further off (FLIP 0.38 against 0.055, bench_grade.py's noisy
-    students)."""
-    return _mean_flip(other) < _mean_flip(implied)
+def _passes(ev: Evaluation) -> bool:
+    if ev.exact is not None:  # a demo model: exact match decides, no FLIP needed
+        return ev.exact.passed
+    return ev.score is not None and ev.score.status == "pass"
 
 
-def _mean_flip(score: Score) -> float:
-    pixels = sum(e.pixels for e in score.effects.values())
-    flips = sum((e.flip or 0.0) * e.pixels for e in score.effects.values())
-    return flips / pixels if pixels else 0.0
+def _looks_nearer(other: Image, implied: Image, model: LoadedModel) -> bool:
+    """Whether the image read in the other encoding looks nearer the model: a lower mean
+    difference of display values. Not the share of pixels that match: noise on a PPM matches
+    a few more pixels read as sRGB, by chance, while it looks seven times further off (FLIP
+    0.38 against 0.055, bench_grade.py's noisy students)."""
+    ref = _display(model.reference.rgb)
+    near_other = np.abs(_display(other.rgb) - ref).mean()
+    return bool(near_other < np.abs(_display(implied.rgb) - ref).mean())
+
+
+def _display(rgb: F32) -> F32:
+    return linear_to_srgb(np.clip(np.nan_to_num(rgb), 0, 1).astype(np.float32))
 
 
 def with_encoding(result: SceneResult, image: Image) -> SceneResult:

@@ -92,7 +92,6 @@ from compare.student_ids import displayable, student_slug
 from compare.verdict.against import (
     GRADE_DEFAULT,
     ModelRenders,
-    judge_against_model,
     load,
     nan_pixels,
     prepare,
@@ -164,8 +163,8 @@ def _grade_scene(
     img = _read_submission(path, model.reference.shape)
     if isinstance(img, str):
         return SceneResult(scene_name, model_name, "error", 0.0, img)
-    img = choose_encoding(img, model, rubric, task.test_encoding)
-    return with_encoding(_judge_scene(scene_name, img, model, task, rubric, page_dir), img)
+    judged = choose_encoding(img, model, rubric, task.test_encoding)
+    return with_encoding(_judge_scene(scene_name, judged, model, task, rubric, page_dir), judged[0])
 
 
 def _read_submission(path: str, shape: tuple[int, int]) -> Image | str:
@@ -183,7 +182,7 @@ def _read_submission(path: str, shape: tuple[int, int]) -> Image | str:
 
 def _judge_scene(
     scene_name: str,
-    img: Image,
+    judged: tuple[Image, Evaluation],
     model: LoadedModel,
     task: GradeTask,
     rubric: Rubric,
@@ -192,8 +191,8 @@ def _judge_scene(
     """The verdict, the reasons and the sentences of a scene's image; a failing image against
     a demo model is diagnosed. Writes the image and its difference for the page."""
 
+    img, ev = judged
     nan = nan_pixels(img)
-    ev = judge_against_model(img, model, rubric)
     verdict, reasons = _verdict(ev, nan)
     # Against a demo model the reasons say what differs; the sentences' SSIM and full FLIP maps
     # would double a failing submission's cost (bench/bench_grade.py).

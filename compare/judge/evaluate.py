@@ -270,6 +270,9 @@ class PairOptions(TypedDict, total=False):
         Judge against a demo model: `ref` is its pixel-centre render, and the verdict and
         score are the exact match's (FLIP is computed only for a failing effect's reason).
         Default None.
+    scored : bool
+        With `exact`, False stops at the exact match: no score, so no FLIP (a look at
+        whether an image passes). Default True.
     """
 
     hdr: bool
@@ -281,6 +284,7 @@ class PairOptions(TypedDict, total=False):
     pass_score: float | None
     flip: bool
     exact: ExactInputs | None
+    scored: bool
 
 
 def evaluate_pair(ref: F32, test: F32, **options: Unpack[PairOptions]) -> Evaluation:
@@ -325,7 +329,7 @@ def evaluate_pair(ref: F32, test: F32, **options: Unpack[PairOptions]) -> Evalua
             region=region,
             cache=exact.cache,
         )
-        if result.masks:
+        if result.masks and options.get("scored", True):
             result.score = score_exact(
                 result.exact,
                 result.effect_flip,

@@ -119,8 +119,10 @@ def judge_against_model(
     *,
     region: BOOL | None = None,
     tolerances: Tolerances = Tolerances(),
+    scored: bool = True,
 ) -> Evaluation:
-    """`test` against the model, per effect (the model's masks). Raises SizeMismatch."""
+    """`test` against the model, per effect (the model's masks). Raises SizeMismatch.
+    `scored` False: against a demo model, the exact match only (no score, no FLIP)."""
     rules = rubric.effects if rubric else None
     pass_score = rubric.pass_score if rubric else None
     if model.target.is_demo:
@@ -133,6 +135,7 @@ def judge_against_model(
             rules=rules,
             pass_score=pass_score,
             exact=ExactInputs(model.renders.model, model.offsets, test.encoding, model.bounds),
+            scored=scored,
         )
     return evaluate_pair(
         model.reference.rgb,
