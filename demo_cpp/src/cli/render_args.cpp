@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <iterator>
 #include <map>
 #include <thread>
@@ -10,6 +11,8 @@
 
 namespace rt {
 namespace {
+
+constexpr float kMaxCameraMap = 1000.0f;
 
 // An option that takes a value: stores it in `out`, given the option as typed (for messages).
 using ValuedOption = void (*)(RenderArgs& out, const std::string& option, const std::string& value);
@@ -20,6 +23,30 @@ Engine parse_engine(const std::string& text) {
     if (text == "packet") return Engine::packet;
     if (text == "scalar") return Engine::scalar;
     throw std::invalid_argument("expected packet or scalar, got '" + text + "'");
+}
+
+// "SU,OU,SV,OV": four finite numbers, each within +-kMaxCameraMap.
+CameraMap parse_camera_map(const std::string& text) {
+    const std::string rule = "four numbers SU,OU,SV,OV from -1000 to 1000";
+    float v[4];
+    std::size_t start = 0;
+    for (int i = 0; i < 4; ++i) {
+        const std::size_t comma = i < 3 ? text.find(',', start) : text.size();
+        if (comma == std::string::npos)
+            throw std::invalid_argument("expected " + rule + ", got '" + text + "'");
+        const std::string part = text.substr(start, comma - start);
+        std::size_t used = 0;
+        try {
+            v[i] = std::stof(part, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (part.empty() || used != part.size() || !std::isfinite(v[i]) ||
+            std::fabs(v[i]) > kMaxCameraMap)
+            throw std::invalid_argument("expected " + rule + ", got '" + text + "'");
+        start = comma + 1;
+    }
+    return {v[0], v[1], v[2], v[3]};
 }
 
 bool parse_backend_is_gl(const std::string& text) {
@@ -59,6 +86,8 @@ const std::map<std::string, ValuedOption>& valued_options() {
         {"--max-depth", [](RenderArgs& r, S o, S v) { r.max_depth = parse_int_arg(o, v, 0, 64); }},
         {"--fresnel-mix",
          [](RenderArgs& r, S o, S v) { r.fresnel_mix = parse_float_arg(o, v, 0.0f, 1.0f); }},
+        {"--camera-map",
+         [](RenderArgs& r, S o, S v) { r.camera_map = parse_option(o, v, parse_camera_map); }},
         {"--fresnel-power",
          [](RenderArgs& r, S o, S v) { r.fresnel_power = parse_int_arg(o, v, 0, 16); }},
         {"--width", [](RenderArgs& r, S o, S v) { r.width = parse_int_arg(o, v, 1, kMaxSide); }},
@@ -216,6 +245,8 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
                          " needs quirk Q10 fixed (use --mode physical or --fix Q10)");
     settings.trace.max_depth = a.max_depth.value_or(scene.max_depth);
     settings.trace.fresnel_curve = fresnel_curve_for(a, settings.trace.quirks);
+    if (a.camera_map && a.gl) throw UsageError("--camera-map needs the CPU tracer (--backend cpu)");
+    settings.trace.camera_map = a.camera_map;
     settings.trace.shadows = a.shadows;
     settings.trace.reflection = a.reflection;
     settings.trace.refraction = a.refraction;

@@ -31,6 +31,7 @@ struct RenderArgs {
     MistakeSet mistakes;
     std::optional<int> width, height, max_depth;
     std::optional<float> fresnel_mix;
+    std::optional<CameraMap> camera_map;
     std::optional<int> fresnel_power;
     int spp = 1;
     int threads = 0;

@@ -115,6 +115,17 @@ TEST(RenderArgs, AWrongValueNamesTheOptionAndTheValue) {
               "--fresnel-mix: expected a number from 0 to 1, got '0.5x'");
     EXPECT_EQ(with("--fresnel-power", "2.5"),
               "--fresnel-power: expected an integer from 0 to 16, got '2.5'");
+    const std::string map_rule =
+        "--camera-map: expected four numbers SU,OU,SV,OV from -1000 to 1000";
+    EXPECT_EQ(with("--camera-map", "1,0,1"), map_rule + ", got '1,0,1'");
+    EXPECT_EQ(with("--camera-map", "1,0,1,nan"), map_rule + ", got '1,0,1,nan'");
+    EXPECT_EQ(with("--camera-map", "1,,1,0"), map_rule + ", got '1,,1,0'");
+    EXPECT_EQ(with("--camera-map", "1,0,1,0,5"), map_rule + ", got '1,0,1,0,5'");
+    EXPECT_EQ(with("--camera-map", "1e9,0,1,0"), map_rule + ", got '1e9,0,1,0'");
+    const RenderArgs a = parse_render_args({"s.json", "-o", "a.exr", "--camera-map", "1,-0.5,2,0"});
+    ASSERT_TRUE(a.camera_map);
+    EXPECT_EQ(a.camera_map->ou, -0.5f);
+    EXPECT_EQ(a.camera_map->sv, 2.0f);
 }
 
 // The curve's constants change Q8's curve: refused where the mode has none, kept otherwise.

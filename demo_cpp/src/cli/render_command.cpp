@@ -70,6 +70,9 @@ std::map<std::string, std::string> render_attributes(const RenderArgs& a, const 
         attributes["rtval.fresnel_mix"] = std::to_string(settings.trace.fresnel_curve.mix);
         attributes["rtval.fresnel_power"] = std::to_string(settings.trace.fresnel_curve.power);
     }
+    if (const auto& m = settings.trace.camera_map)
+        attributes["rtval.camera_map"] = std::to_string(m->su) + "," + std::to_string(m->ou) + "," +
+                                         std::to_string(m->sv) + "," + std::to_string(m->ov);
     if (!a.gl) {
         attributes["rtval.threads"] = std::to_string(settings.threads);
         attributes["rtval.rays_camera"] = std::to_string(rays.camera);

@@ -107,7 +107,7 @@ options:
                       output is one object with the header fields and a "pixels" list
   --json              the output format (the only one; accepted for clarity)
   --mode, --fix, --quirk, --mistake, --max-depth, --fresnel-mix, --fresnel-power,
-  --width, --height, --no-shadows, --no-reflection, --no-refraction
+  --camera-map, --width, --height, --no-shadows, --no-reflection, --no-refraction
                       the model, as for rtdemo render (see rtdemo render --help)
 
 Exit codes as for render; 2 also for a pixel outside the image.

@@ -14,11 +14,18 @@ CameraRays::CameraRays(const Camera& cam, int width, int height, CameraSlips sli
       aspect_(slips.no_aspect ? 1.0f : static_cast<float>(width) / static_cast<float>(height)),
       width_(static_cast<float>(width)),
       height_(static_cast<float>(height)),
-      unnormalized_(slips.unnormalized) {}
+      unnormalized_(slips.unnormalized),
+      map_(slips.map) {}
 
 ray CameraRays::render_from_camera(float px, float py) const {
-    const float xx = (2.0f * px / width_ - 1.0f) * half_height_ * aspect_;
-    const float yy = (1.0f - 2.0f * py / height_) * half_height_;
+    float xx, yy;
+    if (map_) {
+        xx = (2.0f * px / width_ - 1.0f) * map_->su + map_->ou;
+        yy = (1.0f - 2.0f * py / height_) * map_->sv + map_->ov;
+    } else {
+        xx = (2.0f * px / width_ - 1.0f) * half_height_ * aspect_;
+        yy = (1.0f - 2.0f * py / height_) * half_height_;
+    }
     const vec3 dir = right_ * xx + up_ * yy + forward_;
     return {origin_, unnormalized_ ? dir : normalize(dir)};
 }

@@ -19,7 +19,8 @@ int strata_per_axis(int spp) {
 }
 
 bool renders_in_bands(const RenderSettings& settings) {
-    return settings.engine == Engine::packet && !needs_scalar_tracer(settings.trace.mistakes);
+    return settings.engine == Engine::packet && !needs_scalar_tracer(settings.trace.mistakes) &&
+           !settings.trace.camera_map;
 }
 
 void render_cpu(const Scene& scene, const RenderSettings& settings, BandSink& sink,
@@ -45,7 +46,7 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
     }
     RenderedImage image(settings.width, settings.height);
     const CameraRays shared_camera(scene.camera, settings.width, settings.height,
-                                   camera_slips(settings.trace.mistakes));
+                                   camera_slips(settings.trace));
     const Tracer shared_tracer(scene, settings.trace);
     const int k = strata_per_axis(settings.spp);
     const float inv_samples = 1.0f / static_cast<float>(k * k);

@@ -21,7 +21,7 @@ ray centre_ray(const CameraRays& camera, const RenderSettings& settings, int x, 
 
 PixelTrace trace_pixel(const Scene& scene, const RenderSettings& settings, int x, int y) {
     const CameraRays camera(scene.camera, settings.width, settings.height,
-                            camera_slips(settings.trace.mistakes));
+                            camera_slips(settings.trace));
     Tracer tracer(scene, settings.trace);
     RayTreeRecorder recorder(scene);
     tracer.set_recorder(&recorder);
@@ -39,7 +39,7 @@ PixelTrace trace_pixel(const Scene& scene, const RenderSettings& settings, int x
 Plane path_plane(const Scene& scene, const RenderSettings& settings) {
     const int w = settings.width, h = settings.height;
     Plane plane(static_cast<std::size_t>(w) * h);
-    const CameraRays camera(scene.camera, w, h, camera_slips(settings.trace.mistakes));
+    const CameraRays camera(scene.camera, w, h, camera_slips(settings.trace));
     std::atomic<int> next_row{0};
     run_workers(settings.threads, [&](int) {
         Tracer tracer(scene, settings.trace);

@@ -11,6 +11,7 @@
 #include "core/mistakes.h"
 #include "core/ray.h"
 #include "core/sphere.h"
+#include "core/tracer.h"
 #include "core/vec3.h"
 
 namespace rt {
@@ -89,10 +90,11 @@ inline color mix_with_slip(const MistakeSet& m, SpecularParts parts, float fresn
     return (parts.reflected * f_reflect + parts.refracted * refract_weight) * w.tint;
 }
 
-// The camera slips (camera_rays.h) the named camera mistakes set.
-inline CameraSlips camera_slips(const MistakeSet& m) {
+// The camera slips (camera_rays.h) the named camera mistakes and a camera map set.
+inline CameraSlips camera_slips(const TraceOptions& t) {
+    const MistakeSet& m = t.mistakes;
     return {m.has(Mistake::aspect_ratio_missing), m.has(Mistake::fov_full_angle),
-            m.has(Mistake::ray_dir_unnormalized)};
+            m.has(Mistake::ray_dir_unnormalized), t.camera_map};
 }
 
 // Camera slips (camera_rays.h) of the named camera mistakes.

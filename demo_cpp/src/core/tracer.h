@@ -5,6 +5,7 @@
 #include <optional>
 #include <vector>
 
+#include "core/camera_rays.h"
 #include "core/fresnel.h"
 #include "core/mistakes.h"
 #include "core/quirks.h"
@@ -26,6 +27,8 @@ struct TraceOptions {
     MistakeSet mistakes;
     // The paper's Fresnel curve (Q8) with other constants (a student's, or a fitted one).
     FresnelCurve fresnel_curve;
+    // Another camera (camera_rays.h); the scalar tracer renders it.
+    std::optional<CameraMap> camera_map;
 };
 
 // The paper's Fresnel curve as a render uses it: the mistake fresnel_exponent squares instead
