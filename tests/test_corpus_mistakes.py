@@ -21,17 +21,9 @@ from corpus.harness import Corpus, open_corpus, params, report
 from corpus.programs import Variant
 from corpus.variants import MISTAKES, PAPER_VARIANTS
 
-# Diagnoses that are wrong today (measured 2026-12-05 on main aedc5f4 merged into e, 320x240):
-# each says what the diagnosis said and what is wrong with it.
-_NO_CAMERA_STEP = (
-    "names no cause and localises it to {said}: no path class is the camera's, so a camera "
-    "slip that no switch renders cannot be placed in its step"
-)
-_DIAGNOSIS_PENDING = {
-    "rust-fov35": _NO_CAMERA_STEP.format(said="'spread over several steps'"),
-    "go-fov_on_x": _NO_CAMERA_STEP.format(said="'spread over several steps'"),
-    "go-y_by_width": _NO_CAMERA_STEP.format(said="'spread over several steps'"),
-}
+# Diagnoses that are wrong today: each says what the diagnosis said and what is wrong with it
+# (none since 2026-12-05: the camera and the Fresnel curve's constants are fitted).
+_DIAGNOSIS_PENDING: dict[str, str] = {}
 
 
 def _not_yet(v: Variant, what: str) -> str | None:

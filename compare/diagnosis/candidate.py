@@ -25,6 +25,16 @@ FRESNEL_QUIRK = 8  # the paper's Fresnel curve, whose constants --fresnel-mix/-p
 PAPERS_FRESNEL = (0.1, 3)
 
 
+def camera_numbers(camera: str) -> str:
+    """rtdemo --camera-map's value of a camera key ("su,ou,sv,ov|words")."""
+    return camera.split("|", 1)[0]
+
+
+def camera_words(camera: str) -> str:
+    """What a camera key's camera is, in words."""
+    return camera.split("|", 1)[1] if "|" in camera else camera
+
+
 def rgb_text(rgb: RGB) -> str:
     """(1, 1, 1) -> "(1, 1, 1)": the way the names and sentences write a colour."""
     return "(" + ", ".join(f"{v:g}" for v in rgb) + ")"
@@ -53,6 +63,9 @@ class Candidate:
         Every glass sphere's index of refraction; default None: the scene's.
     bias : float or None
         The offset of secondary rays a program hard-codes; default None: the scene's.
+    camera : str or None
+        Another camera, as camera_fit.Fitted.key writes it: "su,ou,sv,ov|what it is", the
+        numbers rtdemo's ``--camera-map`` (camera_fit.py); default None: the scene's.
     fresnel : tuple[float, int] or None
         The paper's Fresnel curve (Q8) with other constants (mix, power): mix + (1 - mix)
         (1 - cos)^power, rtdemo's ``--fresnel-mix`` and ``--fresnel-power``; default None:
@@ -78,6 +91,7 @@ class Candidate:
     ior: float | None = None
     bias: float | None = None
     fresnel: tuple[float, int] | None = None
+    camera: str | None = None
     turn: tuple[float, float] | None = None
     grow: int | None = None
 
@@ -105,6 +119,8 @@ class Candidate:
             parts.append("--mistake " + ",".join(self.ordered_mistakes()))
         if self.fresnel is not None:
             parts.append(f"--fresnel-mix {self.fresnel[0]:g} --fresnel-power {self.fresnel[1]}")
+        if self.camera is not None:
+            parts.append(f"--camera-map {camera_numbers(self.camera)}")
         # Scene constants in brackets: they are a scene copy, not rtdemo options.
         if self.background is not None:
             parts.append(f"[background {rgb_text(self.background)}]")
@@ -129,6 +145,8 @@ class Candidate:
             args += ["--max-depth", str(self.max_depth)]
         if self.mistakes:
             args += ["--mistake", ",".join(self.ordered_mistakes())]
+        if self.camera is not None:
+            args += ["--camera-map", camera_numbers(self.camera)]
         if self.fresnel is not None:
             args += [
                 "--fresnel-mix",
@@ -187,6 +205,9 @@ class Candidate:
 
     def with_fresnel(self, curve: tuple[float, int] | None) -> Candidate:
         return dataclasses.replace(self, fresnel=curve)
+
+    def with_camera(self, camera: str | None) -> Candidate:
+        return dataclasses.replace(self, camera=camera)
 
     def turned(self, turn: tuple[float, float] | None) -> Candidate:
         return dataclasses.replace(self, turn=turn)

@@ -227,6 +227,7 @@ def _candidate_fields(c: Candidate) -> dict[str, Any]:
         "ior": c.ior,
         "bias": c.bias,
         "fresnel": list(c.fresnel) if c.fresnel is not None else None,
+        "camera": c.camera,
     }
 
 
@@ -242,6 +243,7 @@ def _candidate(raw: dict[str, Any]) -> Candidate:
         None if raw["ior"] is None else float(raw["ior"]),
         None if raw.get("bias") is None else float(raw["bias"]),
         _fresnel(raw.get("fresnel")),
+        None if raw.get("camera") is None else str(raw["camera"]),
     )
 
 

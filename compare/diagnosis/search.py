@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import localise, noise, transforms
+from compare.diagnosis import camera_fit, localise, noise, transforms
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.fresnel_fit import fitted_curve
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
@@ -150,7 +150,8 @@ class Search:
         self.quirks, self.max_renders, self.say = tuple(quirks), max_renders, say
         self.gated: dict[tuple[Candidate, Candidate], dict[str, Gate]] = {}
         self.images: list[ImageCause] = []  # the writer's transforms found (transformed)
-        self.camera_slips: tuple[str, ...] = ()  # a camera mistake the modes are judged with
+        # a camera mistake or fitted camera (a switch) the modes are judged with
+        self.camera_slips: tuple[Switch, ...] = ()
         self.near_by_count: list[Candidate] = []  # the nearest start and those within its margin
         self.banned: set[tuple[str, str]] = set()  # switches of a dead end (searched)
         self.noisy = False  # the image carries random noise (denoised)
@@ -328,26 +329,45 @@ class Search:
     def _toned_best(self, c: Candidate) -> Candidate:
         """c or c with a tone mistake (or the camera slip found), whichever leaves fewer
         pixels differing."""
-        slips = TONE_MISTAKES + self.camera_slips
-        toned = [c, *(c.with_mistake(m, True) for m in slips)]
+        toned = [c, *(c.with_mistake(m, True) for m in TONE_MISTAKES)]
+        toned += [sw.apply(c, self.scene) for sw in self.camera_slips]
         return min(toned, key=self.trials.whole_differing)
 
-    def camera_slip(self, starts: list[Candidate]) -> tuple[str, ...]:
-        """The catalogue's camera mistake that, on some start, halves the fewest pixels
-        differing from any start, when every start is far off (CAMERA_TRY_SHARE): the mode
-        cannot be judged before the silhouettes fit. () when the starts place them."""
+    def camera_slip(self, starts: list[Candidate]) -> tuple[Switch, ...]:
+        """The catalogue's camera mistake or the camera fitted from the silhouettes
+        (camera_fit.py) that, on some start, halves the fewest pixels differing from any
+        start, when every start is far off (CAMERA_TRY_SHARE): the mode cannot be judged
+        before the silhouettes fit. () when the starts place them."""
         t = self.trials
         plain = min(t.whole_differing(c) for c in starts)
         if plain <= CAMERA_TRY_SHARE * t.total_pixels():
             return ()
-        tried = {c.with_mistake(m, True): m for c in starts for m in camera_mistakes()}
+        changes = [Switch("mistake", m, True) for m in camera_mistakes()]
+        changes += self.fitted_cameras(starts)
+        tried = {sw.apply(c, self.scene): sw for c in starts for sw in changes}
         t.evaluate(list(tried))
         best = min(tried, key=t.whole_differing)
         if t.whole_differing(best) > CAMERA_RATIO * plain:
             return ()
         slip = tried[best]
-        self.say(f"diagnose: the silhouettes fit {slip}; the modes are compared through it")
+        self.say(f"diagnose: the silhouettes fit {slip.cause()}; the modes are compared through it")
         return (slip,)
+
+    def fitted_cameras(self, starts: list[Candidate]) -> list[Switch]:
+        """The cameras fitted from the image's silhouettes against the starts'."""
+        renders = [self.trials.centre(c).rgb for c in starts]
+        found = camera_fit.fitted(self.trials.target.test, renders, self.scene.camera.fov_y)
+        for f in found[:1]:
+            self.say(f"diagnose: the camera fitted from the silhouettes: {f.words}")
+        return [Switch("camera", f.key, True) for f in found]
+
+    def camera_switches(self, current: Candidate) -> list[Switch]:
+        """The fitted camera as a switch of the search (the catalogue's camera mistakes are
+        switches already)."""
+        fitted = [sw for sw in self.camera_slips if sw.kind == "camera"]
+        if current.camera is not None:
+            return [Switch("camera", current.camera, False)]
+        return fitted
 
     def nearest(self, starts: list[Candidate]) -> list[Candidate]:
         """The start whose pixels match the image most often, over the whole image: a program
@@ -482,6 +502,7 @@ class Search:
         tried = [
             sw
             for sw in switches(current, self.scene, self.quirks, full=promising is None)
+            + self.camera_switches(current)
             if (promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth")
             and (sw.kind, sw.key) not in self.banned
             and may_help(sw, still)

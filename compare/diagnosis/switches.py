@@ -10,7 +10,14 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from compare.diagnosis.candidate import FRESNEL_QUIRK, PAPERS_FRESNEL, RGB, Candidate, rgb_text
+from compare.diagnosis.candidate import (
+    FRESNEL_QUIRK,
+    PAPERS_FRESNEL,
+    RGB,
+    Candidate,
+    camera_words,
+    rgb_text,
+)
 from compare.diagnosis.mistakes import catalogue
 from compare.judge.quirks import QUIRKS
 from compare.judge.target_model import MODE_QUIRKS, SWITCHABLE_EFFECTS
@@ -20,7 +27,7 @@ MAX_SEARCH_DEPTH = 32
 BACKGROUNDS: tuple[RGB, ...] = ((1.0, 1.0, 1.0), (2.0, 2.0, 2.0))  # black: black_background
 IORS = (1.1, 1.2, 1.33, 1.5)
 # The kinds whose switch sets a value (any value of one kind sets the same thing).
-VALUED = ("depth", "background", "ior", "bias", "fresnel")
+VALUED = ("depth", "background", "ior", "bias", "fresnel", "camera")
 # Where the paper's Fresnel curve (Q8) is on, the sweep tries these constants (mix, power) of
 # it: a mirror at every angle (the facing ratio's sign lost), half and half, and Schlick's
 # curve for glass of ior 1.5; one that helps is then fitted as a value (fresnel_fit.py).
@@ -90,6 +97,8 @@ class Switch:
             return c.with_bias(float(self.key) if self.present else None)
         if self.kind == "fresnel":
             return c.with_fresnel(self.curve() if self.present else None)
+        if self.kind == "camera":
+            return c.with_camera(self.key if self.present else None)
         return c.at_depth(int(self.key), scene)
 
     def curve(self) -> tuple[float, int]:
@@ -109,7 +118,7 @@ class Switch:
                 return "step"  # a symptom several mistakes share: the step, not one of them
             step = catalogue()[self.key].step
             return {"camera": "camera", "image writing": "image"}.get(step, "mistake")
-        return {"quirk": "quirk", "effect": "step"}.get(self.kind, "constant")
+        return {"quirk": "quirk", "effect": "step", "camera": "camera"}.get(self.kind, "constant")
 
     @property
     def step(self) -> str:
@@ -124,7 +133,8 @@ class Switch:
         return {"depth": "recursion (the depth limit)", "background": "the background colour",
                 "ior": "refraction (the glass index)",
                 "bias": "secondary and shadow rays (their offset)",
-                "fresnel": "Fresnel (its curve's constants)"}[self.kind]  # fmt: skip
+                "fresnel": "Fresnel (its curve's constants)",
+                "camera": "the camera (the ray through each pixel)"}[self.kind]  # fmt: skip
 
     def sets_same(self, other: Switch) -> bool:
         """Whether both set the same thing (a depth, a background, an ior, or one quirk,
@@ -148,6 +158,8 @@ class Switch:
             return f"bias {float(self.key):g}" if self.present else "scene bias"
         if self.kind == "fresnel":
             return f"Fresnel {curve_text(self.curve())}" if self.present else "paper's Fresnel"
+        if self.kind == "camera":
+            return f"camera: {camera_words(self.key)}" if self.present else "scene camera"
         symptom = catalogue()[self.key].symptom if self.kind == "mistake" else ""
         if symptom and self.present:
             return symptom
@@ -172,6 +184,8 @@ class Switch:
             return f"the scene's bias {scene.bias:g}"
         if self.kind in ("background", "ior"):
             return self._constant_change(scene)
+        if self.kind == "camera":
+            return f"the camera: {camera_words(self.key)}" if self.present else "the scene's camera"
         if self.kind == "fresnel":
             papers = curve_text(PAPERS_FRESNEL)
             if self.present:
@@ -286,6 +300,10 @@ def differences(a: Candidate, b: Candidate, scene: Scene) -> list[Switch]:
         out.append(Switch("ior", f"{b.ior or a.ior:g}", b.ior is not None))
     if a.bias != b.bias:
         out.append(Switch("bias", f"{b.bias or a.bias:g}", b.bias is not None))
+    if a.camera != b.camera:
+        key = b.camera or a.camera
+        assert key is not None
+        out.append(Switch("camera", key, b.camera is not None))
     if a.fresnel != b.fresnel:
         mix, power = b.fresnel or a.fresnel or PAPERS_FRESNEL
         out.append(Switch("fresnel", f"{mix:g},{power}", b.fresnel is not None))

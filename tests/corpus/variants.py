@@ -179,9 +179,11 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
                   _c("every value raised to the power 1/2"), _c(WRITING)),
     "rust-exposure08": (RUST, "exposure08", "every value multiplied by 0.8 before writing",
                         _c("every value multiplied by 0.8"), _c(WRITING)),
-    # camera
-    "rust-fov35": (RUST, "fov35", "a 35 degree field of view", frozenset(), _c(CAMERA)),
-    "go-fov_on_x": (GO, "fov_on_x", "the field of view taken as horizontal", frozenset(),
+    # camera (those without a named mistake: fitted from the silhouettes, camera_fit.py)
+    "rust-fov35": (RUST, "fov35", "a 35 degree field of view",
+                   _c("camera: a field of view of 35 degrees (the scene's is 30)"), _c(CAMERA)),
+    "go-fov_on_x": (GO, "fov_on_x", "the field of view taken as horizontal",
+                    _c("camera: the field of view (30 degrees) taken as the horizontal one"),
                     _c(CAMERA)),
     "js-tan_full_fov": (JS, "tan_full_fov", "tan(fov) instead of tan(fov / 2)",
                         _c("fov_full_angle"), _c(CAMERA)),
@@ -269,9 +271,10 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
     "rust-fresnel_constants_swapped": (RUST, "fresnel_constants_swapped",
                                        "0.9 + 0.1 (1 - cos)^3",
                                        _c("Fresnel 0.9 + 0.1 (1 - cos)^3"), _c(FRESNEL)),
+    # in no catalogue: the camera fitted from the silhouettes
+    "go-y_by_width": (GO, "y_by_width", "the row divided by the width",
+                      _c("camera: the row divided by the width, not the height"), _c(CAMERA)),
     # in no catalogue: a typo no switch reproduces, so only its step can be told
-    "go-y_by_width": (GO, "y_by_width", "the row divided by the width", frozenset(),
-                      _c(CAMERA)),
     "js-reflect_half": (JS, "reflect_half", "d - (d.n) n: the 2 forgotten", frozenset(),
                         _c(REFLECTION)),
     "js-k_eta_unsquared": (JS, "k_eta_unsquared", "1 - eta (1 - cos^2) under the root",

@@ -1,0 +1,217 @@
+"""The camera fitted from geometry: where the image's silhouettes lie against the start's
+render tells how the program turned pixels into rays.
+
+Every camera slip of a pixel loop (a field of view of its own, the field of view taken as the
+horizontal one, a missing aspect ratio, a row divided by the width, pixel corners for
+centres) maps each image column to a column of the scene's camera by an affine function,
+and each row likewise (rtdemo --camera-map). So the image is an affine resampling of the
+start's render, axis by axis, wherever their colours agree. Each axis is registered on its
+edges: the profile of edge strength along the axis (silhouettes dominate it), matched against
+the render's over scales by FFT cross-correlation, then refined. The fitted map is read as
+the nearest of the slips students make (STORIES), with its own field of view snapped to a
+whole degree; only that story's exact camera is rendered, and the gates decide whether it is
+named.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from compare.judge.arrays import F32
+from compare.judge.images import linear_to_srgb
+
+CameraMap = tuple[float, float, float, float]  # su, ou, sv, ov (camera_rays.h)
+
+# Scales tried per axis (image pixel -> render pixel), log-spaced, then refined around the
+# best: a field of view from about a third to three times the scene's.
+SCALES = np.geomspace(0.35, 3.0, 240)
+# The registration must explain the edges this well (normalised correlation)...
+MIN_CORRELATION = 0.8
+# ...and the map must move some border pixel by at least this much (else it is the scene's).
+MIN_MOVE_PX = 0.75
+# A story is the fit's when its map is this near (relative to the scales).
+STORY_TOLERANCE = 0.03
+
+
+@dataclass(frozen=True)
+class Fitted:
+    """A camera the image shows: its map and the slip it is, in words."""
+
+    camera: CameraMap
+    words: str
+
+    @property
+    def key(self) -> str:
+        return ",".join(f"{v:.9g}" for v in self.camera) + "|" + self.words
+
+
+def fitted(image: F32, renders: list[F32], fov_y: float) -> list[Fitted]:
+    """The camera of `image` against the starts' `renders` (linear, one shape) of a scene
+    whose vertical field of view is `fov_y` degrees, registered on the render whose edges
+    it matches best (a mode's colours move some edges): the nearest story, and the same
+    with pixel corners for centres or without (half a pixel, which only a render tells
+    apart); [] where the image's silhouettes lie where the render's do, or where no affine
+    camera explains them."""
+    h, w = image.shape[:2]
+    ei = _edges(image)
+    fits: list[tuple[float, tuple[float, float], tuple[float, float]]] = []
+    for render in renders:
+        er = _edges(render)
+        rx = _register(ei.sum(axis=0), er.sum(axis=0))
+        ry = _register(ei.sum(axis=1), er.sum(axis=1))
+        if rx is not None and ry is not None:
+            fits.append((min(rx[2], ry[2]), (rx[0], rx[1]), (ry[0], ry[1])))
+    if not fits:
+        return []
+    _, x, y = max(fits)
+    moves = [abs((a - 1) * n + b) for (a, b), n in ((x, w), (y, h))] + [abs(x[1]), abs(y[1])]
+    if max(moves) < MIN_MOVE_PX:
+        return []
+    t = math.tan(math.radians(fov_y) / 2)
+    return _story(_as_map(x, y, w, h, t), w, h, fov_y)
+
+
+def _edges(rgb: F32) -> np.ndarray:
+    """Edge strength: the display luminance's gradient magnitude (one pixel shorter on the
+    far sides, padded back)."""
+    lum = linear_to_srgb(np.clip(np.nan_to_num(rgb), 0, 1).astype(np.float32)).mean(axis=-1)
+    gx = np.abs(np.diff(lum, axis=1, append=lum[:, -1:]))
+    gy = np.abs(np.diff(lum, axis=0, append=lum[-1:, :]))
+    return np.asarray(gx + gy, np.float64)
+
+
+def _register(p_img: np.ndarray, p_ren: np.ndarray) -> tuple[float, float, float] | None:
+    """(a, b, correlation) with render index j = a i + b for image index i, best matching
+    the edge profiles, or None when none matches well."""
+    n = p_img.size
+    best = max((_best_shift(p_img, p_ren, a) for a in SCALES), key=lambda r: r[0])
+    corr, a, b = best
+    for step in (0.004, 0.001):  # refine the scale, each with its best shift
+        options = [_best_shift(p_img, p_ren, a + k * step, b) for k in range(-3, 4)]
+        corr, a, b = max(options, key=lambda r: r[0])
+    corr, b = max((_correlation(p_img, p_ren, a, b + d), b + d) for d in np.linspace(-1, 1, 41))
+    return (a, b, corr) if corr >= MIN_CORRELATION and n >= 16 else None
+
+
+def _best_shift(
+    p_img: np.ndarray, p_ren: np.ndarray, a: float, near: float | None = None
+) -> tuple[float, float, float]:
+    """(correlation, a, b): the shift b that best matches at scale a, among the FFT's best
+    (_fft_shifts), or within 3 pixels of `near`."""
+    shifts = _fft_shifts(p_img, p_ren, a) if near is None else [near + d for d in range(-3, 4)]
+    corr, b = max((_correlation(p_img, p_ren, a, s), s) for s in shifts)
+    return corr, a, b
+
+
+def _fft_shifts(p_img: np.ndarray, p_ren: np.ndarray, a: float) -> list[float]:
+    """The shifts b (render index a i + b) of the FFT cross-correlation's ten highest raw
+    scores between the image's profile and the render's resampled at scale a."""
+    n = p_img.size
+    m = int(np.ceil(n / a)) + 1  # the render on the image's grid: index k is render's a k
+    k = np.arange(m, dtype=np.float64)
+    ren = np.interp(a * k, np.arange(n), p_ren, left=0.0, right=0.0)
+    size = 1 << int(np.ceil(np.log2(n + m)))
+    spectrum = np.fft.rfft(p_img - p_img.mean(), size) * np.conj(
+        np.fft.rfft(ren - ren.mean(), size)
+    )
+    raw = np.fft.irfft(spectrum, size)
+    # raw[lag]: image index i against resampled index i - lag, i.e. render index a (i - lag)
+    lags = np.concatenate([np.arange(0, n), np.arange(-m + 1, 0)])
+    top = lags[np.argsort(raw[lags % size])[-10:]]
+    return [float(-a * lag) for lag in top]
+
+
+def _correlation(p_img: np.ndarray, p_ren: np.ndarray, a: float, b: float) -> float:
+    """Normalised correlation of the image's profile with the render's at j = a i + b, over
+    the image indices whose j lies inside the render (at least a quarter of them)."""
+    n = p_img.size
+    j = a * np.arange(n, dtype=np.float64) + b
+    inside = (j >= 0) & (j <= n - 1)
+    if inside.sum() < n // 4:
+        return -1.0
+    x, y = p_img[inside], np.interp(j[inside], np.arange(n), p_ren)
+    if x.std() == 0 or y.std() == 0:
+        return -1.0
+    return float(np.corrcoef(x, y)[0, 1])
+
+
+def _as_map(x: tuple[float, float], y: tuple[float, float], w: int, h: int, t: float) -> CameraMap:
+    """The registration (index j = a i + b per axis, pixel centres at i + 0.5) as the camera
+    map it implies for a scene camera of tan(fov / 2) = t."""
+    (ax, bx), (ay, by) = x, y
+    # continuous coordinates: q = a p + b' with b' = b + 0.5 - 0.5 a
+    bx_c, by_c = bx + 0.5 - 0.5 * ax, by + 0.5 - 0.5 * ay
+    s0u, s0v = t * w / h, t
+    return (s0u * ax, s0u * (ax - 1 + 2 * bx_c / w), s0v * ay, s0v * (1 - ay - 2 * by_c / h))
+
+
+def _stories(
+    w: int, h: int, fov_y: float
+) -> list[tuple[str, Callable[[float], CameraMap], Callable[[CameraMap], float]]]:
+    """The slips students make: (words with {f} for the field of view, the map for a field
+    of view f, the f a fitted map implies)."""
+    aspect = w / h
+
+    def tan(f: float) -> float:
+        return math.tan(math.radians(f) / 2)
+
+    def fov(tn: float) -> float:
+        return math.degrees(2 * math.atan(max(tn, 1e-9)))
+
+    return [
+        (f"a field of view of {{f}} degrees (the scene's is {fov_y:g})",
+         lambda f: (tan(f) * aspect, 0.0, tan(f), 0.0), lambda m: fov(m[2])),
+        ("the field of view ({f} degrees) taken as the horizontal one",
+         lambda f: (tan(f), 0.0, tan(f) / aspect, 0.0), lambda m: fov(m[0])),
+        ("no aspect ratio: the field of view ({f} degrees) on both axes",
+         lambda f: (tan(f), 0.0, tan(f), 0.0), lambda m: fov((m[0] + m[2]) / 2)),
+        ("the row divided by the width, not the height",
+         lambda f: (tan(f) * aspect, 0.0, tan(f) / aspect, tan(f) * (1 - 1 / aspect)),
+         lambda m: fov(m[0] / aspect)),
+        ("the column divided by the height, not the width",
+         lambda f: (tan(f) * aspect * aspect, tan(f) * aspect * (aspect - 1), tan(f), 0.0),
+         lambda m: fov(m[2])),
+    ]  # fmt: skip
+
+
+def _story(m: CameraMap, w: int, h: int, fov_y: float) -> list[Fitted]:
+    """The story nearest the fitted map, with its field of view snapped to a whole degree
+    (the scene's where that is as near), with and without pixel corners; the fitted numbers
+    themselves where none is near."""
+    best: tuple[float, str, CameraMap] | None = None
+    for words, make, fov_of in _stories(w, h, fov_y):
+        f = fov_of(m)
+        for fov in {round(f), fov_y}:
+            story, text = make(fov), words.format(f=f"{fov:g}")
+            d = min(_distance(story, m), _distance(_cornered(story, w, h), m))
+            if best is None or d < best[0]:
+                best = (d, text, story)
+    assert best is not None
+    if best[0] > STORY_TOLERANCE:
+        su, ou, sv, ov = m
+        own = f"u = {su:.4g} (2x/W - 1) {ou:+.4g}, v = {sv:.4g} (1 - 2y/H) {ov:+.4g}"
+        return [Fitted(m, f"a camera of its own ({own})")]
+    _, text, story = best
+    corners = ", and pixel corners (x, y) for centres (x + 0.5, y + 0.5)"
+    return [Fitted(story, text), Fitted(_cornered(story, w, h), text + corners)]
+
+
+def _cornered(m: CameraMap, w: int, h: int) -> CameraMap:
+    """The map with pixel corners (x, y) where the centres (x + 0.5, y + 0.5) belong."""
+    su, ou, sv, ov = m
+    return (su, ou - su / w, sv, ov + sv / h)
+
+
+def _distance(a: CameraMap, b: CameraMap) -> float:
+    """How far two maps place the image's corners, relative to the scales."""
+    su, sv = abs(a[0]) + 1e-9, abs(a[2]) + 1e-9
+    return (
+        abs(a[0] - b[0]) / su
+        + abs(a[1] - b[1]) / su
+        + abs(a[2] - b[2]) / sv
+        + abs(a[3] - b[3]) / sv
+    )
