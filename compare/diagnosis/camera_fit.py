@@ -33,8 +33,11 @@ SCALES = np.geomspace(0.35, 3.0, 240)
 MIN_CORRELATION = 0.8
 # ...and the map must move some border pixel by at least this much (else it is the scene's).
 MIN_MOVE_PX = 0.75
-# A story is the fit's when its map is this near (relative to the scales).
-STORY_TOLERANCE = 0.03
+# A story is the fit's when its map is this near (relative to the scales): the registration
+# places edges to about a pixel, so STORY_PIXELS of the image's smaller side, plus
+# STORY_FLOOR; a whole degree of field of view moves the scales by 3 %.
+STORY_PIXELS = 2.5
+STORY_FLOOR = 0.005
 
 
 @dataclass(frozen=True)
@@ -179,23 +182,27 @@ def _stories(
 
 
 def _story(m: CameraMap, w: int, h: int, fov_y: float) -> list[Fitted]:
-    """The story nearest the fitted map, with its field of view snapped to a whole degree
-    (the scene's where that is as near), with and without pixel corners; the fitted numbers
-    themselves where none is near."""
-    best: tuple[float, str, CameraMap] | None = None
-    for words, make, fov_of in _stories(w, h, fov_y):
+    """The story that fits the map (within the tolerance) with the fewest changes from the
+    scene's camera (the slip itself, and a field of view of its own), then one that reads
+    the scene's field of view, then the nearer;
+    its field of view snapped to a whole degree; with and without pixel corners. The fitted
+    numbers themselves where no story fits: stories overlap (a 40-degree camera is nearly
+    a 52-degree one taken as horizontal), and one change is likelier than two."""
+    tolerance = STORY_PIXELS / min(w, h) + STORY_FLOOR
+    fits: list[tuple[int, bool, float, str, CameraMap]] = []
+    for n, (words, make, fov_of) in enumerate(_stories(w, h, fov_y)):
         f = fov_of(m)
         for fov in {round(f), fov_y}:
             story, text = make(fov), words.format(f=f"{fov:g}")
             d = min(_distance(story, m), _distance(_cornered(story, w, h), m))
-            if best is None or d < best[0]:
-                best = (d, text, story)
-    assert best is not None
-    if best[0] > STORY_TOLERANCE:
+            changes = (fov != fov_y) + (n > 0)
+            if d <= tolerance and changes:  # the scene's field of view, read right, first
+                fits.append((changes, fov != fov_y, d, text, story))
+    if not fits:
         su, ou, sv, ov = m
         own = f"u = {su:.4g} (2x/W - 1) {ou:+.4g}, v = {sv:.4g} (1 - 2y/H) {ov:+.4g}"
         return [Fitted(m, f"a camera of its own ({own})")]
-    _, text, story = best
+    *_, text, story = min(fits)
     corners = ", and pixel corners (x, y) for centres (x + 0.5, y + 0.5)"
     return [Fitted(story, text), Fitted(_cornered(story, w, h), text + corners)]
 
@@ -207,11 +214,8 @@ def _cornered(m: CameraMap, w: int, h: int) -> CameraMap:
 
 
 def _distance(a: CameraMap, b: CameraMap) -> float:
-    """How far two maps place the image's corners, relative to the scales."""
+    """How far two maps lie apart: the largest difference of a number, relative to its
+    axis's scale."""
     su, sv = abs(a[0]) + 1e-9, abs(a[2]) + 1e-9
-    return (
-        abs(a[0] - b[0]) / su
-        + abs(a[1] - b[1]) / su
-        + abs(a[2] - b[2]) / sv
-        + abs(a[3] - b[3]) / sv
-    )
+    terms = (a[0] - b[0]) / su, (a[1] - b[1]) / su, (a[2] - b[2]) / sv, (a[3] - b[3]) / sv
+    return max(abs(t) for t in terms)
