@@ -18,9 +18,7 @@ int strata_per_axis(int spp) {
     return k * k == spp ? k : 0;
 }
 
-bool renders_in_bands(const RenderSettings& settings) {
-    return settings.engine == Engine::packet && !needs_scalar_tracer(settings.trace.mistakes);
-}
+bool renders_in_bands(const RenderSettings& settings) { return settings.engine == Engine::packet; }
 
 void render_cpu(const Scene& scene, const RenderSettings& settings, BandSink& sink,
                 RayCounts* rays) {

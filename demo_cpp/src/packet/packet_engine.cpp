@@ -15,6 +15,7 @@
 #include "core/camera_rays.h"
 #include "core/cpu_features.h"
 #include "core/light_units.h"
+#include "core/student_slips.h"
 #include "core/worker_threads.h"
 #include "packet/packet_data.h"
 
@@ -204,8 +205,8 @@ RenderedImage allocate_image(int width, int height, bool aovs) {
     return image;
 }
 
-packet::CameraArrays camera_arrays(const Scene& scene, int width, int height) {
-    // The same basis as CameraRays (camera_rays.cpp) computes.
+packet::CameraArrays camera_arrays(const Scene& scene, int width, int height, CameraSlips slips) {
+    // The same basis and slips as CameraRays (camera_rays.cpp) computes.
     const Camera& cam = scene.camera;
     const vec3 forward = normalize(cam.look_at - cam.position);
     const vec3 right = normalize(cross(forward, cam.up));
@@ -215,8 +216,10 @@ packet::CameraArrays camera_arrays(const Scene& scene, int width, int height) {
     c.fx = forward.x, c.fy = forward.y, c.fz = forward.z;
     c.rx = right.x, c.ry = right.y, c.rz = right.z;
     c.ux = up.x, c.uy = up.y, c.uz = up.z;
-    c.half_height = std::tan(cam.fov_y * 0.5f * 3.14159265358979f / 180.0f);
-    c.aspect = static_cast<float>(width) / static_cast<float>(height);
+    c.half_height =
+        std::tan(cam.fov_y * (slips.full_angle_fov ? 1.0f : 0.5f) * 3.14159265358979f / 180.0f);
+    c.aspect = slips.no_aspect ? 1.0f : static_cast<float>(width) / static_cast<float>(height);
+    c.unnormalized = slips.unnormalized;
     c.width = static_cast<float>(width);
     c.height = static_cast<float>(height);
     return c;
@@ -444,7 +447,7 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
     const FrameJob job{kernels_for(isa),
                        store.view,
                        options_for(settings.trace),
-                       camera_arrays(scene, width, height),
+                       camera_arrays(scene, width, height, camera_slips(settings.trace.mistakes)),
                        width,
                        height,
                        k,

@@ -19,7 +19,6 @@
 #include <vector>
 
 #include "core/mistake_settings.h"
-#include "core/student_slips.h"
 #include "io/image_io.h"
 #include "io/scene_loader.h"
 #include "packet/packet_data.h"
@@ -209,17 +208,37 @@ TEST(PacketEngine, EqualsScalarWithQuirksAdded) {
     expect_same(fixed_then_added);
 }
 
+// Mistakes together whose code paths meet (student_slips.h's slips with each other and with
+// the mistakes they interact with in the tracer).
+std::vector<std::vector<Mistake>> mistake_combinations() {
+    using M = Mistake;
+    return {{M::no_offset, M::double_gamma, M::eta_inverted},
+            {M::no_offset, M::depth_cut, M::shadow_past_light},
+            {M::no_inside_flip, M::flipped_normal, M::fresnel_missing},
+            {M::half_pixel_offset, M::black_background, M::no_shadows, M::fresnel_constant,
+             M::fresnel_exponent},
+            {M::near_root_only, M::negative_root_hit},  // negative_root_hit wins
+            {M::near_root_only, M::ray_dir_unnormalized},
+            {M::negative_root_hit, M::shadow_dir_unnormalized},
+            {M::normal_not_normalized, M::inside_test_reversed},
+            {M::inside_test_reversed, M::no_inside_flip, M::flipped_normal},
+            {M::normal_not_normalized, M::reflect_sign},
+            {M::reflection_untinted, M::fresnel_weights_swapped, M::refraction_unweighted},
+            {M::fresnel_missing, M::reflection_untinted, M::fresnel_weights_swapped},
+            {M::fresnel_facing_sign, M::refraction_bias_outside, M::eta_inverted},
+            {M::light_dir_reversed, M::shadow_dir_unnormalized},
+            {M::shadow_first_only, M::light_blocks_itself},
+            {M::light_colour_from_hit, M::shadow_first_only},
+            {M::aspect_ratio_missing, M::fov_full_angle, M::ray_dir_unnormalized}};
+}
+
 // Every named mistake alone, and a few together: every instruction set gives the scalar
 // tracer's bits, in every mode on every project scene (spp 4 where Q10 is fixed), the
 // mistakes that are settings rendered as those settings (mistake_settings.h).
 TEST(PacketEngine, RendersEveryMistakeAsTheScalarTracer) {
     std::vector<std::vector<Mistake>> sets;
     for (int m = 0; m < kMistakeCount; ++m) sets.push_back({static_cast<Mistake>(m)});
-    sets.push_back({Mistake::no_offset, Mistake::double_gamma, Mistake::eta_inverted});
-    sets.push_back({Mistake::no_offset, Mistake::depth_cut, Mistake::shadow_past_light});
-    sets.push_back({Mistake::no_inside_flip, Mistake::flipped_normal, Mistake::fresnel_missing});
-    sets.push_back({Mistake::half_pixel_offset, Mistake::black_background, Mistake::no_shadows,
-                    Mistake::fresnel_constant, Mistake::fresnel_exponent});
+    for (const auto& set : mistake_combinations()) sets.push_back(set);
     for (const char* name : kProjectScenes)
         for (Mode mode : {Mode::classic, Mode::paper, Mode::physical})
             for (const auto& set : sets) {
@@ -228,8 +247,6 @@ TEST(PacketEngine, RendersEveryMistakeAsTheScalarTracer) {
                 settings.trace.quirks = quirks_for(mode);
                 settings.spp = mode == Mode::physical ? 4 : 1;
                 for (Mistake m : set) settings.trace.mistakes.add(m);
-                // Those the packet engine leaves to the scalar tracer: the next test.
-                if (needs_scalar_tracer(settings.trace.mistakes)) continue;
                 settings.engine = Engine::scalar;
                 RayCounts ref_rays;
                 const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
@@ -245,26 +262,22 @@ TEST(PacketEngine, RendersEveryMistakeAsTheScalarTracer) {
             }
 }
 
-// A mistake of student_slips.h asked of the packet engine is rendered by the scalar tracer:
-// render_cpu gives the scalar tracer's bits and ray counts, and no band-streamed output.
-TEST(PacketEngine, LeavesScalarOnlyMistakesToTheScalarTracer) {
+// Every mistake asked of the packet engine is the packet engine's (no render is left to the
+// scalar tracer any more): render_cpu streams it in bands, with the scalar tracer's bits.
+TEST(PacketEngine, RendersEveryMistakeItself) {
     const Scene scene = load_scene_file(kScenes + "/classic.json");
-    int routed = 0;
     for (int i = 0; i < kMistakeCount; ++i) {
         RenderSettings settings = classic_settings(scene, 48, 36);
         settings.trace.mistakes.add(static_cast<Mistake>(i));
-        if (!needs_scalar_tracer(settings.trace.mistakes)) continue;
         SCOPED_TRACE(settings.trace.mistakes.list());
-        ++routed;
         settings.engine = Engine::packet;
-        EXPECT_FALSE(renders_in_bands(settings));
+        EXPECT_TRUE(renders_in_bands(settings));
         RayCounts rays, ref_rays;
         const RenderedImage img = render_cpu(scene, settings, &rays);
         settings.engine = Engine::scalar;
         const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
         expect_same_frame(ref, ref_rays, img, rays);
     }
-    EXPECT_GE(routed, 15);
 }
 
 // Every mistake shows on the classic scene (its image differs from the plain one) through
@@ -419,7 +432,8 @@ TEST(PacketEngine, BandsWithMistakesAreTheScalarTracersFrame) {
     const Scene scene = load_scene_file(kScenes + "/classic.json");
     const std::vector<std::vector<Mistake>> sets = {
         {Mistake::no_offset, Mistake::double_gamma},
-        {Mistake::half_pixel_offset, Mistake::depth_cut, Mistake::fresnel_constant}};
+        {Mistake::half_pixel_offset, Mistake::depth_cut, Mistake::fresnel_constant},
+        {Mistake::near_root_only, Mistake::reflection_untinted, Mistake::ray_dir_unnormalized}};
     for (int spp : {1, 4})
         for (const auto& set : sets) {
             RenderSettings settings = classic_settings(scene, 45, 37);  // cut tiles and bands
