@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "core/camera_rays.h"
@@ -44,7 +45,9 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
     RenderedImage image(settings.width, settings.height);
     const CameraRays shared_camera(scene.camera, settings.width, settings.height,
                                    camera_slips(settings.trace.mistakes));
-    const Tracer shared_tracer(scene, settings.trace);
+    Tracer shared_tracer(scene, settings.trace);
+    std::optional<RayBudget> budget;
+    if (settings.ray_budget > 0) shared_tracer.set_budget(&budget.emplace(settings.ray_budget));
     const int k = strata_per_axis(settings.spp);
     const float inv_samples = 1.0f / static_cast<float>(k * k);
     const float centre = settings.trace.mistakes.has(Mistake::half_pixel_offset) ? 0.0f : 0.5f;
@@ -58,7 +61,7 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
         const CameraRays camera = shared_camera;
         const Tracer tracer = shared_tracer;
         const int width = settings.width, height = settings.height;
-        for (int y = next_row++; y < height; y = next_row++) {
+        for (int y = next_row++; y < height && !tracer.out_of_budget(); y = next_row++) {
             for (int x = 0; x < width; ++x) {
                 const std::size_t i = static_cast<std::size_t>(y) * width + x;
                 // One sample: it is the centre ray, whose hit gives the AOVs as it is traced.
@@ -88,9 +91,11 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
                 image.rgb[3 * i + 2] = c.z;
             }
         }
+        tracer.out_of_budget(true);
         counts[static_cast<std::size_t>(thread)] = tracer.ray_counts();
     };
     run_workers(settings.threads, worker);
+    if (budget) budget->check();
     if (rays) {
         *rays = {};
         for (const RayCounts& c : counts) *rays += c;
