@@ -30,11 +30,12 @@ TIME_FACTOR = 40.0
 TIME_LIMIT_MIN = 2.0
 TIME_LIMIT_MAX = 8.0
 # ... and may trace RAY_FACTOR times the rays of the dearest start (rtdemo render --ray-budget):
-# the same bound counted in rays, which no machine load moves. On classic.json a deeper limit
-# or a mistake multiplies a render's rays by 3.5 (--max-depth 16) to 17 (no_inside_flip at
-# depth 10; 100 at depth 14); the tree that doubles at every glass bounce (no_inside_flip at
-# depth 32) traces ~380000 times the start's rays (7.5e9 at 64x48, a minute on 2 threads).
-RAY_FACTOR = 40
+# the same bound counted in rays, which no machine load moves. On classic.json at 640x480 (the
+# start 2.0e6 rays) the dearest candidate a search judges, depth 32 with acne (no_offset),
+# traces 46 times the start's rays (9.2e7, 0.9 s on 2 threads); 100 times is about what the
+# 2 s minimum time limit lets a render trace (~1e8 rays/s), while the tree that doubles at every
+# glass bounce (no_inside_flip at depth 32) traces ~380000 times the start's (7.5e9 at 64x48).
+RAY_FACTOR = 100
 
 
 class Trials:
