@@ -237,31 +237,57 @@ std::vector<std::vector<Mistake>> mistake_combinations() {
 // Every named mistake alone, and a few together: every instruction set gives the scalar
 // tracer's bits, in every mode on every project scene (spp 4 where Q10 is fixed), the
 // mistakes that are settings rendered as those settings (mistake_settings.h).
+// `set` on scene `name` in `mode` (spp 4 where Q10 is fixed) at width x height: every
+// instruction set gives the scalar tracer's bits, the mistakes that are settings rendered as
+// those settings (mistake_settings.h).
+void expect_mistakes_same(const char* name, Mode mode, const std::vector<Mistake>& set, int width,
+                          int height) {
+    const Scene scene = load_scene_file(kScenes + "/" + name);
+    RenderSettings settings = classic_settings(scene, width, height);
+    settings.trace.quirks = quirks_for(mode);
+    settings.spp = mode == Mode::physical ? 4 : 1;
+    for (Mistake m : set) settings.trace.mistakes.add(m);
+    settings.engine = Engine::scalar;
+    RayCounts ref_rays;
+    const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
+    const PlainRender plain = without_setting_mistakes(scene, settings);
+    for (Isa isa : supported_isas()) {
+        SCOPED_TRACE(std::string(name) + " " + mode_name(mode) + " " +
+                     settings.trace.mistakes.list() + " isa " + isa_name(isa));
+        RayCounts rays;
+        const RenderedImage img = render_packet(plain.scene, plain.settings, isa, &rays);
+        expect_same_frame(ref, ref_rays, img, rays);
+    }
+}
+
 TEST(PacketEngine, RendersEveryMistakeAsTheScalarTracer) {
     std::vector<std::vector<Mistake>> sets;
     for (int m = 0; m < kMistakeCount; ++m) sets.push_back({static_cast<Mistake>(m)});
     for (const auto& set : mistake_combinations()) sets.push_back(set);
     for (const char* name : kProjectScenes)
         for (Mode mode : {Mode::classic, Mode::paper, Mode::physical})
-            for (const auto& set : sets) {
-                const Scene scene = load_scene_file(kScenes + "/" + name);
-                RenderSettings settings = classic_settings(scene, 48, 36);
-                settings.trace.quirks = quirks_for(mode);
-                settings.spp = mode == Mode::physical ? 4 : 1;
-                for (Mistake m : set) settings.trace.mistakes.add(m);
-                settings.engine = Engine::scalar;
-                RayCounts ref_rays;
-                const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
-                const PlainRender plain = without_setting_mistakes(scene, settings);
-                for (Isa isa : supported_isas()) {
-                    SCOPED_TRACE(std::string(name) + " " + mode_name(mode) + " " +
-                                 settings.trace.mistakes.list() + " isa " + isa_name(isa));
-                    RayCounts rays;
-                    const RenderedImage img =
-                        render_packet(plain.scene, plain.settings, isa, &rays);
-                    expect_same_frame(ref, ref_rays, img, rays);
-                }
-            }
+            for (const auto& set : sets) expect_mistakes_same(name, mode, set, 48, 36);
+}
+
+// The student slips (student_slips.h) alone and together on the stress scenes, whose rays
+// start inside glass, graze, meet total internal reflection and far or huge spheres.
+TEST(PacketEngine, RendersTheStudentSlipsOnStressScenes) {
+    using M = Mistake;
+    std::vector<std::vector<Mistake>> sets = mistake_combinations();
+    for (Mistake m : {M::light_dir_reversed, M::inside_test_reversed, M::normal_not_normalized,
+                      M::reflect_sign, M::light_blocks_itself, M::fresnel_facing_sign,
+                      M::refraction_bias_outside, M::shadow_dir_unnormalized, M::shadow_first_only,
+                      M::light_colour_from_hit, M::near_root_only, M::negative_root_hit,
+                      M::reflection_untinted, M::fresnel_weights_swapped, M::refraction_unweighted,
+                      M::aspect_ratio_missing, M::fov_full_angle, M::ray_dir_unnormalized})
+        sets.push_back({m});
+    for (const char* name :
+         {"stress/camera_inside_glass.json", "stress/facing_mirrors.json",
+          "stress/far_objects.json", "stress/grazing_floor.json", "stress/light_inside_glass.json",
+          "stress/coloured_lights.json", "stress/tir_grazing.json", "stress/nested_spheres.json",
+          "stress/intersecting_spheres.json", "stress/huge_floor_tiny_sphere.json"})
+        for (Mode mode : {Mode::classic, Mode::paper, Mode::physical})
+            for (const auto& set : sets) expect_mistakes_same(name, mode, set, 32, 24);
 }
 
 // Every mistake asked of the packet engine is the packet engine's (no render is left to the
