@@ -1,6 +1,8 @@
 """No candidate may run away: each render of a search has a time limit derived from the
 start's own cost (trials.limit_time); a candidate over it is stopped (its process group
-killed, jobs.RenderTimeLimit) and skipped, and the diagnosis says so."""
+killed, jobs.RenderTimeLimit) and skipped, and the diagnosis says so. It also has a ray budget
+derived from the starts' rays (trials.limit_rays): rtdemo stops a render past it itself
+(--ray-budget, exit 6, jobs.RenderRayBudget), and the candidate is skipped alike."""
 
 from __future__ import annotations
 
@@ -15,10 +17,10 @@ from helpers import SCENES
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.renderer import CandidateRenderer
 from compare.diagnosis.search import DiagnoseOptions, FunctionRenderer, diagnose
-from compare.diagnosis.trials import TIME_LIMIT_MAX, TIME_LIMIT_MIN
+from compare.diagnosis.trials import RAY_FACTOR, TIME_LIMIT_MAX, TIME_LIMIT_MIN
 from compare.judge.images import Image
 from compare.judge.target_model import TargetModel
-from compare.render.jobs import RenderTimeLimit
+from compare.render.jobs import RenderRayBudget, RenderTimeLimit
 from scene_model.scene import load_scene
 
 CLASSIC = SCENES / "classic.json"
@@ -102,3 +104,62 @@ def test_a_start_of_unknown_cost_still_bounds_every_candidate() -> None:
         image, load_scene(CLASSIC), render, DiagnoseOptions(start=Candidate.of_mode("classic"))
     )
     assert render.time_limit == TIME_LIMIT_MAX
+
+
+def test_a_runaway_render_is_stopped_by_its_ray_budget(tmp_path: Path) -> None:
+    # No time limit: the test waits for rtdemo, which stops the render itself (without the
+    # budget this one traces ~7.5e9 rays at 64x48, a minute on two threads).
+    with CandidateRenderer(CLASSIC, 64, 48, threads=2, cache=tmp_path) as render:
+        start = Candidate.of_mode("classic")
+        render(start)
+        rays = render.rays(start)
+        assert rays > 0  # read from the start's EXR header
+        render.ray_budget = RAY_FACTOR * rays
+        before = render.rendered
+        with pytest.raises(
+            RenderRayBudget, match=rf"stopped: ray budget of {RAY_FACTOR * rays} rays exhausted"
+        ):
+            render(RUNAWAY)
+        assert render.rendered == before  # nothing stored for it
+        render(start.with_depth(6))  # a candidate within the budget still renders
+        assert 0 < render.rays(start.with_depth(6)) <= RAY_FACTOR * rays
+
+
+@dataclass
+class _Budgeted(FunctionRenderer):
+    """The toy scene, except that a candidate deeper than 20 is the issue's runaway (RUNAWAY),
+    rendered by rtdemo on classic.json at 64x48 under this renderer's ray budget; the start's
+    rays are those of rtdemo's classic render at that size."""
+
+    real: CandidateRenderer | None = None
+
+    def __call__(self, what: TargetModel | Candidate) -> Image:
+        c = what if isinstance(what, Candidate) else Candidate.from_model(what)
+        if c.max_depth is not None and c.max_depth > 20:
+            assert self.real is not None and self.ray_budget is not None, "no ray budget set"
+            self.real.ray_budget = self.ray_budget
+            return self.real(RUNAWAY)
+        return self.render(c)
+
+    def passing(self, what: TargetModel | Candidate) -> Image:
+        return self(what)
+
+    def rays(self, what: TargetModel | Candidate) -> int:
+        assert self.real is not None
+        return self.real.rays(Candidate.of_mode("classic"))
+
+
+def test_a_candidate_over_its_ray_budget_is_skipped_and_said(tmp_path: Path) -> None:
+    rgb = _toy(Candidate.of_mode("classic").with_quirk(2, True)).rgb
+    image = Image(rgb=np.floor(rgb * 255) / 255, path="toy.ppm", encoding="linear")
+    with CandidateRenderer(CLASSIC, 64, 48, threads=2, cache=tmp_path) as real:
+        real(Candidate.of_mode("classic"))
+        render = _Budgeted(_toy, real=real)
+        start = Candidate.of_mode("classic")
+        d = diagnose(image, load_scene(CLASSIC), render, DiagnoseOptions(start=start))
+    assert render.ray_budget == RAY_FACTOR * real.rays(start) > 0
+    assert d.exact and 2 in d.quirks_present, d.sentences  # the search still finds Q2
+    assert len(d.skipped) == 1
+    assert d.skipped[0].startswith(f"classic --max-depth 32 ({RUNAWAY.name} stopped: ray budget")
+    said = [s for s in d.sentences if s.startswith("skipped (1 candidates ran past")]
+    assert said and "ray budget of" in said[0], d.sentences

@@ -246,6 +246,32 @@ def test_unwritable_output_is_exit_4_before_rendering(rtdemo: str, tmp_path: Pat
         assert run([rtdemo, "render", CLASSIC, "-o", str(ro / "x.exr")]).returncode == 4
 
 
+@pytest.mark.parametrize("engine", ["packet", "scalar"])
+@pytest.mark.parametrize("output", ["x.exr", "x.ppm"])  # streamed by the packet engine
+def test_a_spent_ray_budget_stops_with_exit_6_and_no_file(
+    rtdemo: str, tmp_path: Path, engine: str, output: str
+) -> None:
+    # The 40x30 classic frame traces 7714 rays (its header's count, the next test): a budget
+    # of exactly that finishes, one ray fewer stops.
+    out = tmp_path / output
+    common = [rtdemo, "render", CLASSIC, "-o", str(out), "--mode", "classic", "--engine", engine]
+    common += ["--width", "40", "--height", "30"]
+    done = run([*common, "--ray-budget", "7714"])
+    assert done.returncode == 0, done.stderr
+    out.unlink()
+    proc = run([*common, "--ray-budget", "7713"])
+    assert proc.returncode == 6
+    assert proc.stderr.startswith("rtdemo: ray budget of 7713 rays exhausted after ")
+    assert list(tmp_path.iterdir()) == []  # neither the output nor a temporary file
+
+
+def test_the_header_counts_the_rays_a_budget_limits(rtdemo: str, tmp_path: Path) -> None:
+    # 7714: this header's sum when --ray-budget came (1200 camera rays, and the secondary and
+    # shadow rays of classic.json at 40x30); both engines count alike (packet_engine_test.cpp).
+    h = render_demo(rtdemo, CLASSIC, tmp_path / "r.exr", "--mode", "classic", size=(40, 30)).header
+    assert sum(int(h[f"rtval.rays_{k}"]) for k in ("camera", "secondary", "shadow")) == 7714
+
+
 def test_no_temporary_files_are_left_behind(rtdemo: str, tmp_path: Path) -> None:
     render_demo(
         rtdemo, CLASSIC, tmp_path / "x.exr", "--png", str(tmp_path / "x.png"), size=(16, 12)

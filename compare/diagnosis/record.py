@@ -107,7 +107,7 @@ class Diagnosis:
     candidate: Candidate = field(repr=False)
     # The start, every step's candidate and the result, by name (the evidence pictures').
     candidates: dict[str, Candidate] = field(default_factory=dict, repr=False)
-    # Candidates not judged: their render ran past the time limit, "NAME: why".
+    # Candidates not judged: their render ran past the time limit or the ray budget, "NAME: why".
     skipped: list[str] = field(default_factory=list)
     # What the image's writer did to the values or pixels, fitted on the image (transforms.py).
     image_transforms: list[str] = field(default_factory=list)
@@ -274,7 +274,7 @@ class Found:
     or_more: bool  # the result's depth: every deeper limit fits as well
     mirrored: str
     candidates: dict[str, Candidate]  # the start, each step's and the result, by name
-    skipped: tuple[str, ...] = ()  # candidates over the time limit, with why
+    skipped: tuple[str, ...] = ()  # candidates over the time limit or ray budget, with why
     images: tuple[ImageCause, ...] = ()  # the writer's transforms found (transforms.py)
 
 
@@ -470,8 +470,8 @@ def _sentences(found: Found, findings: dict[str, EffectFinding], text: str) -> l
         )
     if found.skipped:
         out.append(
-            f"skipped ({len(found.skipped)} candidates ran past their time limit, so they "
-            "were not judged): " + "; ".join(found.skipped)
+            f"skipped ({len(found.skipped)} candidates ran past their time limit or ray budget, "
+            "so they were not judged): " + "; ".join(found.skipped)
         )
     if found.untested:
         out.append(

@@ -191,6 +191,10 @@ class CandidateRenderer:
         # no limit), and what each render took, by candidate name.
         self.time_limit: float | None = None
         self.costs: dict[str, float] = {}
+        # Rays a candidate's render may trace (diagnose sets it from the starts' rays; None: no
+        # limit), and the rays each render traced (its EXR header), by candidate name.
+        self.ray_budget: int | None = None
+        self.ray_counts: dict[str, int] = {}
         self.turns = exact_turns()  # read by diagnose: how exact matching renders a model
         self.grows = list(SPHERE_ULPS)  # and its spheres grown and shrunk
         later = ",".join(f"Q{q}" for q in LATER_QUIRKS)
@@ -258,6 +262,7 @@ class CandidateRenderer:
         c = what if isinstance(what, Candidate) else Candidate.from_model(what)
         job = candidate_job(c, self._scene_for(c), self.width, self.height, aovs=aovs)
         job.time_limit = self.time_limit
+        job.ray_budget = self.ray_budget
         return job
 
     def cost(self, what: TargetModel | Candidate) -> float:
@@ -270,6 +275,20 @@ class CandidateRenderer:
         seconds = job.seconds or float(job.info.get("seconds", 0.0) or 0.0)
         with self._lock:
             self.costs[c.name] = seconds
+
+    def rays(self, what: TargetModel | Candidate) -> int:
+        """Rays its render traced (camera, secondary and shadow; 0 when not known)."""
+        c = what if isinstance(what, Candidate) else Candidate.from_model(what)
+        with self._lock:
+            return self.ray_counts.get(c.name, 0)
+
+    def _rays(self, c: Candidate, image: Image) -> Image:
+        """Keeps the rays of c's render from its EXR header (rtdemo writes them there)."""
+        keys = ("rtval.rays_camera", "rtval.rays_secondary", "rtval.rays_shadow")
+        if all(k in image.header for k in keys):
+            with self._lock:
+                self.ray_counts[c.name] = sum(int(image.header[k]) for k in keys)
+        return image
 
     def with_aovs(self, what: TargetModel | Candidate) -> Image:
         """The render with its id and depth AOVs (read by diagnose for the effect masks)."""
@@ -294,7 +313,7 @@ class CandidateRenderer:
             return self(c)
         self._count(hit=hit)
         self._cost(c, job)
-        return image
+        return self._rays(c, image)
 
     def path_classes(self, what: TargetModel | Candidate) -> NDArray[np.int64] | None:
         """The candidate's path-class AOV (rtdemo --exr-channels rgb+path; localise.py): one
@@ -339,7 +358,7 @@ class CandidateRenderer:
         recent = _RECENT.get(set_key(job))
         if recent is not None:  # read already by this process: the cache is not asked
             self._count(hit=True, memory=True)
-            return recent
+            return self._rays(c, recent)
         extra = self._extra()
         hit = render_one(job, self.cache, extra_args=extra)
         self._cost(c, job)
@@ -349,4 +368,4 @@ class CandidateRenderer:
             hit = render_one(job, self.cache, extra_args=extra, again=True)
             image = read_image(job.exr(self.cache), aovs=KEPT_AOVS)
         self._count(hit=hit)
-        return _RECENT.put(job.cache_key, image)
+        return self._rays(c, _RECENT.put(job.cache_key, image))

@@ -67,6 +67,9 @@ class Renderer(Protocol):
     # Seconds one candidate's render may take before it is stopped and skipped (the search
     # sets it from the start's cost); None: no limit.
     time_limit: float | None
+    # Rays one candidate's render may trace before it is stopped and skipped (the search sets
+    # it from the starts' rays); None: no limit.
+    ray_budget: int | None
 
     @property
     def turns(self) -> Sequence[tuple[float, float]]:
@@ -95,6 +98,9 @@ class Renderer(Protocol):
 
     def cost(self, what: TargetModel | Candidate) -> float:
         """Seconds its render took when made (0 when not known)."""
+
+    def rays(self, what: TargetModel | Candidate) -> int:
+        """Rays its render traced (0 when not known)."""
 
     def path_classes(self, what: TargetModel | Candidate) -> NDArray[np.int64] | None:
         """rtdemo's path-class AOV of the candidate (localise.py), None when not available."""

@@ -13,7 +13,8 @@ switches that helped. The result is retold from the simplest mode, and a switch 
 for effects that pass every gate (gates.py): the verdict's exact match of the pixels that
 differed (not through a spread wider than the start's), FLIP over them halved, no effect worse.
 A quirk toggle that a constant reproduces as well is told with it. Every candidate's render has
-a time limit from the start's cost (trials.limit_time); one over it is skipped and said.
+a time limit from the start's cost (trials.limit_time) and a ray budget from the starts' rays
+(trials.limit_rays); one over either is skipped and said.
 """
 
 from __future__ import annotations
@@ -228,6 +229,9 @@ class Search:
         limit = self.trials.limit_time(starts + toned)
         if limit is not None:
             self.say(f"diagnose: each candidate may render for {limit:.1f} s")
+        budget = self.trials.limit_rays(starts + toned)
+        if budget is not None:
+            self.say(f"diagnose: each candidate may trace {budget} rays")
         mirrored = self.mirrored(starts + toned)
         self.camera_slips = self.camera_slip(starts)
         begins = self.nearest(starts)
@@ -849,6 +853,7 @@ class FunctionRenderer:
     search_quirks: tuple[int, ...] = SEARCH_QUIRKS
     store: Store | None = None
     time_limit: float | None = None
+    ray_budget: int | None = None
     # The path-class AOV of a candidate (localise.py); None: the diagnosis localises nothing.
     paths: Callable[[TargetModel | Candidate], INT | None] | None = None
 
@@ -863,6 +868,9 @@ class FunctionRenderer:
 
     def cost(self, what: TargetModel | Candidate) -> float:
         return 0.0
+
+    def rays(self, what: TargetModel | Candidate) -> int:
+        return 0
 
     def path_classes(self, what: TargetModel | Candidate) -> INT | None:
         return None if self.paths is None else self.paths(what)
@@ -891,10 +899,11 @@ def diagnose(
     id and depth AOVs (the first render's give the effect masks); its `turns` and `grows` are
     how exact matching perturbs a model, its `search_quirks` the quirks it can toggle, its
     `store` where FLIP numbers and diagnoses are kept (an image diagnosed before is not
-    searched again, memo.py), and its `time_limit` is set from the start's cost (a candidate
-    over it is skipped, and the diagnosis says so). When the switches that helped stop
-    helping and some effect is still not reproduced, every switch is tried once more (while
-    fewer than `max_renders` renders were made). Nothing depends on time but the skipped
+    searched again, memo.py), and its `time_limit` is set from the start's cost and its
+    `ray_budget` from the starts' rays (a candidate over either is skipped, and the diagnosis
+    says so). When the switches that helped stop helping and some effect is still not
+    reproduced, every switch is tried once more (while fewer than `max_renders` renders were
+    made). Nothing depends on time but the skipped
     candidates, so a loaded machine gives the same diagnosis, later.
     An image without one finite pixel raises NoFinitePixels before any candidate is
     rendered."""

@@ -21,7 +21,7 @@ from compare.judge.arrays import F32
 from compare.judge.effects import BOOL
 from compare.judge.exact_match import Bounds, ExactMatch, channel_matches, model_bounds
 from compare.judge.images import Image
-from compare.render.jobs import RenderTimeLimit
+from compare.render.jobs import RenderLimit
 
 # A candidate's render may take TIME_FACTOR times the dearest start's (a ray tree that doubles
 # at every glass bounce runs for minutes), within these bounds in seconds: a loaded machine
@@ -29,6 +29,13 @@ from compare.render.jobs import RenderTimeLimit
 TIME_FACTOR = 40.0
 TIME_LIMIT_MIN = 2.0
 TIME_LIMIT_MAX = 8.0
+# ... and may trace RAY_FACTOR times the rays of the dearest start (rtdemo render --ray-budget):
+# the same bound counted in rays, which no machine load moves. On classic.json at 640x480 (the
+# start 2.0e6 rays) the dearest candidate a search judges, depth 32 with acne (no_offset),
+# traces 46 times the start's rays (9.2e7, 0.9 s on 2 threads); 100 times is about what the
+# 2 s minimum time limit lets a render trace (~1e8 rays/s), while the tree that doubles at every
+# glass bounce (no_inside_flip at depth 32) traces ~380000 times the start's (7.5e9 at 64x48).
+RAY_FACTOR = 100
 
 
 class Trials:
@@ -44,7 +51,7 @@ class Trials:
     ) -> None:
         self.target, self.render, self.parallel = target, render, parallel
         self.turns, self.grows = list(render.turns), list(render.grows)
-        self.skipped: dict[Candidate, str] = {}  # candidates over the time limit: why
+        self.skipped: dict[Candidate, str] = {}  # candidates over a limit: why
         self.values: Transform | None = None  # the writer's value transform (set_values)
         # One thread for the work a claim needs later (FLIP, exact matches), begun early.
         self.background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="diagnose")
@@ -122,7 +129,7 @@ class Trials:
         passing = name is not None and c not in self.keep
         try:
             im = self._made(c, passing=passing)
-        except RenderTimeLimit as e:
+        except RenderLimit as e:  # its time limit or its ray budget
             return None, self.skip(c, str(e))
         if t.regions is None:
             self._first_check(c, im)
@@ -146,7 +153,7 @@ class Trials:
         return name, diagnose_kept.unpack_codes(data, pixels)
 
     def skip(self, c: Candidate, why: str) -> Score:
-        """c ran past the time limit: it is skipped (said in the diagnosis), scored as far
+        """c ran past the time limit or the ray budget: it is skipped (said in the diagnosis), scored as far
         from the image as any render can be, so that no step keeps it."""
         self.skipped[c] = why
         regions = self.target.regions
@@ -166,6 +173,15 @@ class Trials:
             limit = TIME_LIMIT_MAX
         self.render.time_limit = limit
         return limit
+
+    def limit_rays(self, starts: Sequence[Candidate]) -> int | None:
+        """Sets the renderer's ray budget: RAY_FACTOR times the rays of the dearest start.
+        None (no budget; the time limit still bounds every candidate) when no start's rays
+        are known (their codes were read from derived/ and nothing was rendered)."""
+        rays = max((self.render.rays(c) for c in starts), default=0)
+        budget = RAY_FACTOR * rays if rays > 0 else None
+        self.render.ray_budget = budget
+        return budget
 
     def _with_aovs(self, c: Candidate, im: Image) -> Image:
         """c's render with the AOVs the first check needs: `im`, or rendered again with them

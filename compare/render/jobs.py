@@ -54,6 +54,9 @@ class RenderJob:
     # Seconds the command may run before its process group is killed (RenderTimeLimit);
     # None: no limit. Not in the cache key: a render made within it is the same render.
     time_limit: float | None = field(default=None, compare=False)
+    # Rays an rtdemo render may trace (rtdemo render --ray-budget; RenderRayBudget past it);
+    # None: no limit. Not in the cache key either, for the same reason.
+    ray_budget: int | None = field(default=None, compare=False)
 
     def command(self, out: str | Path, scene: str | Path | None = None) -> list[str]:
         values = {"{out}": str(out), "{scene}": str(scene if scene is not None else self.scene)}
@@ -66,8 +69,21 @@ class RenderJob:
         return cache.exr(self.cache_key)
 
 
-class RenderTimeLimit(ToolError):
+class RenderLimit(ToolError):
+    """A render was stopped by one of its job's limits (a search skips the candidate)."""
+
+
+class RenderTimeLimit(RenderLimit):
     """A render ran past its job's time_limit and was stopped."""
+
+
+class RenderRayBudget(RenderLimit):
+    """An rtdemo render traced more rays than its job's ray_budget: rtdemo stopped it
+    itself (exit RAY_BUDGET_EXIT, no output)."""
+
+
+# rtdemo's exit status for a render stopped by --ray-budget (docs/commands/exit-codes.md).
+RAY_BUDGET_EXIT = 6
 
 
 def _executable(job: RenderJob) -> str:
@@ -230,6 +246,8 @@ def _make_demo(job: RenderJob, cache: RenderCache, extra_args: Sequence[str] = (
 def _run_into(job: RenderJob, out: Path, extra_args: Sequence[str]) -> None:
     """Runs an rtdemo job writing `out`; its wall time into job.seconds."""
     cmd = [*job.command(out), *extra_args]
+    if job.ray_budget is not None:
+        cmd += ["--ray-budget", str(job.ray_budget)]
     cmd[0] = _executable(job)
     start = time.perf_counter()
     if job.time_limit is None:
@@ -237,6 +255,10 @@ def _run_into(job: RenderJob, out: Path, extra_args: Sequence[str]) -> None:
     else:
         proc = _run_limited(cmd, job)
     job.seconds = time.perf_counter() - start
+    if proc.returncode == RAY_BUDGET_EXIT and job.ray_budget is not None:
+        said = (proc.stderr.strip().splitlines() or [f"ray budget of {job.ray_budget} rays"])[-1]
+        said = said.removeprefix("rtdemo: ").removesuffix("; no output written")
+        raise RenderRayBudget(f"{job.label} stopped: {said}")
     if proc.returncode != 0:
         raise ToolError(
             f"{job.label} failed (exit {proc.returncode}): {job.command_text('OUT.exr')}\n"

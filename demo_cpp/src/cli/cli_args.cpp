@@ -6,6 +6,11 @@
 namespace rt {
 
 int parse_int_arg(const std::string& option, const std::string& text, int lo, int hi) {
+    return static_cast<int>(parse_long_arg(option, text, lo, hi));
+}
+
+long long parse_long_arg(const std::string& option, const std::string& text, long long lo,
+                         long long hi) {
     const std::string rule = "an integer from " + std::to_string(lo) + " to " + std::to_string(hi);
     long long v = 0;
     std::size_t used = 0;
@@ -16,7 +21,7 @@ int parse_int_arg(const std::string& option, const std::string& text, int lo, in
     }
     if (used != text.size() || v < lo || v > hi)
         throw UsageError(option + ": expected " + rule + ", got '" + text + "'");
-    return static_cast<int>(v);
+    return v;
 }
 
 float parse_float_arg(const std::string& option, const std::string& text, float lo, float hi) {

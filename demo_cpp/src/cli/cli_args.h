@@ -13,6 +13,8 @@ public:
 };
 
 int parse_int_arg(const std::string& option, const std::string& text, int lo, int hi);
+long long parse_long_arg(const std::string& option, const std::string& text, long long lo,
+                         long long hi);
 // A finite decimal number from lo to hi.
 float parse_float_arg(const std::string& option, const std::string& text, float lo, float hi);
 

@@ -20,7 +20,7 @@ usage:
 Exit codes: 0 ok, 1 out of memory ("rtdemo: error: out of memory ...") or another failure
 the message names, 2 bad arguments (an image over 16384 a side or 64 Mpixels among them),
 3 invalid scene file, 4 output not writable, 5 no OpenGL context, shader failure, or
-rtdemo-gl (the GL build beside rtdemo) missing.
+rtdemo-gl (the GL build beside rtdemo) missing, 6 render stopped by its --ray-budget.
 )";
 
 const char* kViewHelp = R"(usage: rtdemo view SCENE.json [options]
@@ -128,6 +128,12 @@ image:
   --frames N             render N frames and time them (default 1); cpu: the header's
                          render_seconds is the fastest frame (tracing alone, for benchmarks);
                          gl: the header keeps compile time and median frame time apart
+  --ray-budget N         stop the render once it has traced more than N rays (camera,
+                         secondary and shadow rays, as the EXR header's rtval.rays_* count
+                         them; the workers check every 65536 rays, so it stops within a few
+                         milliseconds): no output is written, stderr says "rtdemo: ray budget
+                         of N rays exhausted after M rays ...", exit 6. CPU tracer only;
+                         default: no limit
   --keep-frame           trace the whole frame, then write the outputs (no streaming: the
                          summary's write time is then the writers' alone, for benchmarks)
   -q, --quiet            no summary line on stderr

@@ -12,6 +12,7 @@
 #include "cli/cli_args.h"
 #include "cli/commands.h"
 #include "cli/help_text.h"
+#include "core/ray_budget.h"
 #include "gl/gl_backend.h"
 #include "io/image_io.h"
 #include "io/scene_loader.h"
@@ -24,6 +25,7 @@ constexpr int kExitUsage = 2;
 constexpr int kExitScene = 3;
 constexpr int kExitOutput = 4;
 constexpr int kExitGl = 5;
+constexpr int kExitRayBudget = 6;
 
 // How the process allocates and meets a file-size limit: the same for every command.
 void configure_process() {
@@ -94,6 +96,9 @@ int main(int argc, char** argv) {
     } catch (const GlError& e) {
         std::fprintf(stderr, "rtdemo: error: OpenGL: %s\n", e.what());
         return kExitGl;
+    } catch (const RayBudgetExhausted& e) {
+        std::fprintf(stderr, "rtdemo: %s\n", e.what());
+        return kExitRayBudget;
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "rtdemo: error: out of memory\n");
         return 1;

@@ -97,6 +97,8 @@ const std::map<std::string, ValuedOption>& valued_options() {
          [](RenderArgs& r, S o, S v) { r.gl = parse_option(o, v, parse_backend_is_gl); }},
         {"--engine", [](RenderArgs& r, S o, S v) { r.engine = parse_option(o, v, parse_engine); }},
         {"--frames", [](RenderArgs& r, S o, S v) { r.frames = parse_int_arg(o, v, 1, 10000); }},
+        {"--ray-budget",
+         [](RenderArgs& r, S o, S v) { r.ray_budget = parse_long_arg(o, v, 1, kMaxRayBudget); }},
     };
     return table;
 }
@@ -239,6 +241,9 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
     }
     if (a.mistakes.any() && a.gl)
         throw UsageError("--mistake needs the CPU tracer (--backend cpu)");
+    if (a.ray_budget > 0 && a.gl)
+        throw UsageError("--ray-budget needs the CPU tracer (--backend cpu)");
+    settings.ray_budget = static_cast<std::uint64_t>(a.ray_budget);
     settings.trace.mistakes = a.mistakes;
     if (a.spp > 1 && settings.trace.quirks.has(Quirk::pixel_centre_rays))
         throw UsageError("--spp " + std::to_string(a.spp) +

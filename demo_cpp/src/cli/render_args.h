@@ -19,6 +19,7 @@ namespace rt {
 // The largest image rtdemo renders: 16384 a side, 64 Mpixels in all (8192 x 8192).
 constexpr int kMaxSide = 16384;
 constexpr long long kMaxPixels = 64ll * 1024 * 1024;
+constexpr long long kMaxRayBudget = 1000000000000000000ll;  // 10^18: below 2^63
 
 struct RenderArgs {
     std::string scene_path;
@@ -36,6 +37,7 @@ struct RenderArgs {
     int spp = 1;
     int threads = 0;
     int frames = 1;
+    long long ray_budget = 0;  // --ray-budget; 0: none
     bool gl = false;
     Engine engine = Engine::packet;
     bool shadows = true, reflection = true, refraction = true, quiet = false;
@@ -56,7 +58,8 @@ void check_distinct_outputs(const RenderArgs& a);
 void route_outputs_by_name(RenderArgs& a);
 
 // The settings for rendering `scene` as `a` asks; throws UsageError for a combination that
-// cannot be rendered (--mistake on GL, --spp > 1 with Q10, an image over kMaxPixels).
+// cannot be rendered (--mistake or --ray-budget on GL, --spp > 1 with Q10, an image over
+// kMaxPixels).
 RenderSettings settings_for(const RenderArgs& a, const Scene& scene);
 
 }  // namespace rt

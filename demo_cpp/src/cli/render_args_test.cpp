@@ -173,6 +173,13 @@ TEST(RenderArgs, SettingsRefuseWhatCannotBeRendered) {
     EXPECT_EQ(
         settings_error({"s.json", "-o", "a.exr", "--backend", "gl", "--mistake", "no_offset"}),
         "--mistake needs the CPU tracer (--backend cpu)");
+    EXPECT_EQ(settings_error({"s.json", "-o", "a.exr", "--backend", "gl", "--ray-budget", "9"}),
+              "--ray-budget needs the CPU tracer (--backend cpu)");
+    EXPECT_EQ(settings_for(
+                  parse_render_args({"s.json", "-o", "a.exr", "--ray-budget", "5000000000"}), scene)
+                  .ray_budget,
+              5000000000u);  // past 2^32
+    EXPECT_THROW(parse_render_args({"s.json", "-o", "a.exr", "--ray-budget", "0"}), UsageError);
     const RenderSettings s = settings_for(
         parse_render_args({"s.json", "--png", "a.png", "--mode", "physical", "--spp", "9"}), scene);
     EXPECT_EQ(s.width, 640);

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "core/camera_rays.h"
@@ -18,9 +19,9 @@ int strata_per_axis(int spp) {
     return k * k == spp ? k : 0;
 }
 
+// A camera map (rtdemo --camera-map, fitted by the diagnosis) is the scalar tracer's alone.
 bool renders_in_bands(const RenderSettings& settings) {
-    return settings.engine == Engine::packet && !needs_scalar_tracer(settings.trace.mistakes) &&
-           !settings.trace.camera_map;
+    return settings.engine == Engine::packet && !settings.trace.camera_map;
 }
 
 void render_cpu(const Scene& scene, const RenderSettings& settings, BandSink& sink,
@@ -47,7 +48,9 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
     RenderedImage image(settings.width, settings.height);
     const CameraRays shared_camera(scene.camera, settings.width, settings.height,
                                    camera_slips(settings.trace));
-    const Tracer shared_tracer(scene, settings.trace);
+    Tracer shared_tracer(scene, settings.trace);
+    std::optional<RayBudget> budget;
+    if (settings.ray_budget > 0) shared_tracer.set_budget(&budget.emplace(settings.ray_budget));
     const int k = strata_per_axis(settings.spp);
     const float inv_samples = 1.0f / static_cast<float>(k * k);
     const float centre = settings.trace.mistakes.has(Mistake::half_pixel_offset) ? 0.0f : 0.5f;
@@ -61,7 +64,7 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
         const CameraRays camera = shared_camera;
         const Tracer tracer = shared_tracer;
         const int width = settings.width, height = settings.height;
-        for (int y = next_row++; y < height; y = next_row++) {
+        for (int y = next_row++; y < height && !tracer.out_of_budget(); y = next_row++) {
             for (int x = 0; x < width; ++x) {
                 const std::size_t i = static_cast<std::size_t>(y) * width + x;
                 // One sample: it is the centre ray, whose hit gives the AOVs as it is traced.
@@ -91,9 +94,11 @@ RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings, Ray
                 image.rgb[3 * i + 2] = c.z;
             }
         }
+        tracer.out_of_budget(true);
         counts[static_cast<std::size_t>(thread)] = tracer.ray_counts();
     };
     run_workers(settings.threads, worker);
+    if (budget) budget->check();
     if (rays) {
         *rays = {};
         for (const RayCounts& c : counts) *rays += c;

@@ -26,10 +26,14 @@ struct RenderSettings {
     // many rays it traces the tile again pixel by pixel (same image, same counts). Tests set it
     // low to take that path on small scenes.
     long packet_tree_cap = 1L << 16;
+    // Rays the frame may trace (camera, secondary and shadow, as RayCounts counts them), 0 for
+    // no limit: past it the render stops and throws RayBudgetExhausted (core/ray_budget.h).
+    std::uint64_t ray_budget = 0;
 };
 
 // Precondition: settings were validated (sizes >= 1, spp a perfect square). With `rays`,
-// also reports how many rays of each kind were traced.
+// also reports how many rays of each kind were traced. Every render_cpu throws
+// RayBudgetExhausted when the frame passes settings.ray_budget (its output is then garbage).
 RenderedImage render_cpu(const Scene& scene, const RenderSettings& settings,
                          RayCounts* rays = nullptr);
 // The same frame again into `image`, as render_cpu returned it for these settings: the packet

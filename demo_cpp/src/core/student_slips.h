@@ -1,7 +1,7 @@
 // Named mistakes (mistakes.h) that change one formula of the tracer: each helper below is the
 // formula as a student's program writes it with that slip. The scalar tracer calls them only
-// when the mistake is set; the packet engine leaves these renders to the scalar tracer
-// (cpu_renderer.cpp, needs_scalar_tracer).
+// when the mistake is set; the packet engine repeats each one per lane (packet/kernels.inc),
+// bit for bit (packet_engine_test.cpp).
 #pragma once
 
 #include <cmath>
@@ -95,26 +95,6 @@ inline CameraSlips camera_slips(const TraceOptions& t) {
     const MistakeSet& m = t.mistakes;
     return {m.has(Mistake::aspect_ratio_missing), m.has(Mistake::fov_full_angle),
             m.has(Mistake::ray_dir_unnormalized), t.camera_map};
-}
-
-// Camera slips (camera_rays.h) of the named camera mistakes.
-inline bool has_camera_slip(const MistakeSet& m) {
-    return m.has(Mistake::aspect_ratio_missing) || m.has(Mistake::fov_full_angle) ||
-           m.has(Mistake::ray_dir_unnormalized);
-}
-
-// The mistakes only the scalar tracer renders (every one of this file's); the packet engine
-// leaves them to it.
-inline bool needs_scalar_tracer(const MistakeSet& m) {
-    constexpr Mistake kScalarOnly[] = {
-        Mistake::light_dir_reversed,      Mistake::inside_test_reversed,
-        Mistake::normal_not_normalized,   Mistake::reflect_sign,
-        Mistake::light_blocks_itself,     Mistake::fresnel_facing_sign,
-        Mistake::refraction_bias_outside, Mistake::shadow_dir_unnormalized,
-        Mistake::shadow_first_only,       Mistake::light_colour_from_hit};
-    for (Mistake s : kScalarOnly)
-        if (m.has(s)) return true;
-    return has_root_slip(m) || has_mix_slip(m) || has_camera_slip(m);
 }
 
 }  // namespace rt

@@ -105,6 +105,7 @@ color Tracer::traced(RayKind kind, const ray& r, int depth, int skip, PrimaryHit
 
 color Tracer::trace_skipping(const ray& r, int depth, int skip, PrimaryHit* first) const {
     ++(depth == 0 ? counts_.camera : counts_.secondary);
+    if (budget_.budget && out_of_budget()) return color(0.0f);  // the render is abandoned
     const auto hit = nearest_hit(r, skip);
     if (first) *first = hit ? primary_hit(scene_, r, hit.index, hit.t) : PrimaryHit{};
     if (!hit) return opt_.mistakes.has(Mistake::black_background) ? color(0.0f) : scene_.background;

@@ -9,6 +9,7 @@
 #include "core/fresnel.h"
 #include "core/mistakes.h"
 #include "core/quirks.h"
+#include "core/ray_budget.h"
 #include "core/ray_recorder.h"
 #include "core/scene.h"
 #include "core/sphere_lanes.h"
@@ -76,6 +77,14 @@ public:
     const RayCounts& ray_counts() const { return counts_; }
     // Events of every ray traced from now on go to `recorder` (null: none, the default).
     void set_recorder(RayRecorder* recorder) { recorder_ = recorder; }
+    // Rays traced from now on are charged to `budget` (ray_budget.h; null: no limit, the
+    // default); once it is spent every ray returns black at once, unwinding the tree quickly.
+    void set_budget(RayBudget* budget) { budget_.budget = budget; }
+    // Whether the budget is spent (the renderer stops handing out pixels); `settle` charges
+    // the rays not yet charged (at the worker's end).
+    bool out_of_budget(bool settle = false) const {
+        return budget_.update(counts_.total(), settle);
+    }
 
 private:
     using Hit = SphereHit;
@@ -102,6 +111,7 @@ private:
     std::vector<int> lights_;
     std::vector<color> light_intensity_;  // physical: I = pi E d0^2 per light
     mutable RayCounts counts_;
+    mutable BudgetShare budget_;
     SphereLanes lanes_;
     bool use_lanes_;
     RayRecorder* recorder_ = nullptr;  // Q1 present and at most SphereLanes::kMaxSpheres spheres

@@ -52,6 +52,7 @@ struct CameraArrays {
     float ox, oy, oz;
     float fx, fy, fz, rx, ry, rz, ux, uy, uz;
     float half_height, aspect, width, height;
+    bool unnormalized;  // ray_dir_unnormalized: the direction through the pixel, not normalised
 };
 
 // One bounce's rays and, at the same index, the node each becomes in the frame's tree of rays.

@@ -15,6 +15,8 @@
 #include "core/camera_rays.h"
 #include "core/cpu_features.h"
 #include "core/light_units.h"
+#include "core/ray_budget.h"
+#include "core/student_slips.h"
 #include "core/worker_threads.h"
 #include "packet/packet_data.h"
 
@@ -188,7 +190,14 @@ struct alignas(64) Worker {
     std::vector<float> aov[5];  // id depth nx ny nz, per tile pixel
     std::vector<float> sum[3];
     packet::Counts counts;
+    BudgetShare budget;  // the frame's ray budget, charged from `counts`
 };
+
+std::uint64_t total(const packet::Counts& c) { return c.camera + c.secondary + c.shadow; }
+
+// Whether the worker must stop: its rays charged to the frame's budget (ray_budget.h) once
+// they make a grain, checked after each bounce of a tile (a pixel's tree can explode).
+bool out_of_budget(Worker& wk) { return wk.budget.update(total(wk.counts)); }
 
 // The frame's planes, zero-filled by the kernel (image.h); the AOVs only when asked for.
 RenderedImage allocate_image(int width, int height, bool aovs) {
@@ -204,8 +213,8 @@ RenderedImage allocate_image(int width, int height, bool aovs) {
     return image;
 }
 
-packet::CameraArrays camera_arrays(const Scene& scene, int width, int height) {
-    // The same basis as CameraRays (camera_rays.cpp) computes.
+packet::CameraArrays camera_arrays(const Scene& scene, int width, int height, CameraSlips slips) {
+    // The same basis and slips as CameraRays (camera_rays.cpp) computes.
     const Camera& cam = scene.camera;
     const vec3 forward = normalize(cam.look_at - cam.position);
     const vec3 right = normalize(cross(forward, cam.up));
@@ -215,8 +224,10 @@ packet::CameraArrays camera_arrays(const Scene& scene, int width, int height) {
     c.fx = forward.x, c.fy = forward.y, c.fz = forward.z;
     c.rx = right.x, c.ry = right.y, c.rz = right.z;
     c.ux = up.x, c.uy = up.y, c.uz = up.z;
-    c.half_height = std::tan(cam.fov_y * 0.5f * 3.14159265358979f / 180.0f);
-    c.aspect = static_cast<float>(width) / static_cast<float>(height);
+    c.half_height =
+        std::tan(cam.fov_y * (slips.full_angle_fov ? 1.0f : 0.5f) * 3.14159265358979f / 180.0f);
+    c.aspect = slips.no_aspect ? 1.0f : static_cast<float>(width) / static_cast<float>(height);
+    c.unnormalized = slips.unnormalized;
     c.width = static_cast<float>(width);
     c.height = static_cast<float>(height);
     return c;
@@ -351,6 +362,7 @@ bool trace_region(Worker& wk, const FrameJob& job, const packet::Aov* with_aov, 
         last = d;
         tree += next.view.count;
         if (may_give_up && tree > job.tree_cap) return false;
+        if (out_of_budget(wk)) return false;
         if (next.view.count == 0) break;
     }
     for (int d = last; d >= 0; --d)
@@ -419,10 +431,14 @@ void render_tile(Worker& wk, const FrameJob& job, int tile, const packet::Aov& a
     const int x0 = (tile % job.tiles_x) * kTileW, y0 = tile / job.tiles_x * kTileH;
     const Region whole{x0, y0, std::min(kTileW, job.width - x0), std::min(kTileH, job.height - y0)};
     const packet::Counts before = wk.counts;
-    if (render_region(wk, job, whole, aov, at_pixel(out, x0))) return;
+    if (render_region(wk, job, whole, aov, at_pixel(out, x0)) || wk.budget.stopped) return;
     wk.counts = before;
+    if (wk.budget.charged > total(before)) {  // the rays are traced and charged again
+        wk.budget.budget->refund(wk.budget.charged - total(before));
+        wk.budget.charged = total(before);
+    }
     for (int y = 0; y < whole.h; ++y)
-        for (int x = 0; x < whole.w; ++x) {
+        for (int x = 0; x < whole.w && !wk.budget.stopped; ++x) {
             const std::ptrdiff_t at = static_cast<std::ptrdiff_t>(y) * job.width + x0 + x;
             render_region(wk, job, {x0 + x, y0 + y, 1, 1}, aov, at_pixel(out, at));
         }
@@ -444,7 +460,7 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
     const FrameJob job{kernels_for(isa),
                        store.view,
                        options_for(settings.trace),
-                       camera_arrays(scene, width, height),
+                       camera_arrays(scene, width, height, camera_slips(settings.trace)),
                        width,
                        height,
                        k,
@@ -455,6 +471,8 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
                        settings.trace.mistakes.has(Mistake::half_pixel_offset) ? 0.0f : 0.5f,
                        settings.trace.mistakes.has(Mistake::double_gamma),
                        settings.packet_tree_cap};
+    std::optional<RayBudget> budget;
+    if (settings.ray_budget > 0) budget.emplace(settings.ray_budget);
     std::unique_ptr<std::atomic<int>[]> tiles_left(new std::atomic<int>[bands]);
     for (int b = 0; b < bands; ++b) tiles_left[b] = tiles_x;
 
@@ -462,16 +480,22 @@ void render_tiles(const Scene& scene, const RenderSettings& settings, Isa isa, R
     std::vector<Worker> workers(static_cast<std::size_t>(settings.threads));
     auto work = [&](Worker& wk) {
         prepare(wk, job);
+        wk.budget.budget = budget ? &*budget : nullptr;
         const packet::Aov aov{wk.aov[0].data(), wk.aov[1].data(), wk.aov[2].data(),
                               wk.aov[3].data(), wk.aov[4].data()};
         for (int tile = next_tile++; tile < job.tiles; tile = next_tile++) {
             const int band = tile / tiles_x;
-            render_tile(wk, job, tile, aov, target(band));
+            // Once the budget is spent the tiles are still handed out and their bands handed
+            // over (untraced, thrown away with the output): no thread waits on a band slot
+            // (BandSlots) that a stopped thread would never free.
+            if (!wk.budget.stopped) render_tile(wk, job, tile, aov, target(band));
             if (tiles_left[band].fetch_sub(1) == 1) band_done(band);
         }
+        wk.budget.update(total(wk.counts), true);
     };
     run_workers(static_cast<int>(workers.size()),
                 [&](int i) { work(workers[static_cast<std::size_t>(i)]); });
+    if (budget) budget->check();
     if (rays) {
         *rays = {};
         for (const Worker& w : workers)

@@ -14,12 +14,13 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "core/mistake_settings.h"
-#include "core/student_slips.h"
+#include "core/ray_budget.h"
 #include "io/image_io.h"
 #include "io/scene_loader.h"
 #include "packet/packet_data.h"
@@ -209,62 +210,102 @@ TEST(PacketEngine, EqualsScalarWithQuirksAdded) {
     expect_same(fixed_then_added);
 }
 
+// Mistakes together whose code paths meet (student_slips.h's slips with each other and with
+// the mistakes they interact with in the tracer).
+std::vector<std::vector<Mistake>> mistake_combinations() {
+    using M = Mistake;
+    return {{M::no_offset, M::double_gamma, M::eta_inverted},
+            {M::no_offset, M::depth_cut, M::shadow_past_light},
+            {M::no_inside_flip, M::flipped_normal, M::fresnel_missing},
+            {M::half_pixel_offset, M::black_background, M::no_shadows, M::fresnel_constant,
+             M::fresnel_exponent},
+            {M::near_root_only, M::negative_root_hit},  // negative_root_hit wins
+            {M::near_root_only, M::ray_dir_unnormalized},
+            {M::negative_root_hit, M::shadow_dir_unnormalized},
+            {M::normal_not_normalized, M::inside_test_reversed},
+            {M::inside_test_reversed, M::no_inside_flip, M::flipped_normal},
+            {M::normal_not_normalized, M::reflect_sign},
+            {M::reflection_untinted, M::fresnel_weights_swapped, M::refraction_unweighted},
+            {M::fresnel_missing, M::reflection_untinted, M::fresnel_weights_swapped},
+            {M::fresnel_facing_sign, M::refraction_bias_outside, M::eta_inverted},
+            {M::light_dir_reversed, M::shadow_dir_unnormalized},
+            {M::shadow_first_only, M::light_blocks_itself},
+            {M::light_colour_from_hit, M::shadow_first_only},
+            {M::aspect_ratio_missing, M::fov_full_angle, M::ray_dir_unnormalized}};
+}
+
 // Every named mistake alone, and a few together: every instruction set gives the scalar
 // tracer's bits, in every mode on every project scene (spp 4 where Q10 is fixed), the
 // mistakes that are settings rendered as those settings (mistake_settings.h).
+// `set` on scene `name` in `mode` (spp 4 where Q10 is fixed) at width x height: every
+// instruction set gives the scalar tracer's bits, the mistakes that are settings rendered as
+// those settings (mistake_settings.h).
+void expect_mistakes_same(const char* name, Mode mode, const std::vector<Mistake>& set, int width,
+                          int height) {
+    const Scene scene = load_scene_file(kScenes + "/" + name);
+    RenderSettings settings = classic_settings(scene, width, height);
+    settings.trace.quirks = quirks_for(mode);
+    settings.spp = mode == Mode::physical ? 4 : 1;
+    for (Mistake m : set) settings.trace.mistakes.add(m);
+    settings.engine = Engine::scalar;
+    RayCounts ref_rays;
+    const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
+    const PlainRender plain = without_setting_mistakes(scene, settings);
+    for (Isa isa : supported_isas()) {
+        SCOPED_TRACE(std::string(name) + " " + mode_name(mode) + " " +
+                     settings.trace.mistakes.list() + " isa " + isa_name(isa));
+        RayCounts rays;
+        const RenderedImage img = render_packet(plain.scene, plain.settings, isa, &rays);
+        expect_same_frame(ref, ref_rays, img, rays);
+    }
+}
+
 TEST(PacketEngine, RendersEveryMistakeAsTheScalarTracer) {
     std::vector<std::vector<Mistake>> sets;
     for (int m = 0; m < kMistakeCount; ++m) sets.push_back({static_cast<Mistake>(m)});
-    sets.push_back({Mistake::no_offset, Mistake::double_gamma, Mistake::eta_inverted});
-    sets.push_back({Mistake::no_offset, Mistake::depth_cut, Mistake::shadow_past_light});
-    sets.push_back({Mistake::no_inside_flip, Mistake::flipped_normal, Mistake::fresnel_missing});
-    sets.push_back({Mistake::half_pixel_offset, Mistake::black_background, Mistake::no_shadows,
-                    Mistake::fresnel_constant, Mistake::fresnel_exponent});
+    for (const auto& set : mistake_combinations()) sets.push_back(set);
     for (const char* name : kProjectScenes)
         for (Mode mode : {Mode::classic, Mode::paper, Mode::physical})
-            for (const auto& set : sets) {
-                const Scene scene = load_scene_file(kScenes + "/" + name);
-                RenderSettings settings = classic_settings(scene, 48, 36);
-                settings.trace.quirks = quirks_for(mode);
-                settings.spp = mode == Mode::physical ? 4 : 1;
-                for (Mistake m : set) settings.trace.mistakes.add(m);
-                // Those the packet engine leaves to the scalar tracer: the next test.
-                if (needs_scalar_tracer(settings.trace.mistakes)) continue;
-                settings.engine = Engine::scalar;
-                RayCounts ref_rays;
-                const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
-                const PlainRender plain = without_setting_mistakes(scene, settings);
-                for (Isa isa : supported_isas()) {
-                    SCOPED_TRACE(std::string(name) + " " + mode_name(mode) + " " +
-                                 settings.trace.mistakes.list() + " isa " + isa_name(isa));
-                    RayCounts rays;
-                    const RenderedImage img =
-                        render_packet(plain.scene, plain.settings, isa, &rays);
-                    expect_same_frame(ref, ref_rays, img, rays);
-                }
-            }
+            for (const auto& set : sets) expect_mistakes_same(name, mode, set, 48, 36);
 }
 
-// A mistake of student_slips.h asked of the packet engine is rendered by the scalar tracer:
-// render_cpu gives the scalar tracer's bits and ray counts, and no band-streamed output.
-TEST(PacketEngine, LeavesScalarOnlyMistakesToTheScalarTracer) {
+// The student slips (student_slips.h) alone and together on the stress scenes, whose rays
+// start inside glass, graze, meet total internal reflection and far or huge spheres.
+TEST(PacketEngine, RendersTheStudentSlipsOnStressScenes) {
+    using M = Mistake;
+    std::vector<std::vector<Mistake>> sets = mistake_combinations();
+    for (Mistake m : {M::light_dir_reversed, M::inside_test_reversed, M::normal_not_normalized,
+                      M::reflect_sign, M::light_blocks_itself, M::fresnel_facing_sign,
+                      M::refraction_bias_outside, M::shadow_dir_unnormalized, M::shadow_first_only,
+                      M::light_colour_from_hit, M::near_root_only, M::negative_root_hit,
+                      M::reflection_untinted, M::fresnel_weights_swapped, M::refraction_unweighted,
+                      M::aspect_ratio_missing, M::fov_full_angle, M::ray_dir_unnormalized})
+        sets.push_back({m});
+    for (const char* name :
+         {"stress/camera_inside_glass.json", "stress/facing_mirrors.json",
+          "stress/far_objects.json", "stress/grazing_floor.json", "stress/light_inside_glass.json",
+          "stress/coloured_lights.json", "stress/tir_grazing.json", "stress/nested_spheres.json",
+          "stress/intersecting_spheres.json", "stress/huge_floor_tiny_sphere.json"})
+        for (Mode mode : {Mode::classic, Mode::paper, Mode::physical})
+            for (const auto& set : sets) expect_mistakes_same(name, mode, set, 32, 24);
+}
+
+// Every mistake asked of the packet engine is the packet engine's (no render is left to the
+// scalar tracer any more): render_cpu streams it in bands, with the scalar tracer's bits.
+TEST(PacketEngine, RendersEveryMistakeItself) {
     const Scene scene = load_scene_file(kScenes + "/classic.json");
-    int routed = 0;
     for (int i = 0; i < kMistakeCount; ++i) {
         RenderSettings settings = classic_settings(scene, 48, 36);
         settings.trace.mistakes.add(static_cast<Mistake>(i));
-        if (!needs_scalar_tracer(settings.trace.mistakes)) continue;
         SCOPED_TRACE(settings.trace.mistakes.list());
-        ++routed;
         settings.engine = Engine::packet;
-        EXPECT_FALSE(renders_in_bands(settings));
+        EXPECT_TRUE(renders_in_bands(settings));
         RayCounts rays, ref_rays;
         const RenderedImage img = render_cpu(scene, settings, &rays);
         settings.engine = Engine::scalar;
         const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
         expect_same_frame(ref, ref_rays, img, rays);
     }
-    EXPECT_GE(routed, 15);
 }
 
 // Every mistake shows on the classic scene (its image differs from the plain one) through
@@ -419,7 +460,8 @@ TEST(PacketEngine, BandsWithMistakesAreTheScalarTracersFrame) {
     const Scene scene = load_scene_file(kScenes + "/classic.json");
     const std::vector<std::vector<Mistake>> sets = {
         {Mistake::no_offset, Mistake::double_gamma},
-        {Mistake::half_pixel_offset, Mistake::depth_cut, Mistake::fresnel_constant}};
+        {Mistake::half_pixel_offset, Mistake::depth_cut, Mistake::fresnel_constant},
+        {Mistake::near_root_only, Mistake::reflection_untinted, Mistake::ray_dir_unnormalized}};
     for (int spp : {1, 4})
         for (const auto& set : sets) {
             RenderSettings settings = classic_settings(scene, 45, 37);  // cut tiles and bands
@@ -626,6 +668,80 @@ TEST(PacketEngine, EqualsScalarOnAThousandSpheres) {
         c.height = 60;
         expect_same(c);
     }
+}
+
+// Renders `settings` with render_cpu; the exception's budget and rays, or none.
+std::optional<RayBudgetExhausted> budget_stop(const Scene& scene, const RenderSettings& settings,
+                                              RayCounts* rays = nullptr) {
+    try {
+        render_cpu(scene, settings, rays);
+    } catch (const RayBudgetExhausted& e) {
+        return e;
+    }
+    return std::nullopt;
+}
+
+// --ray-budget: a frame of exactly its budget's rays finishes with the image and counts it
+// has without one (the packet engine also where it traces tiles again pixel by pixel: the rays
+// of the abandoned tile are given back); one ray fewer stops it, in both engines and every
+// instruction set, streamed or kept.
+TEST(PacketEngine, RayBudgetStopsPastItsCountOnly) {
+    const Scene scene = load_scene_file(kScenes + "/classic.json");
+    for (Engine engine : {Engine::scalar, Engine::packet})
+        for (long cap : {1L << 16, 64L}) {
+            RenderSettings settings = classic_settings(scene, 48, 36);
+            settings.engine = engine;
+            settings.packet_tree_cap = cap;
+            RayCounts plain_rays;
+            const RenderedImage plain = render_cpu(scene, settings, &plain_rays);
+            settings.ray_budget = plain_rays.total();
+            for (Isa isa : supported_isas()) {
+                SCOPED_TRACE(std::string(engine == Engine::packet ? "packet " : "scalar ") +
+                             isa_name(isa) + " tree cap " + std::to_string(cap));
+                ::setenv("RTDEMO_ISA", isa_name(isa), 1);
+                settings.ray_budget = plain_rays.total();
+                RayCounts rays;
+                EXPECT_FALSE(budget_stop(scene, settings, &rays).has_value());
+                EXPECT_EQ(rays.total(), plain_rays.total());
+                settings.ray_budget = plain_rays.total() - 1;
+                const auto stop = budget_stop(scene, settings);
+                ASSERT_TRUE(stop.has_value());
+                EXPECT_EQ(stop->budget(), plain_rays.total() - 1);
+                EXPECT_GT(stop->traced(), stop->budget());
+                EXPECT_NE(std::string(stop->what()).find("ray budget of"), std::string::npos);
+            }
+            ::unsetenv("RTDEMO_ISA");
+        }
+}
+
+// The runaway candidate, a tree of rays that explodes inside glass (classic, depth 32,
+// no_inside_flip): with a budget of 10 plain frames it stops in both engines, soon after
+// passing it; streamed into bands on more threads than band slots,
+// no thread waits for ever on a band that a stopped thread left.
+TEST(PacketEngine, RayBudgetStopsARunawayTree) {
+    const Scene scene = load_scene_file(kScenes + "/classic.json");
+    RenderSettings settings = classic_settings(scene, 64, 48);
+    RayCounts plain;
+    render_cpu(scene, settings, &plain);
+    settings.trace.max_depth = 32;
+    settings.trace.mistakes = parse_mistake_list("no_inside_flip,black_background");
+    settings.ray_budget = 10 * plain.total();
+    for (Engine engine : {Engine::scalar, Engine::packet}) {
+        settings.engine = engine;
+        SCOPED_TRACE(engine == Engine::packet ? "packet" : "scalar");
+        const auto stop = budget_stop(scene, settings);
+        ASSERT_TRUE(stop.has_value());
+        // Without a budget this frame traces 7.49e9 rays (rtdemo render at 64x48, 60 s on two
+        // threads): 38000 times the budget. Each thread may pass it by a grain and the rays of
+        // one bounce of its tile.
+        EXPECT_LT(stop->traced(), 3 * settings.ray_budget);
+    }
+    RenderSettings tall = settings;
+    tall.engine = Engine::packet;
+    tall.height = 8 * 80;  // 80 bands, at most 64 slots, on 70 threads
+    tall.threads = 70;
+    CopyingSink sink(tall.width, tall.height, 1, 8, 0);
+    EXPECT_THROW(render_cpu(scene, tall, sink), RayBudgetExhausted);
 }
 
 TEST(PacketEngine, IsaFromEnvironmentNamesTheVariable) {

@@ -11,6 +11,10 @@
 #error "define RT_SIMD_LEVEL (0, 1 or 2) before including packet/simd.h"
 #endif
 
+// The root slips of student_slips.h a robust test can carry: negative_root_hit takes t0 when
+// it lies at or behind the origin, near_root_only misses the sphere there (kernels.inc).
+constexpr int kRootPlain = 0, kRootNegative = 1, kRootNearOnly = 2;
+
 #if RT_SIMD_LEVEL == 0
 
 constexpr int W = 1;
@@ -85,9 +89,10 @@ inline VF expand_merge(VF src, VM m, const float* p) { return m ? VF{*p} : src; 
 inline VM from_bits(unsigned b) { return b != 0; }
 
 // The robust test of intersect_robust in double, per lane: the first root in (0, inf) as a
-// float, +inf where there is none.
+// float, +inf where there is none; with a root slip (kRootNegative, kRootNearOnly) as
+// intersect_robust_with_root_slip where t0 <= 0.
 inline VF robust_candidate(VF ox_, VF oy_, VF oz_, VF dx_, VF dy_, VF dz_, float cx, float cy,
-                           float cz, float radius) {
+                           float cz, float radius, int slip) {
     const double ox = double(ox_.v) - cx, oy = double(oy_.v) - cy, oz = double(oz_.v) - cz;
     const double dx = dx_.v, dy = dy_.v, dz = dz_.v;
     const double b = ox * dx + oy * dy + oz * dz;
@@ -105,6 +110,8 @@ inline VF robust_candidate(VF ox_, VF oy_, VF oz_, VF dx_, VF dy_, VF dz_, float
         t1 = s;
     }
     const float f0 = float(t0), f1 = float(t1);
+    if (slip != kRootPlain && f0 <= 0)
+        return {slip == kRootNegative ? f0 : std::numeric_limits<float>::infinity()};
     return {f0 > 0 ? f0 : (f1 > 0 ? f1 : std::numeric_limits<float>::infinity())};
 }
 
@@ -228,7 +235,7 @@ inline VM from_bits(unsigned b) {
 
 // Four lanes of intersect_robust in double (see the scalar version above for the steps).
 inline __m128 robust4(__m256d ox, __m256d oy, __m256d oz, __m256d dx, __m256d dy, __m256d dz,
-                      double r2) {
+                      double r2, int slip) {
     const __m256d sign = _mm256_set1_pd(-0.0), zero = _mm256_setzero_pd();
     const __m256d b = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ox, dx), _mm256_mul_pd(oy, dy)),
                                     _mm256_mul_pd(oz, dz));
@@ -256,21 +263,23 @@ inline __m128 robust4(__m256d ox, __m256d oy, __m256d oz, __m256d dx, __m256d dy
     const __m128 f0 = _mm256_cvtpd_ps(t0), f1 = _mm256_cvtpd_ps(t1);
     const __m128 z = _mm_setzero_ps(), inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
     __m128 t = _mm_blendv_ps(_mm_blendv_ps(inf, f1, _mm_cmpgt_ps(f1, z)), f0, _mm_cmpgt_ps(f0, z));
+    if (slip != kRootPlain)
+        t = _mm_blendv_ps(t, slip == kRootNegative ? f0 : inf, _mm_cmple_ps(f0, z));
     const __m128 miss =
         _mm256_cvtpd_ps(_mm256_cmp_pd(disc, zero, _CMP_LT_OQ));  // all-ones -> NaN: nonzero sign
     return _mm_blendv_ps(t, inf, miss);
 }
 
 inline VF robust_candidate(VF ox, VF oy, VF oz, VF dx, VF dy, VF dz, float cx, float cy, float cz,
-                           float radius) {
+                           float radius, int slip) {
     const double r2 = double(radius) * radius;
     auto lo = [](__m256 v) { return _mm256_cvtps_pd(_mm256_castps256_ps128(v)); };
     auto hi = [](__m256 v) { return _mm256_cvtps_pd(_mm256_extractf128_ps(v, 1)); };
     const __m256d cxd = _mm256_set1_pd(cx), cyd = _mm256_set1_pd(cy), czd = _mm256_set1_pd(cz);
     const __m128 a = robust4(_mm256_sub_pd(lo(ox.v), cxd), _mm256_sub_pd(lo(oy.v), cyd),
-                             _mm256_sub_pd(lo(oz.v), czd), lo(dx.v), lo(dy.v), lo(dz.v), r2);
+                             _mm256_sub_pd(lo(oz.v), czd), lo(dx.v), lo(dy.v), lo(dz.v), r2, slip);
     const __m128 b = robust4(_mm256_sub_pd(hi(ox.v), cxd), _mm256_sub_pd(hi(oy.v), cyd),
-                             _mm256_sub_pd(hi(oz.v), czd), hi(dx.v), hi(dy.v), hi(dz.v), r2);
+                             _mm256_sub_pd(hi(oz.v), czd), hi(dx.v), hi(dy.v), hi(dz.v), r2, slip);
     return {_mm256_insertf128_ps(_mm256_castps128_ps256(a), b, 1)};
 }
 
@@ -360,7 +369,7 @@ inline VF expand_merge(VF src, VM m, const float* p) {
 inline VM from_bits(unsigned b) { return static_cast<VM>(b); }
 
 inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy, __m512d dz,
-                      double r2) {
+                      double r2, int slip) {
     const __m512d zero = _mm512_setzero_pd();
     const __m512i sign = _mm512_set1_epi64(INT64_MIN);
     const __m512d b = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(ox, dx), _mm512_mul_pd(oy, dy)),
@@ -394,12 +403,14 @@ inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy
     const __m256 f0 = _mm512_cvtpd_ps(t0), f1 = _mm512_cvtpd_ps(t1);
     const __m256 z = _mm256_setzero_ps(),
                  inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
-    return _mm256_blendv_ps(_mm256_blendv_ps(inf, f1, _mm256_cmp_ps(f1, z, _CMP_GT_OQ)), f0,
-                            _mm256_cmp_ps(f0, z, _CMP_GT_OQ));
+    const __m256 t = _mm256_blendv_ps(_mm256_blendv_ps(inf, f1, _mm256_cmp_ps(f1, z, _CMP_GT_OQ)),
+                                      f0, _mm256_cmp_ps(f0, z, _CMP_GT_OQ));
+    if (slip == kRootPlain) return t;
+    return _mm256_blendv_ps(t, slip == kRootNegative ? f0 : inf, _mm256_cmp_ps(f0, z, _CMP_LE_OQ));
 }
 
 inline VF robust_candidate(VF ox, VF oy, VF oz, VF dx, VF dy, VF dz, float cx, float cy, float cz,
-                           float radius) {
+                           float radius, int slip) {
     const double r2 = double(radius) * radius;
     auto lo = [](__m512 v) { return _mm512_cvtps_pd(_mm512_castps512_ps256(v)); };
     auto hi = [](__m512 v) {
@@ -407,9 +418,9 @@ inline VF robust_candidate(VF ox, VF oy, VF oz, VF dx, VF dy, VF dz, float cx, f
     };
     const __m512d cxd = _mm512_set1_pd(cx), cyd = _mm512_set1_pd(cy), czd = _mm512_set1_pd(cz);
     const __m256 a = robust8(_mm512_sub_pd(lo(ox.v), cxd), _mm512_sub_pd(lo(oy.v), cyd),
-                             _mm512_sub_pd(lo(oz.v), czd), lo(dx.v), lo(dy.v), lo(dz.v), r2);
+                             _mm512_sub_pd(lo(oz.v), czd), lo(dx.v), lo(dy.v), lo(dz.v), r2, slip);
     const __m256 b = robust8(_mm512_sub_pd(hi(ox.v), cxd), _mm512_sub_pd(hi(oy.v), cyd),
-                             _mm512_sub_pd(hi(oz.v), czd), hi(dx.v), hi(dy.v), hi(dz.v), r2);
+                             _mm512_sub_pd(hi(oz.v), czd), hi(dx.v), hi(dy.v), hi(dz.v), r2, slip);
     return {_mm512_castpd_ps(
         _mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(a)), _mm256_castps_pd(b), 1))};
 }
