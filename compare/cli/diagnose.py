@@ -62,7 +62,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
     if args.json:
         write_atomic(args.json, json.dumps(result.as_dict(), indent=2) + "\n")
     mirrored = f", mirrored {result.mirrored}" if result.mirrored else ""
-    near = result.modes_as_near()
+    # Modes as near before the search; a result that matches exactly was told from them.
+    near = [] if result.exact else result.modes_as_near()
     tied = f" (as near: {', '.join(near)}; the image cannot tell them apart)" if near else ""
     print(f"{args.image}: {result.result}{mirrored}{tied}")
     for line in result.sentences:
