@@ -9,7 +9,7 @@ import numpy as np
 from helpers import SCENES, render_demo
 from student_variants import render_variant
 
-from compare.diagnosis.localise import PATH_BITS, RECALL_MIN, classes, locate
+from compare.diagnosis.localise import PATH_BITS, RECALL_MIN, classes, locate, on_silhouettes
 from compare.diagnosis.renderer import CandidateRenderer
 from compare.diagnosis.search import DiagnoseOptions, FunctionRenderer, diagnose
 from compare.judge.images import read_image
@@ -101,3 +101,18 @@ def test_wrong_eta_leaving_nothing_explains_is_localised(tmp_path: Path) -> None
     again = type(d).from_record(d.record())  # the memo keeps it
     assert again.as_dict()["localisation"] == out["localisation"]
     assert any(s.startswith("where the error lives: ") and "leaves glass" in s for s in d.sentences)
+
+
+def test_differing_pixels_on_the_silhouettes_point_to_camera_or_intersection() -> None:
+    # A disc's rim (the edges effect's pixels) differs, and only it: the spheres are drawn a
+    # little elsewhere. Differing pixels inside the disc too are no silhouette matter.
+    yy, xx = np.mgrid[:40, :40]
+    r = np.hypot(yy - 20, xx - 20)
+    edges = (r > 9) & (r < 11)
+    rim = edges & (xx > 20)
+    found = on_silhouettes(rim, edges)
+    assert found is not None and found.step == "the camera"
+    assert found.alternatives == ("the intersection",) and found.recall == 1.0
+    assert "silhouettes" in found.sentence
+    assert on_silhouettes(rim | (r < 5), edges) is None
+    assert on_silhouettes(rim, None) is None and on_silhouettes(np.zeros_like(rim), edges) is None

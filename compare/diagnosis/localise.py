@@ -221,6 +221,25 @@ def _sentence(names: tuple[str, ...], counts: tuple[int, int, float], steps: lis
     )
 
 
+def on_silhouettes(differing: BOOL, edges: BOOL | None) -> Located | None:
+    """The differing pixels told by where they lie rather than by path: nearly all on the
+    spheres' silhouettes (the edges effect's pixels) means the spheres are drawn a little
+    elsewhere, which the camera rays or the intersection test decide; None otherwise."""
+    n = int(np.count_nonzero(differing))
+    if edges is None or not n:
+        return None
+    hit, p = int(np.count_nonzero(differing & edges)), int(np.count_nonzero(edges))
+    if hit < RECALL_MIN * n:
+        return None
+    sentence = (
+        f"the differing pixels lie on the spheres' silhouettes ({hit:,} of {n:,}; "
+        f"{hit / p:.0%} of the silhouettes' pixels differ): the spheres are drawn a little "
+        "elsewhere, which the camera rays or the intersection test decide"
+    )
+    steps = ("the camera", "the intersection")
+    return Located(steps[0], sentence, ("SILHOUETTE",), n, p, hit / n, hit / p, steps[1:])
+
+
 def _spread(d: BOOL, path: INT, n: int) -> Located:
     top = classes(d, path, 3)
     listed = ", ".join(f"{c['class']} ({c['differing']:,})" for c in top)

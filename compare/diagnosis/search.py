@@ -818,7 +818,9 @@ def _located(
     paths: INT, differing: BOOL, masks: dict[str, BOOL], effects: list[str]
 ) -> dict[str, Any]:
     """The localisation's record: the whole image's, and each effect's with its classes."""
-    overall = localise.locate(differing, paths)
+    overall = localise.on_silhouettes(differing, masks.get("edges")) or localise.locate(
+        differing, paths
+    )
     per_effect = {}
     for k in effects:
         found = localise.locate(differing, paths, masks[k])
