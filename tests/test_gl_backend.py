@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from helpers import SCENES, render_demo, run
 
+from compare.diagnosis.mistakes import catalogue
 from compare.judge.images import read_image
 from compare.judge.metrics import compute_maps, compute_metrics
 
@@ -93,6 +94,92 @@ def test_gl_equals_cpu_on_stress_scenes(scene: str, mode: str, rtdemo: str, tmp_
     close = share_within_1_255(cpu, gl)
     assert close >= 0.999, close  # measured 0.99958 (thousand_spheres, paper) to 1.0
     assert (cpu.aovs["id"] == gl.aovs["id"]).mean() >= 0.999
+
+
+MISTAKE_SIZE = ("--width", "96", "--height", "72")
+
+
+def assert_gl_renders_mistakes(scene: str, mode: str, mistakes: str, rtdemo: str, tmp_path: Path):
+    """The named mistakes through both backends: the same image as test_gl_equals_cpu asks,
+    and an image the mistakes changed (the GL render without them differs)."""
+    cpu, gl = render_both(
+        SCENES / f"{scene}.json", mode, rtdemo, tmp_path, "--mistake", mistakes, *MISTAKE_SIZE
+    )
+    assert gl.header["rtval.mistakes"] == cpu.header["rtval.mistakes"] == mistakes
+    close = share_within_1_255(cpu, gl)
+    assert close >= 0.999, close
+    assert (cpu.aovs["id"] == gl.aovs["id"]).mean() >= 0.999
+    plain = render_demo(
+        rtdemo,
+        SCENES / f"{scene}.json",
+        tmp_path / "plain.exr",
+        "--mode",
+        mode,
+        "--backend",
+        "gl",
+        *MISTAKE_SIZE,
+    )
+    changed = np.abs(np.nan_to_num(plain.rgb, nan=-1.0) - np.nan_to_num(gl.rgb, nan=-1.0))
+    assert (changed > 1 / 255).any(), f"{mistakes} left the GL image as it was"
+
+
+# Every named mistake alone on the classic scene in classic mode, where every effect shows
+# (measured: 1.0 for all but half_pixel_offset, 0.99986).
+@pytest.mark.parametrize("mistake", list(catalogue()))
+def test_gl_renders_each_mistake_like_cpu(mistake: str, rtdemo: str, tmp_path: Path) -> None:
+    assert_gl_renders_mistakes("classic", "classic", mistake, rtdemo, tmp_path)
+
+
+# The paper's walk (Q1's intersection, Q7's light, Q8's Fresnel) and the exact one on a lit
+# scene take other paths through the mistakes' code; and several mistakes at once.
+@pytest.mark.parametrize(
+    "scene,mode,mistakes",
+    [
+        ("paper", "paper", "fresnel_exponent"),
+        ("paper", "paper", "reflect_sign"),
+        ("paper", "paper", "no_offset"),
+        ("paper", "paper", "near_root_only"),
+        ("paper", "paper", "light_colour_from_hit"),
+        ("paper", "paper", "shadow_first_only"),
+        ("lit", "physical", "negative_root_hit"),
+        ("lit", "physical", "no_offset"),
+        ("lit", "physical", "light_blocks_itself"),
+        ("lit", "physical", "fresnel_weights_swapped"),
+        ("lit", "physical", "half_pixel_offset,double_gamma,eta_inverted,fresnel_missing"),
+        ("classic", "paper", "fov_full_angle,aspect_ratio_missing,ray_dir_unnormalized"),
+    ],
+)
+def test_gl_renders_mistakes_like_cpu_in_other_modes(
+    scene: str, mode: str, mistakes: str, rtdemo: str, tmp_path: Path
+) -> None:
+    assert_gl_renders_mistakes(scene, mode, mistakes, rtdemo, tmp_path)
+
+
+def test_gl_refuses_unknown_mistakes_and_the_viewer_refuses_them_in_words(
+    rtdemo: str, tmp_path: Path
+) -> None:
+    out = tmp_path / "x.exr"
+    scene = str(SCENES / "classic.json")
+    proc = run(
+        [
+            rtdemo,
+            "render",
+            scene,
+            "-o",
+            str(out),
+            "--backend",
+            "gl",
+            "--mistake",
+            "no_offset,typo_slip",
+        ]
+    )
+    assert proc.returncode == 2 and not out.exists()
+    assert "unknown mistake 'typo_slip'" in proc.stderr and "Traceback" not in proc.stderr
+    proc = run([rtdemo, "view", scene, "--mistake", "no_offset"])
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == (
+        "rtdemo: error: --mistake is not an option of view (see rtdemo view --help)"
+    )
 
 
 def test_gl_supports_spp_and_effect_switches(rtdemo: str, tmp_path: Path) -> None:

@@ -63,6 +63,31 @@ flat in vec2 size;
 flat in int strata;
 flat in int display;
 
+// The CPU's arithmetic to the last bit where an image depends on it (EXACT_ARITHMETIC, set
+// by gl_program.cpp for no_offset and reflect_sign): a ray that starts exactly on a surface,
+// or heads into it, hits it again or not by the last bit of its origin, so one rounding apart
+// is a different pixel (measured: 5 to 12 % of pixels off with GLSL's own dot and normalize,
+// which may fuse multiply-adds and take a reciprocal square root). These are vec3.h's: left
+// to right, unfused (precise), a true square root and division. Otherwise the built-ins.
+#ifdef EXACT_ARITHMETIC
+float dot3(vec3 a, vec3 b) {
+    precise float r = a.x * b.x + a.y * b.y + a.z * b.z;
+    return r;
+}
+double dot3(dvec3 a, dvec3 b) {
+    precise double r = a.x * b.x + a.y * b.y + a.z * b.z;
+    return r;
+}
+vec3 unit(vec3 v) {
+    precise float len = sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+    precise vec3 r = v / len;
+    return r;
+}
+#else
+float dot3(vec3 a, vec3 b) { return dot(a, b); }
+double dot3(dvec3 a, dvec3 b) { return dot(a, b); }
+vec3 unit(vec3 v) { return normalize(v); }
+#endif
 const float PI = 3.14159265358979;
 const float INF = uintBitsToFloat(0x7F800000u);
 
@@ -82,8 +107,8 @@ bool specular_flags(Sphere s) { return s.emission_transparency.w > 0.0 || s.colo
 // outs become the returned condition (a divergent branch costs both sides on SIMD lanes).
 bool intersect_paper(int i, vec3 o, vec3 d, out float t) {
     vec3 l = center(i) - o;
-    float tca = dot(l, d);
-    float d2 = dot(l, l) - tca * tca;
+    float tca = dot3(l, d);
+    float d2 = dot3(l, l) - tca * tca;
     float r2 = radius(i) * radius(i);
     float thc = sqrt(max(r2 - d2, 0.0));
     float t0 = tca - thc;
@@ -100,13 +125,13 @@ bool intersect_paper(int i, vec3 o, vec3 d, out float t) {
 bool intersect_robust(int i, vec3 o, vec3 d, float t_min, float t_max, out float t) {
     dvec3 oc = dvec3(o) - dvec3(center(i));
     dvec3 dd = dvec3(d);
-    double b = dot(oc, dd);
+    double b = dot3(oc, dd);
     dvec3 perpendicular = oc - dd * b;
     double r2 = double(radius(i)) * double(radius(i));
-    double disc = r2 - dot(perpendicular, perpendicular);
+    double disc = r2 - dot3(perpendicular, perpendicular);
     t = 0.0;
     if (disc < 0.0) return false;
-    double c = dot(oc, oc) - r2;
+    double c = dot3(oc, oc) - r2;
     double q = -b - (b < 0.0 ? -sqrt(disc) : sqrt(disc));
     double t0 = q != 0.0 ? c / q : 0.0;
     double t1 = q;
@@ -184,7 +209,7 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
         vec3 l = mistake(M_shadow_dir_unnormalized) ? to_light : to_light / dist;
         l = mistake(M_light_dir_reversed) ? -l : l;
         // Q12: no Lambert cosine, so a light behind the surface is tested and counts too.
-        float lambert = quirk(12) ? 1.0 : max(0.0, dot(n, l));
+        float lambert = quirk(12) ? 1.0 : max(0.0, dot3(n, l));
         float transmission = 1.0;
         if (effect(0) && !mistake(M_no_shadows) && (quirk(4) || lambert > 0.0)) {
             float max_t = (quirk(5) || mistake(M_shadow_past_light)) ? INF : dist;
@@ -211,7 +236,7 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
             c += adds ? surface * emission * (transmission * lambert) : vec3(0.0);
         } else {
             vec3 from_p = center(light) - p;
-            float scale = transmission * lambert / dot(from_p, from_p);
+            float scale = transmission * lambert / dot3(from_p, from_p);
             c += adds ? surface * spheres[light].light_intensity.rgb * (scale / PI) : vec3(0.0);
         }
     }
@@ -244,9 +269,9 @@ vec3 trace(vec3 origin, vec3 dir) {
         Sphere S = sphere_at(idx);
         vec3 p = o + d * t;
         vec3 n0 = p - S.center_radius.xyz;
-        n0 = mistake(M_normal_not_normalized) ? n0 : normalize(n0);
+        n0 = mistake(M_normal_not_normalized) ? n0 : unit(n0);
         // The normal's slips: the inside test turned round, the flip forgotten, the sign wrong.
-        bool inside = (dot(d, n0) > 0.0) != mistake(M_inside_test_reversed);
+        bool inside = (dot3(d, n0) > 0.0) != mistake(M_inside_test_reversed);
         vec3 n = (inside && !mistake(M_no_inside_flip)) ? -n0 : n0;
         n = mistake(M_flipped_normal) ? -n : n;
 
@@ -267,7 +292,7 @@ vec3 trace(vec3 origin, vec3 dir) {
         total += (surface && own_light && quirk(7)) ? w * S.emission_transparency.rgb : vec3(0.0);
 
         // Its children (step 4 of docs/paper-model.md).
-        float d_dot_n = dot(d, n);
+        float d_dot_n = dot3(d, n);
         float facing = mistake(M_fresnel_facing_sign) ? d_dot_n : max(0.0, -d_dot_n);
         float offset = offset_at(p);
         float tr = S.emission_transparency.w;
@@ -279,7 +304,7 @@ vec3 trace(vec3 origin, vec3 dir) {
         float k = 1.0 - eta * eta * (1.0 - cosi * cosi);
         bool total_internal = refractive && k < 0.0 && !quirk(3);
         // With Q3 present and k < 0 this is NaN, like the original's sqrt(k).
-        vec3 t_dir = normalize(d * eta + n * (eta * cosi - sqrt(k)));
+        vec3 t_dir = unit(d * eta + n * (eta * cosi - sqrt(k)));
         float fresnel = total_internal ? 1.0
                       : quirk(8) ? paper_fresnel(facing)
                       : refractive ? dielectric_fresnel(inside ? -facing : facing, ior) : 1.0;
@@ -320,7 +345,7 @@ vec3 trace(vec3 origin, vec3 dir) {
         }
         o = reflect ? p + n * offset : pop_o;
         vec3 mirrored = mistake(M_reflect_sign) ? d + n * (2.0 * d_dot_n) : d - n * (2.0 * d_dot_n);
-        d = reflect ? normalize(mirrored) : pop_d;
+        d = reflect ? unit(mirrored) : pop_d;
         w = reflect ? w * reflect_tint * f_reflect : pop_w;
         depth = reflect ? depth + 1 : pop_depth;
         skip = (reflect && !quirk(1) && !inside) ? idx : -1;
@@ -337,7 +362,7 @@ vec3 camera_dir(float px, float py) {
     float xx = (2.0 * px / size.x - 1.0) * half_height * aspect;
     float yy = (1.0 - 2.0 * py / size.y) * half_height;
     vec3 dir = cam_right * xx + cam_up * yy + cam_forward;
-    return mistake(M_ray_dir_unnormalized) ? dir : normalize(dir);
+    return mistake(M_ray_dir_unnormalized) ? dir : unit(dir);
 }
 
 vec3 srgb_encode(vec3 linear) {
@@ -371,8 +396,8 @@ void main() {
     int id;
     float t;
     bool hit = nearest_hit(cam_origin, d0, -1, id, t);
-    vec3 n = normalize(cam_origin + d0 * t - sphere_at(id).center_radius.xyz);
-    n = dot(d0, n) > 0.0 ? -n : n;
+    vec3 n = unit(cam_origin + d0 * t - sphere_at(id).center_radius.xyz);
+    n = dot3(d0, n) > 0.0 ? -n : n;
     out_aov = vec4(float(id), hit ? t : 0.0, 0.0, 1.0);
     out_normal = vec4(hit ? n : vec3(0.0), 1.0);
     out_color = vec4(display == 1 ? srgb_encode(c) : c, 1.0);

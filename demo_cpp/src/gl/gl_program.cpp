@@ -114,6 +114,13 @@ std::string mistake_numbers() {
     return out;
 }
 
+// The mistakes whose image hangs on the last bit of a ray's origin (a ray starting on the
+// surface it leaves, or turned into it): the shader then rounds as the CPU does
+// (trace.frag.glsl's EXACT_ARITHMETIC), at some cost, only for them.
+bool needs_exact_arithmetic(const MistakeSet& mistakes) {
+    return mistakes.has(Mistake::no_offset) || mistakes.has(Mistake::reflect_sign);
+}
+
 std::uint32_t mistake_mask(const MistakeSet& mistakes) {
     std::uint32_t mask = 0;
     for (int m = 0; m < kMistakeCount; ++m)
@@ -159,6 +166,7 @@ unsigned TraceProgram::program_for(const TraceOptions& options) {
                          std::to_string(options.max_depth) + "\n#define STACK_SIZE " +
                          std::to_string(std::max(options.max_depth, 1)) + "\n#define MISTAKES " +
                          std::to_string(mistake_mask(options.mistakes)) + "u\n";
+    if (needs_exact_arithmetic(options.mistakes)) header += "#define EXACT_ARITHMETIC\n";
     if (const auto found = programs_.find(header); found != programs_.end()) return found->second;
 
     const std::string key = header;
