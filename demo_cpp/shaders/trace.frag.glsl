@@ -2,8 +2,8 @@
 // gl_program.cpp prepends `#version` and the specialisation: QUIRKS (bit q-1: quirk Qq
 // present), EFFECTS (bit 0 shadows, 1 reflection, 2 refraction), MAX_DEPTH, STACK_SIZE
 // (= max(MAX_DEPTH, 1)), SPHERE_COUNT, LIGHT_COUNT and LIGHT_INDICES, BIAS, BACKGROUND,
-// MISTAKES (bit m: named mistake m of mistakes.json present, M_<name> = m) and for small
-// scenes SCENE_SPHERES (the spheres as constants). Constant switches let the compiler drop
+// MISTAKES (bit m: named mistake m of mistakes.json present, M_<name> = m), EXACT_ARITHMETIC
+// (below) and for small scenes SCENE_SPHERES (the spheres as constants). Constant switches let the compiler drop
 // every path the options rule out and unroll the sphere loops: a mistake not set costs nothing.
 //
 // Written for llvmpipe (Mesa's CPU driver, 8 lanes per SIMD instruction), where most of a
