@@ -3,8 +3,9 @@
 // present), EFFECTS (bit 0 shadows, 1 reflection, 2 refraction), MAX_DEPTH, STACK_SIZE
 // (= max(MAX_DEPTH, 1)), SPHERE_COUNT, LIGHT_COUNT and LIGHT_INDICES, BIAS, BACKGROUND,
 // MISTAKES (bit m: named mistake m of mistakes.json present, M_<name> = m), EXACT_ARITHMETIC
-// (below) and for small scenes SCENE_SPHERES (the spheres as constants). Constant switches let the compiler drop
-// every path the options rule out and unroll the sphere loops: a mistake not set costs nothing.
+// (below) and for small scenes SCENE_SPHERES (the spheres as constants). Constant switches
+// let the compiler drop every path the options rule out and unroll the sphere loops: a
+// mistake not set costs nothing.
 //
 // Written for llvmpipe (Mesa's CPU driver, 8 lanes per SIMD instruction), where most of a
 // frame goes, and measured there (bench/NOTES.md): an `if` does not skip its body when no
