@@ -218,7 +218,8 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
             for (int j = 0; j < SPHERE_COUNT; ++j) {
                 // Evaluated for every sphere and applied by select: no divergent branch.
                 bool blocked = blocks(j, origin, l, max_t);
-                bool tests = (j != light || mistake(M_light_blocks_itself)) && !(j == hit && !quirk(1));
+                bool tests = (j != light || mistake(M_light_blocks_itself)) &&
+                             !(j == hit && !quirk(1));
                 bool counts = blocked && tests && !(tested && mistake(M_shadow_first_only));
                 tested = tested || tests;
                 float opacity = quirk(9) ? 1.0 - transparency(j) : 1.0;
