@@ -79,8 +79,8 @@ algorithm:
   --fix Q1,Q2,...        fix these quirks (Q1 ... Q13) on top of --mode (docs/paper-model.md)
   --quirk Q2,Q5,...      add these quirks on top of --mode (classic --quirk Q2 keeps
                          eta = 1/ior when leaving glass); applied in order with --fix
-  --mistake NAME,...     add named common mistakes (listed below; CPU tracer only), as
-                         rtval diagnose renders them (docs/paper-model.md)
+  --mistake NAME,...     add named common mistakes (listed below; every backend and
+                         engine), as rtval diagnose renders them (docs/paper-model.md)
   --spp N                samples per pixel, a perfect square (1, 4, 9, 16, ...): stratum
                          centres of a sqrt(N) x sqrt(N) grid, box filter. N > 1 needs Q10
                          fixed (physical mode or --fix Q10). Default 1 (pixel centre).

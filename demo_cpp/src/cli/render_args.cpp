@@ -239,8 +239,6 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
         else
             settings.trace.quirks.fix(q);
     }
-    if (a.mistakes.any() && a.gl)
-        throw UsageError("--mistake needs the CPU tracer (--backend cpu)");
     if (a.ray_budget > 0 && a.gl)
         throw UsageError("--ray-budget needs the CPU tracer (--backend cpu)");
     settings.ray_budget = static_cast<std::uint64_t>(a.ray_budget);

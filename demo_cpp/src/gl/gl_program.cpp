@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/light_units.h"
+#include "core/mistakes.h"
 #include "embedded_shaders.h"
 
 namespace rt {
@@ -101,6 +102,32 @@ std::string light_indices(const Scene& scene) {
            "\n";
 }
 
+// The named mistakes' bit numbers, M_<name>, for trace.frag.glsl's mistake(M_name): from the
+// catalogue, so that the shader names a mistake as mistakes.json does and a renamed or
+// removed one fails to compile rather than switching another.
+std::string mistake_numbers() {
+    static_assert(kMistakeCount <= 32, "MISTAKES is one 32-bit mask");
+    std::string out;
+    for (int m = 0; m < kMistakeCount; ++m)
+        out += std::string("#define M_") + mistake_name(static_cast<Mistake>(m)) + " " +
+               std::to_string(m) + "\n";
+    return out;
+}
+
+// The mistakes whose image hangs on the last bit of a ray's origin (a ray starting on the
+// surface it leaves, or turned into it): the shader then rounds as the CPU does
+// (trace.frag.glsl's EXACT_ARITHMETIC), at some cost, only for them.
+bool needs_exact_arithmetic(const MistakeSet& mistakes) {
+    return mistakes.has(Mistake::no_offset) || mistakes.has(Mistake::reflect_sign);
+}
+
+std::uint32_t mistake_mask(const MistakeSet& mistakes) {
+    std::uint32_t mask = 0;
+    for (int m = 0; m < kMistakeCount; ++m)
+        if (mistakes.has(static_cast<Mistake>(m))) mask |= 1u << m;
+    return mask;
+}
+
 }  // namespace
 
 GlView view_of(const Camera& c) { return {c.position, c.look_at, c.up, c.fov_y}; }
@@ -137,7 +164,9 @@ unsigned TraceProgram::program_for(const TraceOptions& options) {
     std::string header = "#define QUIRKS " + std::to_string(quirks) + "\n#define EFFECTS " +
                          std::to_string(effects) + "\n#define MAX_DEPTH " +
                          std::to_string(options.max_depth) + "\n#define STACK_SIZE " +
-                         std::to_string(std::max(options.max_depth, 1)) + "\n";
+                         std::to_string(std::max(options.max_depth, 1)) + "\n#define MISTAKES " +
+                         std::to_string(mistake_mask(options.mistakes)) + "u\n";
+    if (needs_exact_arithmetic(options.mistakes)) header += "#define EXACT_ARITHMETIC\n";
     if (const auto found = programs_.find(header); found != programs_.end()) return found->second;
 
     const std::string key = header;
@@ -145,7 +174,7 @@ unsigned TraceProgram::program_for(const TraceOptions& options) {
               std::to_string(std::max<std::size_t>(scene_.spheres.size(), 1)) + "\n";
     if (scene_.spheres.size() <= kMaxConstantSpheres)
         header += "#define SCENE_SPHERES " + sphere_constants(scene_) + "\n";
-    header += light_indices(scene_);
+    header += light_indices(scene_) + mistake_numbers();
     header += "#define BIAS " + float_constant(scene_.bias) + "\n#define BACKGROUND vec3(" +
               float_constant(scene_.background.x) + "," + float_constant(scene_.background.y) +
               "," + float_constant(scene_.background.z) + ")\n";
@@ -188,7 +217,9 @@ void TraceProgram::draw(const TraceOptions& options, const GlView& view, int wid
     glUniform3f(loc("u_cam_forward"), forward.x, forward.y, forward.z);
     glUniform3f(loc("u_cam_right"), right.x, right.y, right.z);
     glUniform3f(loc("u_cam_up"), up.x, up.y, up.z);
-    glUniform1f(loc("u_half_height"), std::tan(view.fov_y * 0.5f * kPi / 180.0f));
+    // fov_full_angle: tan(fov) where tan(fov / 2) belongs (camera_rays.cpp).
+    const float angle = options.mistakes.has(Mistake::fov_full_angle) ? 1.0f : 0.5f;
+    glUniform1f(loc("u_half_height"), std::tan(view.fov_y * angle * kPi / 180.0f));
     glUniform2f(loc("u_size"), static_cast<float>(width), static_cast<float>(height));
     glUniform1i(loc("u_strata"), strata);
     glUniform1i(loc("u_display"), display_encode ? 1 : 0);
