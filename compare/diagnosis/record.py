@@ -130,10 +130,9 @@ class Diagnosis:
 
     def modes_as_near(self) -> list[str]:
         """The other modes whose renders differ from the image about as much as the start's
-        (within the clear margin): the image cannot tell the start from them. None where
-        the result matches the image exactly: that tells them apart."""
+        (within the clear margin): the image cannot tell the start from them."""
         counts = self.mode_objectives
-        if self.start not in counts or self.exact:
+        if self.start not in counts:
             return []
         total = sum(f.pixels for k, f in self.effects.items() if k != "edges")
         margin = max(MODE_CLOSE_SHARE * total, MODE_CLOSE_RATIO * counts[self.start])
