@@ -80,3 +80,17 @@ def test_the_diagnosis_names_the_fitted_camera(rtdemo: str, tmp_path: Path) -> N
     assert d.causes == ["camera: a field of view of 40 degrees (the scene's is 30)"], d.sentences
     assert d.mode == "classic" and d.exact, d.sentences
     assert d.as_dict()["causes"][0]["kind"] == "camera"
+
+
+def test_pixel_corners_are_the_second_reading(rtdemo: str, tmp_path: Path) -> None:
+    # No aspect ratio and pixel corners for centres: u = tan(15) (2x/W - 1), shifted by
+    # half a pixel (-tan(15)/W), v likewise (+tan(15)/H). Half a pixel is within the story's
+    # tolerance, so the fit offers the story with and without corners; the renders choose.
+    cornered = (T30, -T30 / W, T30, T30 / H)
+    model = _classic(rtdemo, tmp_path, "model")
+    image = _classic(rtdemo, tmp_path, "image", "--camera-map", ",".join(map(str, cornered)))
+    found = camera_fit.fitted(image, [model], 30.0)
+    story = "no aspect ratio: the field of view (30 degrees) on both axes"
+    corners = ", and pixel corners (x, y) for centres (x + 0.5, y + 0.5)"
+    assert [f.words for f in found] == [story, story + corners]
+    assert max(abs(a - b) for a, b in zip(found[1].camera, cornered, strict=True)) < 1e-6

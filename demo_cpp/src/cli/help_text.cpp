@@ -92,7 +92,7 @@ algorithm:
                          another camera: the ray through pixel (px, py) is forward +
                          right u + up v with u = SU (2 px / W - 1) + OU and
                          v = SV (1 - 2 py / H) + OV (the scene's: SU = tan(fov/2) W/H,
-                         SV = tan(fov/2), OU = OV = 0); the scalar tracer renders it
+                         SV = tan(fov/2), OU = OV = 0); CPU tracer only (both engines)
   --no-shadows, --no-reflection, --no-refraction
                          switch one effect off (per-effect ablation in the judge)
 

@@ -19,10 +19,7 @@ int strata_per_axis(int spp) {
     return k * k == spp ? k : 0;
 }
 
-// A camera map (rtdemo --camera-map, fitted by the diagnosis) is the scalar tracer's alone.
-bool renders_in_bands(const RenderSettings& settings) {
-    return settings.engine == Engine::packet && !settings.trace.camera_map;
-}
+bool renders_in_bands(const RenderSettings& settings) { return settings.engine == Engine::packet; }
 
 void render_cpu(const Scene& scene, const RenderSettings& settings, BandSink& sink,
                 RayCounts* rays) {

@@ -28,7 +28,7 @@ struct TraceOptions {
     MistakeSet mistakes;
     // The paper's Fresnel curve (Q8) with other constants (a student's, or a fitted one).
     FresnelCurve fresnel_curve;
-    // Another camera (camera_rays.h); the scalar tracer renders it.
+    // Another camera (camera_rays.h); both CPU engines render it.
     std::optional<CameraMap> camera_map;
 };
 

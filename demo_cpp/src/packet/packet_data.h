@@ -53,6 +53,10 @@ struct CameraArrays {
     float fx, fy, fz, rx, ry, rz, ux, uy, uz;
     float half_height, aspect, width, height;
     bool unnormalized;  // ray_dir_unnormalized: the direction through the pixel, not normalised
+    // A camera map (rtdemo --camera-map): u = su (2 px / W - 1) + ou, v = sv (1 - 2 py / H) + ov
+    // instead of the fov and aspect, the scalar tracer's expression and order exactly.
+    bool mapped;
+    float su, ou, sv, ov;
 };
 
 // One bounce's rays and, at the same index, the node each becomes in the frame's tree of rays.

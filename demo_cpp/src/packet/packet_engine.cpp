@@ -230,6 +230,9 @@ packet::CameraArrays camera_arrays(const Scene& scene, int width, int height, Ca
     c.unnormalized = slips.unnormalized;
     c.width = static_cast<float>(width);
     c.height = static_cast<float>(height);
+    c.mapped = slips.map.has_value();
+    if (c.mapped)
+        c.su = slips.map->su, c.ou = slips.map->ou, c.sv = slips.map->sv, c.ov = slips.map->ov;
     return c;
 }
 

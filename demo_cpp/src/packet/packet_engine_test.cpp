@@ -660,6 +660,47 @@ TEST(PacketEngine, EqualsScalarWithOtherFresnelCurves) {
             }
 }
 
+// A camera map (rtdemo --camera-map, the diagnosis' fitted camera): the scene's own numbers,
+// a 35-degree field of view, the field of view taken as the horizontal one, no aspect ratio,
+// rows divided by the width, pixel corners (offset half a pixel) and an unnormalised ray with
+// a map: the scalar tracer's bits, at spp 1 and 4, also through render_cpu with the packet engine
+// (rtdemo's default).
+TEST(PacketEngine, EqualsScalarWithCameraMaps) {
+    const float t30 = std::tan(15.0f * 3.14159265358979f / 180.0f);
+    const float t35 = std::tan(17.5f * 3.14159265358979f / 180.0f);
+    const float aspect = 48.0f / 36.0f;
+    const CameraMap maps[] = {{t30 * aspect, 0.0f, t30, 0.0f},
+                              {t35 * aspect, 0.0f, t35, 0.0f},
+                              {t30, 0.0f, t30 / aspect, 0.0f},
+                              {t30, 0.0f, t30, 0.0f},
+                              {t30 * aspect, 0.0f, t30 / aspect, t30 * (1.0f - 1.0f / aspect)},
+                              {t30 * aspect, -t30 * aspect / 48.0f, t30, t30 / 36.0f}};
+    for (const char* name : kProjectScenes)
+        for (const CameraMap& map : maps)
+            for (int spp : {1, 4}) {
+                const Scene scene = load_scene_file(kScenes + "/" + name);
+                RenderSettings settings = classic_settings(scene, 48, 36);
+                settings.trace.camera_map = map;
+                settings.spp = spp;
+                if (&map == &maps[5]) settings.trace.mistakes.add(Mistake::ray_dir_unnormalized);
+                settings.engine = Engine::scalar;
+                RayCounts ref_rays;
+                const RenderedImage ref = render_cpu(scene, settings, &ref_rays);
+                for (Isa isa : supported_isas()) {
+                    SCOPED_TRACE(std::string(name) + " map " + std::to_string(map.su) + "," +
+                                 std::to_string(map.ou) + "," + std::to_string(map.sv) + "," +
+                                 std::to_string(map.ov) + " spp " + std::to_string(spp) + " isa " +
+                                 isa_name(isa));
+                    RayCounts rays;
+                    expect_same_frame(ref, ref_rays, render_packet(scene, settings, isa, &rays),
+                                      rays);
+                }
+                settings.engine = Engine::packet;  // the frame rtdemo renders by default
+                RayCounts cpu_rays;
+                expect_same_frame(ref, ref_rays, render_cpu(scene, settings, &cpu_rays), cpu_rays);
+            }
+}
+
 TEST(PacketEngine, EqualsScalarOnAThousandSpheres) {
     // More spheres than the scalar tracer's 64 lanes: its plain loop is the reference there.
     for (Mode mode : {Mode::paper, Mode::physical}) {
