@@ -28,8 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import camera_fit, localise, noise, transforms
+from compare.diagnosis import camera_fit, constant_fit, localise, noise, transforms
 from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.constant_fit import fitted_bias, fitted_ior
 from compare.diagnosis.fresnel_fit import fitted_curve
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
 from compare.diagnosis.localise import INT
@@ -365,6 +366,35 @@ class Search:
             self.say(f"diagnose: the camera fitted from the silhouettes: {f.words}")
         return [Switch("camera", f.key, True) for f in found]
 
+    def fitted(self, kept: Switch, current: Candidate) -> Candidate:
+        """current, whose last switch set a constant's seed value, with that value fitted
+        (fresnel_fit.py, constant_fit.py); else current."""
+        if not kept.present or kept.kind not in ("fresnel", "ior", "bias"):
+            return current
+        fit = {"fresnel": fitted_curve, "ior": fitted_ior, "bias": fitted_bias}[kept.kind]
+        t0, renders = time.perf_counter(), len(self.trials.scores)
+        out = fit(self.trials, current)
+        self.say(
+            f"diagnose: the {kept.kind} fitted: {out.name} ({len(self.trials.scores) - renders}"
+            f" renders, {time.perf_counter() - t0:.1f} s)"
+        )
+        return out
+
+    def background_switches(self, current: Candidate) -> list[Switch]:
+        """The background the image shows where the current candidate's camera rays miss
+        every sphere, as a switch, where it does not look like the one current renders; and
+        the scene's background back, where current hard-codes one. Black is left to the
+        catalogue's mistake black_background, which renders the same."""
+        if current.background is not None:
+            return [Switch("background", "scene", False)]
+        t = self.trials.target
+        seen = constant_fit.background_seen(t.test, t.masks.get("background", np.zeros(0, bool)))
+        if seen is None or max(seen) == 0:
+            return []
+        if constant_fit.same_looking(seen, tuple(self.scene.background)):
+            return []
+        return [Switch("background", ",".join(f"{v:g}" for v in seen), True)]
+
     def camera_switches(self, current: Candidate) -> list[Switch]:
         """The fitted camera as a switch of the search (the catalogue's camera mistakes are
         switches already)."""
@@ -490,9 +520,7 @@ class Search:
                 f"{objective(t.per(current)):.3f} -> {objective(t.per(cands[best])):.3f}"
             )
             current = cands[best]
-            if tried[best].kind == "fresnel" and tried[best].present:
-                current = fitted_curve(t, current)
-                self.say(f"diagnose: the Fresnel curve fitted: {current.name}")
+            current = self.fitted(tried[best], current)
             self.trials.flip_guess(current)  # while the search goes on: often the result
         return current
 
@@ -507,6 +535,7 @@ class Search:
             sw
             for sw in switches(current, self.scene, self.quirks, full=promising is None)
             + self.camera_switches(current)
+            + self.background_switches(current)
             if (promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth")
             and (sw.kind, sw.key) not in self.banned
             and may_help(sw, still)

@@ -24,15 +24,19 @@ from compare.judge.target_model import MODE_QUIRKS, SWITCHABLE_EFFECTS
 from scene_model.scene import Scene
 
 MAX_SEARCH_DEPTH = 32
-BACKGROUNDS: tuple[RGB, ...] = ((1.0, 1.0, 1.0), (2.0, 2.0, 2.0))  # black: black_background
+# Seeds of the ior fit (constant_fit.fitted_ior refines the one that helps): common indices,
+# and the scene's own one step of IOR_NEAR either side (a student's 1.45 for the scene's 1.5).
+# The background is not a seed: search.py reads it off the image (constant_fit.py).
 IORS = (1.1, 1.2, 1.33, 1.5)
+IOR_NEAR = 0.1
 # The kinds whose switch sets a value (any value of one kind sets the same thing).
 VALUED = ("depth", "background", "ior", "bias", "fresnel", "camera")
 # Where the paper's Fresnel curve (Q8) is on, the sweep tries these constants (mix, power) of
 # it: a mirror at every angle (the facing ratio's sign lost), half and half, and Schlick's
 # curve for glass of ior 1.5; one that helps is then fitted as a value (fresnel_fit.py).
 FRESNEL_SEEDS = ((1.0, 3), (0.5, 3), (0.04, 5))
-# Offsets of secondary rays programs hard-code (the scenes ask 1e-4): CAPBenchmarks' 1e-3.
+# Seeds of the bias fit (constant_fit.fitted_bias refines the one that helps on a log scale):
+# offsets programs hard-code (the scenes ask 1e-4), CAPBenchmarks' 1e-3 among them.
 BIASES = (1e-5, 1e-3, 1e-2)
 # The step of the algorithm each quirk, mistake and effect lives in (what a student reads).
 QUIRK_STEPS = {
@@ -257,13 +261,7 @@ def _depths(d: int, full: bool) -> list[int]:
 
 
 def _constant_switches(c: Candidate, scene: Scene) -> list[Switch]:
-    out = []
-    for rgb in BACKGROUNDS:
-        if rgb != tuple(scene.background) and rgb != c.background:
-            out.append(Switch("background", ",".join(f"{v:g}" for v in rgb), True))
-    if c.background is not None:
-        out.append(Switch("background", "scene", False))
-    out += [Switch("bias", f"{v:g}", True) for v in BIASES if v not in (scene.bias, c.bias)]
+    out = [Switch("bias", f"{v:g}", True) for v in BIASES if v not in (scene.bias, c.bias)]
     if c.bias is not None:
         out.append(Switch("bias", "scene", False))
     if FRESNEL_QUIRK in c.quirks:
@@ -274,7 +272,9 @@ def _constant_switches(c: Candidate, scene: Scene) -> list[Switch]:
             out.append(Switch("fresnel", "paper", False))
     theirs = glass_iors(scene)
     if theirs:
-        out += [Switch("ior", f"{v:g}", True) for v in IORS if {v} != theirs and v != c.ior]
+        near = {round(v + d, 2) for v in theirs for d in (-IOR_NEAR, IOR_NEAR) if v + d > 1}
+        seeds = sorted(set(IORS) | near)
+        out += [Switch("ior", f"{v:g}", True) for v in seeds if {v} != theirs and v != c.ior]
         if c.ior is not None:
             out.append(Switch("ior", "scene", False))
     return out
