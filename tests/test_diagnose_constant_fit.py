@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.diagnosis.constant_fit import background_seen, same_looking
+from compare.diagnosis.constant_fit import background_seen
 from compare.diagnosis.renderer import CandidateRenderer
 from compare.diagnosis.search import DiagnoseOptions, Diagnosis, diagnose
 from scene_model.scene import load_scene
@@ -28,8 +28,6 @@ def test_the_background_is_read_where_rays_miss() -> None:
     assert background_seen(test, misses) == (0.2, 0.3, 0.5)
     test[misses] = 1.0  # clipped: 1 and 2 look the same
     assert background_seen(test, misses) == (1.0, 1.0, 1.0)
-    assert same_looking((1.0, 1.0, 1.0), (2.0, 2.0, 2.0))
-    assert not same_looking((0.2, 0.3, 0.5), (0.2, 0.3, 0.6))
     test[0, 0] = 0.0  # a few pixels off still read as the colour; no miss pixel: nothing read
     assert background_seen(test, misses) == (1.0, 1.0, 1.0)
     assert background_seen(test, np.zeros((10, 4), bool)) is None
@@ -71,7 +69,7 @@ def test_a_background_of_any_value_is_read_off_the_image(rtdemo: str, tmp_path: 
 @pytest.mark.slow
 def test_a_glass_ior_off_the_list_is_fitted(rtdemo: str, tmp_path: Path) -> None:
     d = _diagnosed(rtdemo, tmp_path, ior=1.45)
-    assert abs(d.scene_changes["ior"] - 1.45) <= 0.02 and d.exact, d.sentences
+    assert abs(d.scene_changes["ior"] - 1.45) <= 0.01 and d.exact, d.sentences
     (said,) = _constant(d)
     assert f"ior {d.scene_changes['ior']:g} hard-coded" in said and "(the scene's: 1.1)" in said
 
@@ -80,7 +78,7 @@ def test_a_glass_ior_off_the_list_is_fitted(rtdemo: str, tmp_path: Path) -> None
 def test_a_bias_off_the_list_is_fitted(rtdemo: str, tmp_path: Path) -> None:
     d = _diagnosed(rtdemo, tmp_path, bias=0.003)
     bias = d.scene_changes["bias"]
-    assert 0.001 <= bias <= 0.01 and d.exact, d.sentences
+    assert 0.002 <= bias <= 0.005 and d.exact, d.sentences  # measured: 0.003 (160x120)
     (said,) = _constant(d)
     assert f"bias {bias:g} hard-coded (the scene's is 0.0001)" in said, said
 

@@ -62,12 +62,6 @@ def _channel(v: float, eight_bit: bool) -> float:
     return two if abs(two - v) * 255 <= 0.5 + 1e-3 else round(v, 3)
 
 
-def same_looking(a: RGB, b: RGB) -> bool:
-    """Whether two backgrounds show alike in an 8-bit image: equal once each channel is
-    clipped to 1 and quantised."""
-    return all(round(min(x, 1.0) * 255) == round(min(y, 1.0) * 255) for x, y in zip(a, b))
-
-
 def fitted_ior(trials: Trials, c: Candidate) -> Candidate:
     """c (whose ior is a seed that helped) with the ior refined on a narrowing grid (about
     twelve renders), then snapped to a common index that fits as well."""
@@ -84,7 +78,7 @@ def fitted_ior(trials: Trials, c: Candidate) -> Candidate:
 
 def fitted_bias(trials: Trials, c: Candidate) -> Candidate:
     """c (whose bias is a seed that helped) with the bias refined on a log scale (six
-    renders), then snapped to 1, 2 or 5 times a power of ten where that fits as well."""
+    renders), then snapped to 1, 2, 3 or 5 times a power of ten where that fits as well."""
     assert c.bias is not None
     best = c
     for step in BIAS_STEPS:
@@ -97,9 +91,9 @@ def fitted_bias(trials: Trials, c: Candidate) -> Candidate:
 
 
 def _round_biases(bias: float) -> list[float]:
-    """The 1-2-5 values of bias's decade and its neighbours, nearest (on a log scale) first."""
+    """The 1-2-3-5 values of bias's decade and its neighbours, nearest (on a log scale) first."""
     decade = math.floor(math.log10(bias))
-    values = [_sig(m * 10.0**d, 1) for d in (decade - 1, decade, decade + 1) for m in (1, 2, 5)]
+    values = [_sig(m * 10.0**d, 1) for d in (decade - 1, decade, decade + 1) for m in (1, 2, 3, 5)]
     return sorted(values, key=lambda v: abs(math.log10(v) - math.log10(bias)))[:2]
 
 

@@ -381,19 +381,24 @@ class Search:
         return out
 
     def background_switches(self, current: Candidate) -> list[Switch]:
-        """The background the image shows where the current candidate's camera rays miss
-        every sphere, as a switch, where it does not look like the one current renders; and
-        the scene's background back, where current hard-codes one. Black is left to the
-        catalogue's mistake black_background, which renders the same."""
+        """The background the image shows where the start's camera rays miss every sphere,
+        as a switch, where it is not the scene's; and the scene's background back, where
+        current hard-codes one. Black is left to the catalogue's mistake black_background,
+        which renders the same. A white that clips (any value >= 1 looks the same there) is
+        tried as 1 and as 2: glass and mirrors that mix it in may still tell them apart."""
         if current.background is not None:
             return [Switch("background", "scene", False)]
         t = self.trials.target
         seen = constant_fit.background_seen(t.test, t.masks.get("background", np.zeros(0, bool)))
         if seen is None or max(seen) == 0:
             return []
-        if constant_fit.same_looking(seen, tuple(self.scene.background)):
-            return []
-        return [Switch("background", ",".join(f"{v:g}" for v in seen), True)]
+        options = [seen] if min(seen) < 1 else [(1.0, 1.0, 1.0), (2.0, 2.0, 2.0)]
+        theirs = tuple(self.scene.background)
+        return [
+            Switch("background", ",".join(f"{v:g}" for v in rgb), True)
+            for rgb in options
+            if rgb != theirs
+        ]
 
     def camera_switches(self, current: Candidate) -> list[Switch]:
         """The fitted camera as a switch of the search (the catalogue's camera mistakes are
