@@ -832,9 +832,14 @@ ALIKE_KINDS = ("quirk", "mistake", "effect")
 def may_help(sw: Switch, still: set[str]) -> bool:
     """Whether sw can explain an effect still open: a named mistake is added only where one
     of the effects it shows in (mistakes.json) differs, a Fresnel curve where reflection or
-    refraction does; every other switch may."""
+    refraction does, a glass ior (and its fit, constant_fit.py) where refraction does, a
+    background where the misses or what mirrors and glass show differ; every other switch may."""
     if sw.kind == "fresnel" and sw.present:
         return bool({"reflection", "refraction"} & set(still))
+    if sw.kind == "ior" and sw.present:
+        return "refraction" in still
+    if sw.kind == "background" and sw.present:
+        return bool({"background", "reflection", "refraction"} & set(still))
     if sw.kind != "mistake" or not sw.present:
         return True
     return bool(set(catalogue()[sw.key].effects) & set(still))
