@@ -35,14 +35,14 @@ def test_the_background_is_read_where_rays_miss() -> None:
     assert background_seen(test, misses) is None
 
 
-def _diagnosed(rtdemo: str, tmp_path: Path, **changes: object) -> Diagnosis:
-    """rtdemo's classic render of classic.json with `changes` made to the scene, diagnosed
-    against the unchanged scene."""
-    raw = json.loads(CLASSIC.read_text())
+def _diagnosed(rtdemo: str, tmp_path: Path, scene: Path = CLASSIC, **changes: object) -> Diagnosis:
+    """rtdemo's classic render of `scene` with `changes` made to it (ior: every glass
+    sphere's; ior_<name>: that sphere's), diagnosed against the unchanged scene."""
+    raw = json.loads(scene.read_text())
     for key, value in changes.items():
-        if key == "ior":
+        if key.startswith("ior"):
             for s in raw["spheres"]:
-                if s.get("transparency", 0) > 0:
+                if s.get("transparency", 0) > 0 and key in ("ior", f"ior_{s['name']}"):
                     s["ior"] = value
         else:
             raw[key] = value
@@ -50,8 +50,8 @@ def _diagnosed(rtdemo: str, tmp_path: Path, **changes: object) -> Diagnosis:
     own.write_text(json.dumps(raw))
     image = render_demo(rtdemo, own, tmp_path / "own.ppm", "-q", "--mode", "classic",
                         size=(W, H))  # fmt: skip
-    with CandidateRenderer(CLASSIC, W, H, threads=1, cache=tmp_path / "cache") as render:
-        return diagnose(image, load_scene(CLASSIC), render, DiagnoseOptions(parallel=2))
+    with CandidateRenderer(scene, W, H, threads=1, cache=tmp_path / "cache") as render:
+        return diagnose(image, load_scene(scene), render, DiagnoseOptions(parallel=2))
 
 
 def _constant(d: Diagnosis) -> list[str]:
@@ -72,6 +72,19 @@ def test_a_glass_ior_off_the_list_is_fitted(rtdemo: str, tmp_path: Path) -> None
     assert abs(d.scene_changes["ior"] - 1.45) <= 0.01 and d.exact, d.sentences
     (said,) = _constant(d)
     assert f"ior {d.scene_changes['ior']:g} hard-coded" in said and "(the scene's: 1.1)" in said
+
+
+@pytest.mark.slow
+def test_one_glass_spheres_ior_is_fitted_for_that_sphere(rtdemo: str, tmp_path: Path) -> None:
+    # nested_spheres.json: glass spheres of ior 1.2 ('outer') and 1.5 ('middle'); the program
+    # has 'middle' at 1.45. One ior for every glass sphere cannot reproduce it.
+    nested = SCENES / "stress" / "nested_spheres.json"
+    d = _diagnosed(rtdemo, tmp_path, nested, ior_middle=1.45)
+    assert d.scene_changes.get("ior_sphere") == "middle", d.sentences
+    assert abs(d.scene_changes["ior"] - 1.45) <= 0.01 and d.exact, d.sentences
+    (said,) = _constant(d)
+    ior = d.scene_changes["ior"]
+    assert f"ior {ior:g} hard-coded for the glass sphere 'middle' (the scene's is 1.5)" in said
 
 
 @pytest.mark.slow

@@ -70,10 +70,10 @@ def fitted_ior(trials: Trials, c: Candidate) -> Candidate:
     for step in IOR_STEPS:
         assert best.ior is not None
         values = [_clamp(best.ior + step * k, IOR_RANGE, 2) for k in (-2, -1, 1, 2)]
-        best = _best_of(trials, best, [best.with_ior(v) for v in values])
+        best = _best_of(trials, best, [best.ior_refit(v) for v in values])
     assert best.ior is not None
     near = sorted(COMMON_IORS, key=lambda v: abs(v - (best.ior or 0.0)))[:2]
-    return _snapped(trials, best, [best.with_ior(v) for v in near])
+    return _snapped(trials, best, [best.ior_refit(v) for v in near])
 
 
 def fitted_bias(trials: Trials, c: Candidate) -> Candidate:

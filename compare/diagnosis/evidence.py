@@ -97,7 +97,9 @@ def render_command(d: Diagnosis, scene_file: str | Path) -> str:
     if "background" in changes:
         words.append("background " + ", ".join(f"{v:g}" for v in changes["background"]))
     if "ior" in changes:
-        words.append(f"ior {changes['ior']:g} for every glass sphere")
+        where = changes.get("ior_sphere")
+        which = f"the glass sphere '{where}'" if where else "every glass sphere"
+        words.append(f"ior {changes['ior']:g} for {which}")
     if "bias" in changes:
         words.append(f"bias {changes['bias']:g}")
     scene = f"{scene_file}" + (f" (a copy with {' and '.join(words)})" if words else "")
