@@ -12,6 +12,7 @@ import pytest
 from helpers import SCENES, render_demo
 
 from compare.diagnosis.constant_fit import background_seen
+from compare.diagnosis.evidence import render_command
 from compare.diagnosis.renderer import CandidateRenderer
 from compare.diagnosis.search import DiagnoseOptions, Diagnosis, diagnose
 from scene_model.scene import load_scene
@@ -85,6 +86,8 @@ def test_one_glass_spheres_ior_is_fitted_for_that_sphere(rtdemo: str, tmp_path: 
     (said,) = _constant(d)
     ior = d.scene_changes["ior"]
     assert f"ior {ior:g} hard-coded for the glass sphere 'middle' (the scene's is 1.5)" in said
+    command = render_command(d, "nested_spheres.json")
+    assert f"(a copy with ior {ior:g} for the glass sphere 'middle')" in command, command
 
 
 @pytest.mark.slow

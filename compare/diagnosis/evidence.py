@@ -51,7 +51,8 @@ def describe_cause(cause: str) -> str:
     if cause.startswith("background"):
         return f"{cause} hard-coded"
     if cause.startswith("ior"):
-        return f"{cause} for every glass sphere"
+        # "ior 1.45 for 'middle'" names its sphere already
+        return f"{cause} hard-coded" if " for '" in cause else f"{cause} for every glass sphere"
     name = cause.lstrip("-")
     if name in catalogue():
         return f"mistake {name}" if not cause.startswith("-") else f"without mistake {name}"
