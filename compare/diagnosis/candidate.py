@@ -60,7 +60,11 @@ class Candidate:
     background : tuple[float, float, float] or None
         The background colour a program hard-codes; default None: the scene's.
     ior : float or None
-        Every glass sphere's index of refraction; default None: the scene's.
+        Every glass sphere's index of refraction (or `ior_sphere`'s alone); default None: the
+        scene's.
+    ior_sphere : str or None
+        The one glass sphere (its name) that `ior` is hard-coded for, in a scene whose glass
+        spheres differ in ior; default None: every glass sphere.
     bias : float or None
         The offset of secondary rays a program hard-codes; default None: the scene's.
     camera : str or None
@@ -94,6 +98,7 @@ class Candidate:
     camera: str | None = None
     turn: tuple[float, float] | None = None
     grow: int | None = None
+    ior_sphere: str | None = None
 
     @staticmethod
     def of_mode(mode: str) -> Candidate:
@@ -125,7 +130,8 @@ class Candidate:
         if self.background is not None:
             parts.append(f"[background {rgb_text(self.background)}]")
         if self.ior is not None:
-            parts.append(f"[ior {self.ior:g}]")
+            where = f" for '{self.ior_sphere}'" if self.ior_sphere is not None else ""
+            parts.append(f"[ior {self.ior:g}{where}]")
         if self.bias is not None:
             parts.append(f"[bias {self.bias:g}]")
         if self.turn is not None:
@@ -164,6 +170,8 @@ class Candidate:
             out["background"] = list(self.background)
         if self.ior is not None:
             out["ior"] = self.ior
+            if self.ior_sphere is not None:
+                out["ior_sphere"] = self.ior_sphere
         if self.bias is not None:
             out["bias"] = self.bias
         return out
@@ -197,8 +205,14 @@ class Candidate:
     def with_background(self, rgb: RGB | None) -> Candidate:
         return dataclasses.replace(self, background=rgb)
 
-    def with_ior(self, ior: float | None) -> Candidate:
-        return dataclasses.replace(self, ior=ior)
+    def with_ior(self, ior: float | None, sphere: str | None = None) -> Candidate:
+        """With `ior` hard-coded for the glass sphere named `sphere`, or for every glass
+        sphere (sphere None); ior None: the scene's."""
+        return dataclasses.replace(self, ior=ior, ior_sphere=sphere if ior is not None else None)
+
+    def ior_refit(self, ior: float) -> Candidate:
+        """Another ior for the same sphere or spheres."""
+        return self.with_ior(ior, self.ior_sphere)
 
     def with_bias(self, bias: float | None) -> Candidate:
         return dataclasses.replace(self, bias=bias)

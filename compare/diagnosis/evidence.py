@@ -51,7 +51,8 @@ def describe_cause(cause: str) -> str:
     if cause.startswith("background"):
         return f"{cause} hard-coded"
     if cause.startswith("ior"):
-        return f"{cause} for every glass sphere"
+        # "ior 1.45 for 'middle'" names its sphere already
+        return f"{cause} hard-coded" if " for '" in cause else f"{cause} for every glass sphere"
     name = cause.lstrip("-")
     if name in catalogue():
         return f"mistake {name}" if not cause.startswith("-") else f"without mistake {name}"
@@ -97,7 +98,9 @@ def render_command(d: Diagnosis, scene_file: str | Path) -> str:
     if "background" in changes:
         words.append("background " + ", ".join(f"{v:g}" for v in changes["background"]))
     if "ior" in changes:
-        words.append(f"ior {changes['ior']:g} for every glass sphere")
+        where = changes.get("ior_sphere")
+        which = f"the glass sphere '{where}'" if where else "every glass sphere"
+        words.append(f"ior {changes['ior']:g} for {which}")
     if "bias" in changes:
         words.append(f"bias {changes['bias']:g}")
     scene = f"{scene_file}" + (f" (a copy with {' and '.join(words)})" if words else "")

@@ -225,6 +225,7 @@ def _candidate_fields(c: Candidate) -> dict[str, Any]:
         "mistakes": sorted(c.mistakes),
         "background": list(c.background) if c.background is not None else None,
         "ior": c.ior,
+        "ior_sphere": c.ior_sphere,
         "bias": c.bias,
         "fresnel": list(c.fresnel) if c.fresnel is not None else None,
         "camera": c.camera,
@@ -244,6 +245,7 @@ def _candidate(raw: dict[str, Any]) -> Candidate:
         None if raw.get("bias") is None else float(raw["bias"]),
         _fresnel(raw.get("fresnel")),
         None if raw.get("camera") is None else str(raw["camera"]),
+        ior_sphere=None if raw.get("ior_sphere") is None else str(raw["ior_sphere"]),
     )
 
 

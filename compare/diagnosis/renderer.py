@@ -245,7 +245,7 @@ class CandidateRenderer:
             raw["bias"] = c.bias
         if c.ior is not None:
             for sphere in raw["spheres"]:
-                if sphere.get("transparency", 0) > 0:
+                if sphere.get("transparency", 0) > 0 and c.ior_sphere in (None, sphere.get("name")):
                     sphere["ior"] = c.ior
         return json.dumps(raw, indent=1)
 

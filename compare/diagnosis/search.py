@@ -28,8 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import camera_fit, localise, noise, transforms
+from compare.diagnosis import camera_fit, constant_fit, localise, noise, transforms
 from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.constant_fit import fitted_bias, fitted_ior
 from compare.diagnosis.fresnel_fit import fitted_curve
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
 from compare.diagnosis.localise import INT
@@ -365,6 +366,40 @@ class Search:
             self.say(f"diagnose: the camera fitted from the silhouettes: {f.words}")
         return [Switch("camera", f.key, True) for f in found]
 
+    def fitted(self, kept: Switch, current: Candidate) -> Candidate:
+        """current, whose last switch set a constant's seed value, with that value fitted
+        (fresnel_fit.py, constant_fit.py); else current."""
+        if not kept.present or kept.kind not in ("fresnel", "ior", "bias"):
+            return current
+        fit = {"fresnel": fitted_curve, "ior": fitted_ior, "bias": fitted_bias}[kept.kind]
+        t0, renders = time.perf_counter(), len(self.trials.scores)
+        out = fit(self.trials, current)
+        self.say(
+            f"diagnose: the {kept.kind} fitted: {out.name} ({len(self.trials.scores) - renders}"
+            f" renders, {time.perf_counter() - t0:.1f} s)"
+        )
+        return out
+
+    def background_switches(self, current: Candidate) -> list[Switch]:
+        """The background the image shows where the start's camera rays miss every sphere,
+        as a switch, where it is not the scene's; and the scene's background back, where
+        current hard-codes one. Black is left to the catalogue's mistake black_background,
+        which renders the same. A white that clips (any value >= 1 looks the same there) is
+        tried as 1 and as 2: glass and mirrors that mix it in may still tell them apart."""
+        if current.background is not None:
+            return [Switch("background", "scene", False)]
+        t = self.trials.target
+        seen = constant_fit.background_seen(t.test, t.masks.get("background", np.zeros(0, bool)))
+        if seen is None or max(seen) == 0:
+            return []
+        options = [seen] if min(seen) < 1 else [(1.0, 1.0, 1.0), (2.0, 2.0, 2.0)]
+        theirs = tuple(self.scene.background)
+        return [
+            Switch("background", ",".join(f"{v:g}" for v in rgb), True)
+            for rgb in options
+            if rgb != theirs
+        ]
+
     def camera_switches(self, current: Candidate) -> list[Switch]:
         """The fitted camera as a switch of the search (the catalogue's camera mistakes are
         switches already)."""
@@ -490,9 +525,7 @@ class Search:
                 f"{objective(t.per(current)):.3f} -> {objective(t.per(cands[best])):.3f}"
             )
             current = cands[best]
-            if tried[best].kind == "fresnel" and tried[best].present:
-                current = fitted_curve(t, current)
-                self.say(f"diagnose: the Fresnel curve fitted: {current.name}")
+            current = self.fitted(tried[best], current)
             self.trials.flip_guess(current)  # while the search goes on: often the result
         return current
 
@@ -507,6 +540,7 @@ class Search:
             sw
             for sw in switches(current, self.scene, self.quirks, full=promising is None)
             + self.camera_switches(current)
+            + self.background_switches(current)
             if (promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth")
             and (sw.kind, sw.key) not in self.banned
             and may_help(sw, still)
@@ -798,9 +832,14 @@ ALIKE_KINDS = ("quirk", "mistake", "effect")
 def may_help(sw: Switch, still: set[str]) -> bool:
     """Whether sw can explain an effect still open: a named mistake is added only where one
     of the effects it shows in (mistakes.json) differs, a Fresnel curve where reflection or
-    refraction does; every other switch may."""
+    refraction does, a glass ior (and its fit, constant_fit.py) where refraction does, a
+    background where the misses or what mirrors and glass show differ; every other switch may."""
     if sw.kind == "fresnel" and sw.present:
         return bool({"reflection", "refraction"} & set(still))
+    if sw.kind == "ior" and sw.present:
+        return "refraction" in still
+    if sw.kind == "background" and sw.present:
+        return bool({"background", "reflection", "refraction"} & set(still))
     if sw.kind != "mistake" or not sw.present:
         return True
     return bool(set(catalogue()[sw.key].effects) & set(still))

@@ -24,15 +24,20 @@ from compare.judge.target_model import MODE_QUIRKS, SWITCHABLE_EFFECTS
 from scene_model.scene import Scene
 
 MAX_SEARCH_DEPTH = 32
-BACKGROUNDS: tuple[RGB, ...] = ((1.0, 1.0, 1.0), (2.0, 2.0, 2.0))  # black: black_background
+# Seeds of the ior fit (constant_fit.fitted_ior refines the one that helps): common indices,
+# and the scene's own each step of IOR_NEAR either side (a student's 1.45 for the scene's 1.5:
+# an ior as near as 0.05 changes too few refraction pixels to tell 1.4 from 1.5).
+# The background is not a seed: search.py reads it off the image (constant_fit.py).
 IORS = (1.1, 1.2, 1.33, 1.5)
+IOR_NEAR = (0.05, 0.1)
 # The kinds whose switch sets a value (any value of one kind sets the same thing).
 VALUED = ("depth", "background", "ior", "bias", "fresnel", "camera")
 # Where the paper's Fresnel curve (Q8) is on, the sweep tries these constants (mix, power) of
 # it: a mirror at every angle (the facing ratio's sign lost), half and half, and Schlick's
 # curve for glass of ior 1.5; one that helps is then fitted as a value (fresnel_fit.py).
 FRESNEL_SEEDS = ((1.0, 3), (0.5, 3), (0.04, 5))
-# Offsets of secondary rays programs hard-code (the scenes ask 1e-4): CAPBenchmarks' 1e-3.
+# Seeds of the bias fit (constant_fit.fitted_bias refines the one that helps on a log scale):
+# offsets programs hard-code (the scenes ask 1e-4), CAPBenchmarks' 1e-3 among them.
 BIASES = (1e-5, 1e-3, 1e-2)
 # The step of the algorithm each quirk, mistake and effect lives in (what a student reads).
 QUIRK_STEPS = {
@@ -92,7 +97,7 @@ class Switch:
         if self.kind == "background":
             return c.with_background(self._rgb() if self.present else None)
         if self.kind == "ior":
-            return c.with_ior(float(self.key) if self.present else None)
+            return c.with_ior(*self.ior_of()) if self.present else c.with_ior(None)
         if self.kind == "bias":
             return c.with_bias(float(self.key) if self.present else None)
         if self.kind == "fresnel":
@@ -100,6 +105,12 @@ class Switch:
         if self.kind == "camera":
             return c.with_camera(self.key if self.present else None)
         return c.at_depth(int(self.key), scene)
+
+    def ior_of(self) -> tuple[float, str | None]:
+        """An ior switch's value and the glass sphere it is for ("1.45@glass"; None: every
+        glass sphere)."""
+        value, _, sphere = self.key.partition("@")
+        return float(value), sphere or None
 
     def curve(self) -> tuple[float, int]:
         """A fresnel switch's (mix, power)."""
@@ -153,7 +164,10 @@ class Switch:
         if self.kind == "background":
             return f"background {rgb_text(self._rgb())}" if self.present else "scene background"
         if self.kind == "ior":
-            return f"ior {float(self.key):g}" if self.present else "scene ior"
+            if not self.present:
+                return "scene ior"
+            value, sphere = self.ior_of()
+            return f"ior {value:g}" + (f" for '{sphere}'" if sphere else "")
         if self.kind == "bias":
             return f"bias {float(self.key):g}" if self.present else "scene bias"
         if self.kind == "fresnel":
@@ -215,6 +229,12 @@ class Switch:
                 return f"background {rgb_text(self._rgb())} hard-coded (the scene's is {theirs})"
             return f"the scene's background {theirs}"
         theirs = ", ".join(f"{v:g}" for v in sorted(glass_iors(scene)))
+        value, sphere = self.ior_of() if self.present else (0.0, None)
+        if sphere is not None:
+            own = next((s.ior for s in scene.spheres if s.name == sphere), 0.0)
+            return (
+                f"ior {value:g} hard-coded for the glass sphere '{sphere}' (the scene's is {own:g})"
+            )
         if self.present:
             return (
                 f"ior {float(self.key):g} hard-coded for every glass sphere (the scene's: {theirs})"
@@ -257,13 +277,7 @@ def _depths(d: int, full: bool) -> list[int]:
 
 
 def _constant_switches(c: Candidate, scene: Scene) -> list[Switch]:
-    out = []
-    for rgb in BACKGROUNDS:
-        if rgb != tuple(scene.background) and rgb != c.background:
-            out.append(Switch("background", ",".join(f"{v:g}" for v in rgb), True))
-    if c.background is not None:
-        out.append(Switch("background", "scene", False))
-    out += [Switch("bias", f"{v:g}", True) for v in BIASES if v not in (scene.bias, c.bias)]
+    out = [Switch("bias", f"{v:g}", True) for v in BIASES if v not in (scene.bias, c.bias)]
     if c.bias is not None:
         out.append(Switch("bias", "scene", False))
     if FRESNEL_QUIRK in c.quirks:
@@ -274,10 +288,28 @@ def _constant_switches(c: Candidate, scene: Scene) -> list[Switch]:
             out.append(Switch("fresnel", "paper", False))
     theirs = glass_iors(scene)
     if theirs:
-        out += [Switch("ior", f"{v:g}", True) for v in IORS if {v} != theirs and v != c.ior]
+        near = {round(v + s * d, 2) for v in theirs for d in IOR_NEAR for s in (-1, 1)}
+        near = {v for v in near if v > 1}
+        seeds = sorted(set(IORS) | near)
+        out += [Switch("ior", f"{v:g}", True) for v in seeds if {v} != theirs and v != c.ior]
+        out += _sphere_ior_seeds(c, scene)
         if c.ior is not None:
             out.append(Switch("ior", "scene", False))
     return out
+
+
+def _sphere_ior_seeds(c: Candidate, scene: Scene) -> list[Switch]:
+    """Where the scene's glass spheres differ in ior, each one's own ior each step of IOR_NEAR
+    either side, for that sphere alone (a program with one sphere's index mistyped)."""
+    if len(glass_iors(scene)) < 2 or c.ior is not None:
+        return []
+    return [
+        Switch("ior", f"{round(s.ior + d, 2):g}@{s.name}", True)
+        for s in scene.spheres
+        if s.transparency > 0
+        for d in (-IOR_NEAR[0], IOR_NEAR[0], -IOR_NEAR[1], IOR_NEAR[1])
+        if s.ior + d > 1
+    ]
 
 
 def differences(a: Candidate, b: Candidate, scene: Scene) -> list[Switch]:
@@ -296,8 +328,10 @@ def differences(a: Candidate, b: Candidate, scene: Scene) -> list[Switch]:
         rgb = b.background or a.background
         assert rgb is not None
         out.append(Switch("background", ",".join(f"{v:g}" for v in rgb), b.background is not None))
-    if a.ior != b.ior:
-        out.append(Switch("ior", f"{b.ior or a.ior:g}", b.ior is not None))
+    if (a.ior, a.ior_sphere) != (b.ior, b.ior_sphere):
+        hard = b if b.ior is not None else a
+        where = f"@{hard.ior_sphere}" if hard.ior_sphere else ""
+        out.append(Switch("ior", f"{hard.ior or 0.0:g}{where}", b.ior is not None))
     if a.bias != b.bias:
         out.append(Switch("bias", f"{b.bias or a.bias:g}", b.bias is not None))
     if a.camera != b.camera:
