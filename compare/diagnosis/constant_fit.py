@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from compare.diagnosis.candidate import RGB, Candidate
-from compare.diagnosis.score import objective
+from compare.diagnosis.refine import best_of, snapped
 from compare.diagnosis.trials import Trials
 
 # The ior grid: each round tries two steps either side of the best so far, the step shrinking
@@ -70,10 +70,10 @@ def fitted_ior(trials: Trials, c: Candidate) -> Candidate:
     for step in IOR_STEPS:
         assert best.ior is not None
         values = [_clamp(best.ior + step * k, IOR_RANGE, 2) for k in (-2, -1, 1, 2)]
-        best = _best_of(trials, best, [best.ior_refit(v) for v in values])
+        best = best_of(trials, best, [best.ior_refit(v) for v in values])
     assert best.ior is not None
     near = sorted(COMMON_IORS, key=lambda v: abs(v - (best.ior or 0.0)))[:2]
-    return _snapped(trials, best, [best.ior_refit(v) for v in near])
+    return snapped(trials, best, [best.ior_refit(v) for v in near])
 
 
 def fitted_bias(trials: Trials, c: Candidate) -> Candidate:
@@ -85,9 +85,9 @@ def fitted_bias(trials: Trials, c: Candidate) -> Candidate:
         assert best.bias is not None
         log = math.log10(best.bias)
         values = [_clamp(10 ** (log + step * k), BIAS_RANGE, None) for k in (-1, 1)]
-        best = _best_of(trials, best, [best.with_bias(_sig(v, 2)) for v in values])
+        best = best_of(trials, best, [best.with_bias(_sig(v, 2)) for v in values])
     assert best.bias is not None
-    return _snapped(trials, best, [best.with_bias(v) for v in _round_biases(best.bias)])
+    return snapped(trials, best, [best.with_bias(v) for v in _round_biases(best.bias)])
 
 
 def _round_biases(bias: float) -> list[float]:
@@ -105,26 +105,3 @@ def _sig(v: float, digits: int) -> float:
 def _clamp(v: float, bounds: tuple[float, float], digits: int | None) -> float:
     v = min(bounds[1], max(bounds[0], v))
     return round(v, digits) if digits is not None else v
-
-
-def _best_of(trials: Trials, best: Candidate, options: list[Candidate]) -> Candidate:
-    """The candidate of the lowest objective, best kept on a tie."""
-    options = [o for o in dict.fromkeys(options) if o != best]
-    trials.evaluate(options)
-    for o in options:
-        if objective(trials.per(o)) < objective(trials.per(best)):
-            best = o
-    return best
-
-
-def _snapped(trials: Trials, c: Candidate, rounder: list[Candidate]) -> Candidate:
-    """The first of `rounder` that fits as well as c (the image cannot tell them apart), else
-    c."""
-    options = [r for r in rounder if r != c]
-    if len(options) < len(rounder):
-        return c  # c is a round value already
-    trials.evaluate(options)
-    for r in options:
-        if trials.fits_as_well(r, c):
-            return r
-    return c

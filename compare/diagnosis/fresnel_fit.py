@@ -7,7 +7,7 @@ four, so that the renders of one batch run in parallel."""
 from __future__ import annotations
 
 from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.score import objective
+from compare.diagnosis.refine import best_of, snapped
 from compare.diagnosis.trials import Trials
 
 # The mix grid: each round tries two steps either side of the best mix so far, the step
@@ -25,16 +25,19 @@ def fitted_curve(trials: Trials, c: Candidate) -> Candidate:
     assert best.fresnel is not None
     mix, power = best.fresnel
     powers = ({power - 1, power + 1, 5} & set(POWERS)) - {power}
-    best = _best_of(trials, best, [best.with_fresnel((mix, p)) for p in sorted(powers)])
+    best = best_of(trials, best, [best.with_fresnel((mix, p)) for p in sorted(powers)])
     if best.fresnel != (mix, power):
         best = _fitted_mix(trials, best, MIX_STEPS[1:])
-    return _roundest(trials, best)
+    assert best.fresnel is not None
+    mix, power = best.fresnel
+    rounder = [best.with_fresnel((round(mix, digits), power)) for digits in (1, 2)]
+    return snapped(trials, best, rounder)
 
 
 def _fitted_mix(trials: Trials, c: Candidate, steps: tuple[float, ...]) -> Candidate:
     best = c
     for step in steps:
-        best = _best_of(trials, best, [_with_mix(best, step * k) for k in (-2, -1, 1, 2)])
+        best = best_of(trials, best, [_with_mix(best, step * k) for k in (-2, -1, 1, 2)])
     return best
 
 
@@ -42,28 +45,3 @@ def _with_mix(c: Candidate, offset: float) -> Candidate:
     assert c.fresnel is not None
     mix, power = c.fresnel
     return c.with_fresnel((round(min(1.0, max(0.0, mix + offset)), 4), power))
-
-
-def _best_of(trials: Trials, best: Candidate, options: list[Candidate]) -> Candidate:
-    """The candidate of the lowest objective, best kept on a tie."""
-    options = [o for o in options if o != best]
-    trials.evaluate(options)
-    for o in options:
-        if objective(trials.per(o)) < objective(trials.per(best)):
-            best = o
-    return best
-
-
-def _roundest(trials: Trials, c: Candidate) -> Candidate:
-    """c's mix at one decimal, else two, where that fits as well as c (the image cannot tell
-    them apart), else c."""
-    assert c.fresnel is not None
-    mix, power = c.fresnel
-    for digits in (1, 2):
-        rounder = c.with_fresnel((round(mix, digits), power))
-        if rounder == c:
-            return c
-        trials.evaluate([rounder])
-        if trials.fits_as_well(rounder, c):
-            return rounder
-    return c
