@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from compare.diagnosis import camera_fit, constant_fit, localise, noise, transforms
-from compare.diagnosis.candidate import Candidate
+from compare.diagnosis.candidate import RGB, Candidate
 from compare.diagnosis.constant_fit import fitted_bias, fitted_ior
 from compare.diagnosis.fresnel_fit import fitted_curve
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
@@ -157,6 +157,8 @@ class Search:
         self.near_by_count: list[Candidate] = []  # the nearest start and those within its margin
         self.banned: set[tuple[str, str]] = set()  # switches of a dead end (searched)
         self.noisy = False  # the image carries random noise (denoised)
+        self.seen: RGB | None = None  # the background the image shows (_background_seen)
+        self.seen_for: F32 | None = None  # ... in this test image
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
@@ -255,14 +257,15 @@ class Search:
         tr = noise.fitted(t.target.test, render, t.target.codes)
         if tr is None or tr.undo is None:
             return False
-        g = self._transform_gates(render, tr, tr.undo(t.target.test))
+        undone = tr.undo(t.target.test)
+        g = self._transform_gates(render, tr, undone)
         named = tuple(k for k in t.target.masks if k in g and g[k].passed)
         if not named:
             self.say(f"diagnose: {tr.name}, but it fails the gates")
             return False
         self.say(f"diagnose: the image has {tr.name}")
         self.images.append(ImageCause(tr.family, tr.name, named, {k: g[k] for k in named}, tr.spec))
-        t.set_test(tr.undo(t.target.test))
+        t.set_test(undone)
         self.noisy = True
         return True
 
@@ -388,8 +391,7 @@ class Search:
         tried as 1 and as 2: glass and mirrors that mix it in may still tell them apart."""
         if current.background is not None:
             return [Switch("background", "scene", False)]
-        t = self.trials.target
-        seen = constant_fit.background_seen(t.test, t.masks.get("background", np.zeros(0, bool)))
+        seen = self._background_seen()
         if seen is None or max(seen) == 0:
             return []
         options = [seen] if min(seen) < 1 else [(1.0, 1.0, 1.0), (2.0, 2.0, 2.0)]
@@ -399,6 +401,17 @@ class Search:
             for rgb in options
             if rgb != theirs
         ]
+
+    def _background_seen(self) -> RGB | None:
+        """constant_fit.background_seen of the image judged now, read once per image (every
+        round asks; the image changes only when a transform or the noise is taken out)."""
+        t = self.trials.target
+        misses = t.masks.get("background")
+        if misses is None:
+            return None
+        if self.seen_for is not t.test:
+            self.seen, self.seen_for = constant_fit.background_seen(t.test, misses), t.test
+        return self.seen
 
     def camera_switches(self, current: Candidate) -> list[Switch]:
         """The fitted camera as a switch of the search (the catalogue's camera mistakes are
