@@ -47,7 +47,7 @@ def covered_files(root: Path, modules: tuple[str, ...]) -> list[Path]:
         if path in seen:
             continue
         seen.add(path)
-        for dotted in imported(root, path):
+        for dotted in _imports(root, path):
             found = module_file(root, dotted)
             if found is not None:
                 todo.append(found)
@@ -66,11 +66,17 @@ def module_file(root: Path, dotted: str) -> Path | None:
     return None
 
 
+@functools.cache
+def _imports(root: Path, path: Path) -> tuple[str, ...]:
+    """imported(), once per file and process (every identity covers most of the same files)."""
+    return tuple(imported(root, path))
+
+
 def imported(root: Path, path: Path) -> Iterator[str]:
     """The modules the file's import statements name: `from a import b` is a.b where b is a
     module, else a (a package's __init__ is not implied by importing one of its modules)."""
     module = _module_name(root, path)
-    for node in ast.walk(ast.parse(path.read_bytes(), filename=str(path))):
+    for node in _statements(ast.parse(path.read_bytes(), filename=str(path))):
         if isinstance(node, ast.Import):
             yield from (alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -81,6 +87,15 @@ def imported(root: Path, path: Path) -> Iterator[str]:
             for alias in node.names:
                 sub = f"{source}.{alias.name}"
                 yield sub if module_file(root, sub) is not None else source
+
+
+def _statements(node: ast.AST) -> Iterator[ast.AST]:
+    """Every node under `node` but inside expressions: an import is a statement, and
+    expressions are most of a module's nodes."""
+    for child in ast.iter_child_nodes(node):
+        if not isinstance(child, ast.expr):
+            yield child
+            yield from _statements(child)
 
 
 def _is_init(path: Path) -> int:

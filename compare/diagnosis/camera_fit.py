@@ -38,6 +38,8 @@ MIN_MOVE_PX = 0.75
 # STORY_FLOOR; a whole degree of field of view moves the scales by 3 %.
 STORY_PIXELS = 2.5
 STORY_FLOOR = 0.005
+# A profile is flat where its variance is below this share of its mean square.
+FLAT = 1e-9
 
 
 @dataclass(frozen=True)
@@ -89,57 +91,71 @@ def _edges(rgb: F32) -> np.ndarray:
 
 def _register(p_img: np.ndarray, p_ren: np.ndarray) -> tuple[float, float, float] | None:
     """(a, b, correlation) with render index j = a i + b for image index i, best matching
-    the edge profiles, or None when none matches well."""
-    n = p_img.size
-    best = max((_best_shift(p_img, p_ren, a) for a in SCALES), key=lambda r: r[0])
-    corr, a, b = best
-    for step in (0.004, 0.001):  # refine the scale, each with its best shift
-        options = [_best_shift(p_img, p_ren, a + k * step, b) for k in range(-3, 4)]
-        corr, a, b = max(options, key=lambda r: r[0])
-    corr, b = max((_correlation(p_img, p_ren, a, b + d), b + d) for d in np.linspace(-1, 1, 41))
-    return (a, b, corr) if corr >= MIN_CORRELATION and n >= 16 else None
+    the edge profiles, or None when none matches well. Every scale with its FFT's best
+    shifts, then the scale refined twice within 3 pixels of the shift, then the shift to a
+    twentieth of a pixel: each stage one batch of correlations."""
+    shifts = _fft_shifts(p_img, p_ren, SCALES)
+    corr, a, b = _best_of(p_img, p_ren, np.repeat(SCALES, shifts.shape[1]), shifts.ravel())
+    near = np.arange(-3.0, 4.0)
+    for step in (0.004, 0.001):
+        scales = a + step * near
+        corr, a, b = _best_of(
+            p_img, p_ren, np.repeat(scales, near.size), np.tile(b + near, near.size)
+        )
+    fine = b + np.linspace(-1, 1, 41)
+    corr, a, b = _best_of(p_img, p_ren, np.full(fine.size, a), fine)
+    return (a, b, corr) if corr >= MIN_CORRELATION and p_img.size >= 16 else None
 
 
-def _best_shift(
-    p_img: np.ndarray, p_ren: np.ndarray, a: float, near: float | None = None
+def _best_of(
+    p_img: np.ndarray, p_ren: np.ndarray, scales: np.ndarray, shifts: np.ndarray
 ) -> tuple[float, float, float]:
-    """(correlation, a, b): the shift b that best matches at scale a, among the FFT's best
-    (_fft_shifts), or within 3 pixels of `near`."""
-    shifts = _fft_shifts(p_img, p_ren, a) if near is None else [near + d for d in range(-3, 4)]
-    corr, b = max((_correlation(p_img, p_ren, a, s), s) for s in shifts)
-    return corr, a, b
+    """(correlation, a, b) of the best pair (scales[k], shifts[k])."""
+    corr = _correlations(p_img, p_ren, scales, shifts)
+    k = int(np.argmax(corr))
+    return float(corr[k]), float(scales[k]), float(shifts[k])
 
 
-def _fft_shifts(p_img: np.ndarray, p_ren: np.ndarray, a: float) -> list[float]:
-    """The shifts b (render index a i + b) of the FFT cross-correlation's ten highest raw
-    scores between the image's profile and the render's resampled at scale a."""
+def _fft_shifts(p_img: np.ndarray, p_ren: np.ndarray, scales: np.ndarray) -> np.ndarray:
+    """Per scale a (rows), the shifts b (render index a i + b) of the FFT cross-correlation's
+    five highest raw scores between the image's profile and the render's resampled at a."""
     n = p_img.size
-    m = int(np.ceil(n / a)) + 1  # the render on the image's grid: index k is render's a k
-    k = np.arange(m, dtype=np.float64)
-    ren = np.interp(a * k, np.arange(n), p_ren, left=0.0, right=0.0)
-    size = 1 << int(np.ceil(np.log2(n + m)))
-    spectrum = np.fft.rfft(p_img - p_img.mean(), size) * np.conj(
-        np.fft.rfft(ren - ren.mean(), size)
+    m = np.ceil(n / scales).astype(int) + 1  # the render on the image's grid: k is a k
+    k = np.arange(m.max(), dtype=np.float64)
+    valid = k[None, :] < m[:, None]
+    ren = np.interp(scales[:, None] * k[None, :], np.arange(n), p_ren, left=0.0, right=0.0)
+    ren = np.where(valid, ren - (ren * valid).sum(axis=1, keepdims=True) / m[:, None], 0.0)
+    size = 1 << int(np.ceil(np.log2(n + m.max())))
+    spectrum = np.fft.rfft(p_img - p_img.mean(), size)[None, :] * np.conj(
+        np.fft.rfft(ren, size, axis=1)
     )
-    raw = np.fft.irfft(spectrum, size)
+    raw = np.fft.irfft(spectrum, size, axis=1)
     # raw[lag]: image index i against resampled index i - lag, i.e. render index a (i - lag)
-    lags = np.concatenate([np.arange(0, n), np.arange(-m + 1, 0)])
-    top = lags[np.argsort(raw[lags % size])[-10:]]
-    return [float(-a * lag) for lag in top]
+    lags = np.arange(-k.size + 1, n)
+    scores = np.where(lags[None, :] > -m[:, None], raw[:, lags % size], -np.inf)
+    top = lags[np.argpartition(scores, -5, axis=1)[:, -5:]]
+    return -scales[:, None] * top
 
 
-def _correlation(p_img: np.ndarray, p_ren: np.ndarray, a: float, b: float) -> float:
-    """Normalised correlation of the image's profile with the render's at j = a i + b, over
-    the image indices whose j lies inside the render (at least a quarter of them)."""
+def _correlations(
+    p_img: np.ndarray, p_ren: np.ndarray, scales: np.ndarray, shifts: np.ndarray
+) -> np.ndarray:
+    """Per pair k, the normalised correlation of the image's profile with the render's at
+    j = scales[k] i + shifts[k], over the image indices whose j lies inside the render (-1
+    where under a quarter of them do, or where either side is flat there)."""
     n = p_img.size
-    j = a * np.arange(n, dtype=np.float64) + b
-    inside = (j >= 0) & (j <= n - 1)
-    if inside.sum() < n // 4:
-        return -1.0
-    x, y = p_img[inside], np.interp(j[inside], np.arange(n), p_ren)
-    if x.std() == 0 or y.std() == 0:
-        return -1.0
-    return float(np.corrcoef(x, y)[0, 1])
+    j = scales[:, None] * np.arange(n, dtype=np.float64)[None, :] + shifts[:, None]
+    inside = ((j >= 0) & (j <= n - 1)).astype(np.float64)
+    y = np.interp(j, np.arange(n), p_ren) * inside
+    count = inside.sum(axis=1)
+    sx, sxx = inside @ p_img, inside @ (p_img * p_img)
+    sy, syy, sxy = y.sum(axis=1), (y * y).sum(axis=1), y @ p_img
+    with np.errstate(invalid="ignore", divide="ignore"):
+        vx, vy = sxx - sx * sx / count, syy - sy * sy / count
+        corr = (sxy - sx * sy / count) / np.sqrt(vx * vy)
+        # a flat side: its variance is rounding against its mean square
+        flat = (vx <= FLAT * sxx) | (vy <= FLAT * syy)
+    return np.asarray(np.where((count < n // 4) | flat | ~np.isfinite(corr), -1.0, corr))
 
 
 def _as_map(x: tuple[float, float], y: tuple[float, float], w: int, h: int, t: float) -> CameraMap:

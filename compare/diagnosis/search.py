@@ -108,6 +108,10 @@ SEARCH_QUIRKS = BASE_QUIRKS + LATER_QUIRKS
 MIN_GAIN = 1e-3
 MAX_RENDERS = 200  # no new full sweep of every switch starts beyond this many renders
 MAX_ROUNDS = 40
+# A kept candidate whose own perturbed renders moved CHAOS_RATIO times as many pixels of each
+# effect as still differ is settled: the rest is where float rounding decides its pixels (a
+# mistake's acne), which no further switch reproduces, so no second full sweep is made.
+CHAOS_RATIO = 4
 # No new full sweep starts after this many seconds of search: with the time limit of each
 # render (trials.TIME_LIMIT_MAX) a 640x480 diagnosis ends within 30 s, whatever the image.
 SEARCH_SECONDS = 15.0
@@ -578,15 +582,27 @@ class Search:
 
     def _settled(self, current: Candidate) -> bool:
         """Nothing left to explain: every effect matches (within the allowance, the camera
-        turned as exact matching turns it: edge pixels of float64 programs need that), or the
-        render budget is spent."""
+        turned as exact matching turns it: edge pixels of float64 programs need that), what
+        still differs is current's own chaos (CHAOS_RATIO), or the render or time budget is
+        spent."""
         t = self.trials
         if len(t.scores) >= self.max_renders or t.matched(current):
             return True
         if time.perf_counter() - self.t0 > SEARCH_SECONDS:
             self.say(f"diagnose: {SEARCH_SECONDS:.0f} s spent: no further sweep")
             return True
-        return t.exact_of(current).passed
+        exact = t.exact_of(current)
+        if exact.passed:
+            return True
+        if all(
+            e.passed or e.differing * CHAOS_RATIO <= e.unstable for e in exact.per_effect.values()
+        ):
+            self.say(
+                f"diagnose: what still differs lies where {current.name}'s own renders"
+                " disagree: no further sweep"
+            )
+            return True
+        return False
 
     def shallowest(self, c: Candidate) -> Candidate:
         """The smallest recursion limit above the scene's that fits as well as c's: limits
