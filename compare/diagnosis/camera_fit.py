@@ -62,10 +62,10 @@ def fitted(image: F32, renders: list[F32], fov_y: float) -> list[Fitted]:
     apart); [] where the image's silhouettes lie where the render's do, or where no affine
     camera explains them."""
     h, w = image.shape[:2]
-    ei = _edges(image)
+    ei = edges(image)
     fits: list[tuple[float, tuple[float, float], tuple[float, float]]] = []
     for render in renders:
-        er = _edges(render)
+        er = edges(render)
         rx = _register(ei.sum(axis=0), er.sum(axis=0))
         ry = _register(ei.sum(axis=1), er.sum(axis=1))
         if rx is not None and ry is not None:
@@ -80,7 +80,7 @@ def fitted(image: F32, renders: list[F32], fov_y: float) -> list[Fitted]:
     return _story(_as_map(x, y, w, h, t), w, h, fov_y)
 
 
-def _edges(rgb: F32) -> np.ndarray:
+def edges(rgb: F32) -> np.ndarray:
     """Edge strength: the display luminance's gradient magnitude (one pixel shorter on the
     far sides, padded back)."""
     lum = linear_to_srgb(np.clip(np.nan_to_num(rgb), 0, 1).astype(np.float32)).mean(axis=-1)

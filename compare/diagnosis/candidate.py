@@ -21,6 +21,8 @@ if TYPE_CHECKING:
     from scene_model.scene import Scene
 
 RGB = tuple[float, float, float]
+Vec3 = tuple[float, float, float]
+VIEW_PREFIX = "view:"
 FRESNEL_QUIRK = 8  # the paper's Fresnel curve, whose constants --fresnel-mix/-power change
 PAPERS_FRESNEL = (0.1, 3)
 
@@ -28,6 +30,25 @@ PAPERS_FRESNEL = (0.1, 3)
 def camera_numbers(camera: str) -> str:
     """rtdemo --camera-map's value of a camera key ("su,ou,sv,ov|words")."""
     return camera.split("|", 1)[0]
+
+
+def is_view(camera: str) -> bool:
+    """Whether a camera key is a view ("view:x,y,z;x,y,z|words": camera_view.py, where the
+    camera stands and looks, a scene copy), not a camera map (rtdemo --camera-map)."""
+    return camera.startswith(VIEW_PREFIX)
+
+
+def view_of(camera: str) -> tuple[Vec3, Vec3]:
+    """(position, look_at) of a view key."""
+    numbers = camera[len(VIEW_PREFIX) :].split("|", 1)[0]
+    pos, at = ([float(v) for v in part.split(",")] for part in numbers.split(";"))
+    return (pos[0], pos[1], pos[2]), (at[0], at[1], at[2])
+
+
+def view_key(position: Vec3, look_at: Vec3, words: str) -> str:
+    """The camera key of a view."""
+    numbers = ";".join(",".join(f"{v:.9g}" for v in p) for p in (position, look_at))
+    return f"{VIEW_PREFIX}{numbers}|{words}"
 
 
 def camera_words(camera: str) -> str:
@@ -69,7 +90,9 @@ class Candidate:
         The offset of secondary rays a program hard-codes; default None: the scene's.
     camera : str or None
         Another camera, as camera_fit.Fitted.key writes it: "su,ou,sv,ov|what it is", the
-        numbers rtdemo's ``--camera-map`` (camera_fit.py); default None: the scene's.
+        numbers rtdemo's ``--camera-map`` (camera_fit.py); or a view, "view:x,y,z;x,y,z|what
+        it is", the position and look_at of a scene copy (camera_view.py); default None: the
+        scene's.
     fresnel : tuple[float, int] or None
         The paper's Fresnel curve (Q8) with other constants (mix, power): mix + (1 - mix)
         (1 - cos)^power, rtdemo's ``--fresnel-mix`` and ``--fresnel-power``; default None:
@@ -124,9 +147,12 @@ class Candidate:
             parts.append("--mistake " + ",".join(self.ordered_mistakes()))
         if self.fresnel is not None:
             parts.append(f"--fresnel-mix {self.fresnel[0]:g} --fresnel-power {self.fresnel[1]}")
-        if self.camera is not None:
+        if self.camera is not None and not is_view(self.camera):
             parts.append(f"--camera-map {camera_numbers(self.camera)}")
         # Scene constants in brackets: they are a scene copy, not rtdemo options.
+        if self.camera is not None and is_view(self.camera):
+            pos, at = view_of(self.camera)
+            parts.append(f"[camera at {rgb_text(pos)} looking at {rgb_text(at)}]")
         if self.background is not None:
             parts.append(f"[background {rgb_text(self.background)}]")
         if self.ior is not None:
@@ -151,7 +177,7 @@ class Candidate:
             args += ["--max-depth", str(self.max_depth)]
         if self.mistakes:
             args += ["--mistake", ",".join(self.ordered_mistakes())]
-        if self.camera is not None:
+        if self.camera is not None and not is_view(self.camera):
             args += ["--camera-map", camera_numbers(self.camera)]
         if self.fresnel is not None:
             args += [
@@ -164,7 +190,7 @@ class Candidate:
 
     def scene_changes(self) -> dict[str, Any]:
         """What the scene copy it is rendered from changes: {"background": [1, 1, 1],
-        "ior": 1.5} (the camera turn is not listed: it is how a candidate is judged)."""
+        "ior": 1.5, "camera": {"position": ..., "look_at": ...}} (the camera turn is not listed: it is how a candidate is judged)."""
         out: dict[str, Any] = {}
         if self.background is not None:
             out["background"] = list(self.background)
@@ -174,6 +200,9 @@ class Candidate:
                 out["ior_sphere"] = self.ior_sphere
         if self.bias is not None:
             out["bias"] = self.bias
+        if self.camera is not None and is_view(self.camera):
+            pos, at = view_of(self.camera)
+            out["camera"] = {"position": list(pos), "look_at": list(at)}
         return out
 
     def with_quirk(self, quirk: int, present: bool) -> Candidate:

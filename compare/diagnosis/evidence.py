@@ -103,6 +103,11 @@ def render_command(d: Diagnosis, scene_file: str | Path) -> str:
         words.append(f"ior {changes['ior']:g} for {which}")
     if "bias" in changes:
         words.append(f"bias {changes['bias']:g}")
+    if "camera" in changes:
+        pos, at = (
+            ", ".join(f"{v:g}" for v in changes["camera"][k]) for k in ("position", "look_at")
+        )
+        words.append(f"the camera at ({pos}) looking at ({at})")
     scene = f"{scene_file}" + (f" (a copy with {' and '.join(words)})" if words else "")
     text = f"rtdemo render {scene} {' '.join(d.rtdemo_args)}"
     if d.mirrored:

@@ -247,6 +247,7 @@ class CandidateRenderer:
             for sphere in raw["spheres"]:
                 if sphere.get("transparency", 0) > 0 and c.ior_sphere in (None, sphere.get("name")):
                     sphere["ior"] = c.ior
+        raw["camera"].update(c.scene_changes().get("camera", {}))
         return json.dumps(raw, indent=1)
 
     def _scene_for(self, c: Candidate) -> str:

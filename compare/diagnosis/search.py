@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import camera_fit, constant_fit, localise, noise, transforms
+from compare.diagnosis import camera_fit, camera_view, constant_fit, localise, noise, transforms
 from compare.diagnosis.candidate import RGB, Candidate
 from compare.diagnosis.constant_fit import fitted_bias, fitted_ior
 from compare.diagnosis.fresnel_fit import fitted_curve
@@ -366,9 +366,14 @@ class Search:
         return (slip,)
 
     def fitted_cameras(self, starts: list[Candidate]) -> list[Switch]:
-        """The cameras fitted from the image's silhouettes against the starts'."""
+        """The cameras fitted from the image's silhouettes against the starts' (camera_fit.py),
+        and the views whose sphere boundaries they follow (camera_view.py)."""
+        test = self.trials.target.test
         renders = [self.trials.centre(c).rgb for c in starts]
-        found = camera_fit.fitted(self.trials.target.test, renders, self.scene.camera.fov_y)
+        found: list[camera_fit.Fitted | camera_view.View] = []
+        found += camera_fit.fitted(test, renders, self.scene.camera.fov_y)
+        if camera_view.stories(self.scene):
+            found += camera_view.fitted(camera_view.image_edges(test), self.scene)
         for f in found[:1]:
             self.say(f"diagnose: the camera fitted from the silhouettes: {f.words}")
         return [Switch("camera", f.key, True) for f in found]

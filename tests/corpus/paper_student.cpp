@@ -9,10 +9,12 @@
 // model's description. Two scenes are hard-coded: the paper's own (scenes/paper.json) and
 // rtval's lit variant (scenes/lit.json, a look-at camera).
 //
-//   paper_student paper|lit WIDTH HEIGHT OUT.ppm [--mirror]
+//   paper_student paper|lit WIDTH HEIGHT OUT.ppm [--mirror | --look-at-as-direction]
 //
 // --mirror writes the picture as the paper's OpenGL window shows it: pixel x drawn at
-// x_ndc = -2 (x / W - 0.5), i.e. mirrored left to right.
+// x_ndc = -2 (x / W - 0.5), i.e. mirrored left to right. --look-at-as-direction is the
+// look-at slip people ask about: the camera looks along lookAt itself, the eye not
+// subtracted (the same camera wherever the eye is the origin, as in the paper's scene).
 //
 // Built with -DC_STYLE it is written as scratchapixel's C-flavoured code is: the square roots
 // of C's <math.h> (the float promoted to double, the result narrowed back) and a PPM writer
@@ -196,8 +198,10 @@ static World litScene() {
 
 int main(int argc, char **argv) {
     bool mirror = argc == 6 && strcmp(argv[5], "--mirror") == 0;
-    if (argc != 5 && !mirror) {
-        fprintf(stderr, "usage: %s paper|lit WIDTH HEIGHT OUT.ppm [--mirror]\n", argv[0]);
+    bool lookAtAsDirection = argc == 6 && strcmp(argv[5], "--look-at-as-direction") == 0;
+    if (argc != 5 && !mirror && !lookAtAsDirection) {
+        fprintf(stderr, "usage: %s paper|lit WIDTH HEIGHT OUT.ppm [--mirror | --look-at-as-direction]\n",
+                argv[0]);
         return 64;
     }
     World world;
@@ -211,7 +215,7 @@ int main(int argc, char **argv) {
     if (width < 1 || height < 1) return 64;
 
     // The camera's frame: forward, right = forward x up, up' = right x forward.
-    Vec3f forward = world.lookAt - world.eye;
+    Vec3f forward = lookAtAsDirection ? world.lookAt : world.lookAt - world.eye;
     forward.normalize();
     Vec3f right = forward.cross(Vec3f(0, 1, 0));
     right.normalize();

@@ -314,6 +314,19 @@ def _paper() -> list[Variant]:
         ),
         Variant("paper-lit-gcc-O2", b, "lit", "paper", SMALL, ("lit", *args)),
         Variant(
+            "paper-lit-look_at_as_direction",
+            b,
+            "lit",
+            "paper",
+            SMALL,
+            ("lit", *args, "--look-at-as-direction"),
+            mistake="the camera looks along lookAt itself, the eye not subtracted",
+            causes=frozenset(
+                {"camera: look_at taken as a direction from the position, not a point"}
+            ),
+            steps=frozenset({CAMERA}),
+        ),
+        Variant(
             "paper-mirrored",
             b,
             "paper",
