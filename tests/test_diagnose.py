@@ -53,10 +53,10 @@ def test_unknown_mistake_is_a_usage_error_in_both_languages(rtdemo: str, tmp_pat
     assert proc.returncode == 2 and "unknown mistake 'nope'" in proc.stderr
     with pytest.raises(ValueError, match="unknown mistake 'nope'"):
         parse_mistakes("no_offset,nope")
-    # The GLSL engine renders the mistakes (tests/test_gl_backend.py), not the fitted curve.
+    # The curve's constants change the paper's curve: a mode without Q8 refuses them.
     gl = run([rtdemo, "render", str(CLASSIC), "-o", str(tmp_path / "x.exr"), "--backend", "gl",
-              "--mode", "classic", "--fresnel-mix", "0.9"])  # fmt: skip
-    assert gl.returncode == 2 and "CPU tracer" in gl.stderr
+              "--mode", "physical", "--fresnel-mix", "0.9"])  # fmt: skip
+    assert gl.returncode == 2 and "(Q8)" in gl.stderr
 
 
 # --- rtdemo --quirk and --mistake ----------------------------------------------------------

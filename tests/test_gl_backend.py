@@ -160,6 +160,33 @@ def test_gl_renders_mistakes_like_cpu_in_other_modes(
     assert_gl_renders_mistakes(path, mode, mistakes, rtdemo, tmp_path, width=160)
 
 
+# What the diagnosis fits, through both backends: the paper's Fresnel curve with other
+# constants (the defaults are the paper's expression) and another camera (the scene's own map
+# first, then no aspect ratio with pixel corners for centres).
+T15 = 0.2679491924311227  # tan(15 degrees): the classic scene's fov 30
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        ("--fresnel-mix", "0.1", "--fresnel-power", "3"),
+        ("--fresnel-mix", "0.9", "--fresnel-power", "3"),
+        ("--fresnel-mix", "0.04", "--fresnel-power", "5"),
+        ("--camera-map", f"{T15 * 4 / 3},0,{T15},0"),
+        ("--camera-map", f"{T15},{-T15 / 160},{T15},{T15 / 120}"),
+    ],
+    ids=lambda v: " ".join(v),
+)
+def test_gl_renders_fitted_constants_like_cpu(
+    options: tuple[str, ...], rtdemo: str, tmp_path: Path
+) -> None:
+    size = ("--width", "160", "--height", "120")
+    cpu, gl = render_both(SCENES / "classic.json", "paper", rtdemo, tmp_path, *options, *size)
+    close = share_within_1_255(cpu, gl)
+    assert close >= 0.999, close
+    assert (cpu.aovs["id"] == gl.aovs["id"]).mean() >= 0.999
+
+
 def test_gl_refuses_unknown_mistakes_and_the_viewer_refuses_them_in_words(
     rtdemo: str, tmp_path: Path
 ) -> None:

@@ -171,9 +171,14 @@ float offset_at(vec3 p) {
     return BIAS * (1.0 + max(abs(p.x), max(abs(p.y), abs(p.z))));
 }
 
+// mix + (1 - mix) (1 - facing)^power, the product left to right (fresnel.h's paper_fresnel);
+// FRESNEL_MIX and FRESNEL_POWER are the paper's 0.1 and 3 unless rtdemo --fresnel-mix/-power.
 float paper_fresnel(float facing) {
     float f = 1.0 - facing;
-    return mistake(M_fresnel_exponent) ? 0.1 + 0.9 * f * f : 0.1 + 0.9 * f * f * f;
+    float rise = 1.0 - FRESNEL_MIX;
+    int power = mistake(M_fresnel_exponent) ? 2 : FRESNEL_POWER;
+    for (int i = 0; i < power; ++i) rise *= f;
+    return FRESNEL_MIX + rise;
 }
 
 float dielectric_fresnel(float cos_theta_i, float eta) {
@@ -359,10 +364,17 @@ vec3 trace(vec3 origin, vec3 dir) {
 
 // The camera's slips as camera_rays.cpp has them (fov_full_angle is in half_height, set by
 // gl_program.cpp).
+// CAMERA_MAP (rtdemo --camera-map: SU, OU, SV, OV) replaces the field of view and aspect;
+// `precise` keeps the product and sum apart, as the CPU rounds them.
 vec3 camera_dir(float px, float py) {
+#ifdef CAMERA_MAP
+    precise float xx = (2.0 * px / size.x - 1.0) * CAMERA_MAP.x + CAMERA_MAP.y;
+    precise float yy = (1.0 - 2.0 * py / size.y) * CAMERA_MAP.z + CAMERA_MAP.w;
+#else
     float aspect = mistake(M_aspect_ratio_missing) ? 1.0 : size.x / size.y;
     float xx = (2.0 * px / size.x - 1.0) * half_height * aspect;
     float yy = (1.0 - 2.0 * py / size.y) * half_height;
+#endif
     vec3 dir = cam_right * xx + cam_up * yy + cam_forward;
     return mistake(M_ray_dir_unnormalized) ? dir : unit(dir);
 }

@@ -87,12 +87,12 @@ algorithm:
   --max-depth N          recursion limit, 0-64 (default: the scene's max_depth)
   --fresnel-mix A        the paper's Fresnel curve (Q8) A + (1 - A) (1 - cos)^P with
   --fresnel-power P      other constants: A from 0 to 1 (default 0.1), P an integer
-                         from 0 to 16 (default 3); CPU tracer only
+                         from 0 to 16 (default 3)
   --camera-map SU,OU,SV,OV
                          another camera: the ray through pixel (px, py) is forward +
                          right u + up v with u = SU (2 px / W - 1) + OU and
                          v = SV (1 - 2 py / H) + OV (the scene's: SU = tan(fov/2) W/H,
-                         SV = tan(fov/2), OU = OV = 0); CPU tracer only (both engines)
+                         SV = tan(fov/2), OU = OV = 0)
   --no-shadows, --no-reflection, --no-refraction
                          switch one effect off (per-effect ablation in the judge)
 

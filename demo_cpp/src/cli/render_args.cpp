@@ -158,8 +158,8 @@ void check_named_format(const std::string& option, const std::string& path,
                          " (-o picks the format from the name)");
 }
 
-// --fresnel-mix and --fresnel-power change the paper's curve, so they need it (Q8) and the
-// CPU tracer; the defaults are the paper's 0.1 and 3.
+// --fresnel-mix and --fresnel-power change the paper's curve, so they need it (Q8); the
+// defaults are the paper's 0.1 and 3.
 FresnelCurve fresnel_curve_for(const RenderArgs& a, const QuirkSet& quirks) {
     FresnelCurve c;
     if (!a.fresnel_mix && !a.fresnel_power) return c;
@@ -167,7 +167,6 @@ FresnelCurve fresnel_curve_for(const RenderArgs& a, const QuirkSet& quirks) {
         throw UsageError(
             "--fresnel-mix/--fresnel-power change the paper's Fresnel curve (Q8), "
             "which this mode does not use (add --quirk Q8)");
-    if (a.gl) throw UsageError("--fresnel-mix/--fresnel-power need the CPU tracer (--backend cpu)");
     c.mix = a.fresnel_mix.value_or(c.mix);
     c.power = a.fresnel_power.value_or(c.power);
     return c;
@@ -248,7 +247,6 @@ RenderSettings settings_for(const RenderArgs& a, const Scene& scene) {
                          " needs quirk Q10 fixed (use --mode physical or --fix Q10)");
     settings.trace.max_depth = a.max_depth.value_or(scene.max_depth);
     settings.trace.fresnel_curve = fresnel_curve_for(a, settings.trace.quirks);
-    if (a.camera_map && a.gl) throw UsageError("--camera-map needs the CPU tracer (--backend cpu)");
     settings.trace.camera_map = a.camera_map;
     settings.trace.shadows = a.shadows;
     settings.trace.reflection = a.reflection;

@@ -167,6 +167,11 @@ unsigned TraceProgram::program_for(const TraceOptions& options) {
                          std::to_string(std::max(options.max_depth, 1)) + "\n#define MISTAKES " +
                          std::to_string(mistake_mask(options.mistakes)) + "u\n";
     if (needs_exact_arithmetic(options.mistakes)) header += "#define EXACT_ARITHMETIC\n";
+    header += "#define FRESNEL_MIX " + float_constant(options.fresnel_curve.mix) +
+              "\n#define FRESNEL_POWER " + std::to_string(options.fresnel_curve.power) + "\n";
+    if (const auto& m = options.camera_map)
+        header += "#define CAMERA_MAP vec4(" + float_constant(m->su) + "," + float_constant(m->ou) +
+                  "," + float_constant(m->sv) + "," + float_constant(m->ov) + ")\n";
     if (const auto found = programs_.find(header); found != programs_.end()) return found->second;
 
     const std::string key = header;
