@@ -69,11 +69,12 @@ class Flips:
         self.known: tuple[F32, F32, F32] | None = None
         self.stale: BOOL | None = None  # where a seeded map holds no values (seed)
         self.guessed: Candidate | None = None  # the search's likely result (guess)
+        self.maps: dict[Candidate, F32] = {}  # every map computed here, by candidate
 
     def start(self, c: Candidate, rgb: F32, test: F32, masks: dict[str, BOOL]) -> None:
         """Begin c's means (its render `rgb` against the image `test`), unless begun."""
         if c not in self.jobs:
-            self.jobs[c] = self.pool.submit(self._means, rgb, test, dict(masks))
+            self.jobs[c] = self.pool.submit(self._means, c, rgb, test, dict(masks))
 
     def guess(self, c: Candidate, rgb: F32, test: F32, masks: dict[str, BOOL]) -> None:
         """Begin c's means as the likely result's: the last guess goes unless begun."""
@@ -86,12 +87,24 @@ class Flips:
         self.start(c, rgb, test, masks)
         return self.jobs[c].result()
 
-    def _means(self, rgb: F32, test: F32, masks: dict[str, BOOL]) -> Means:
+    def map_of(self, c: Candidate, rgb: F32, test: F32) -> F32:
+        """c's map (its render `rgb` against the image `test`): the one its means were
+        computed from, else computed now on the background thread."""
+        if c not in self.maps:
+            self.pool.submit(self._map_of, c, rgb, test).result()
+        return self.maps[c]
+
+    def _map_of(self, c: Candidate, rgb: F32, test: F32) -> F32:
+        if c not in self.maps:
+            self.maps[c] = self._map(metrics.display(rgb), metrics.display(test))
+        return self.maps[c]
+
+    def _means(self, c: Candidate, rgb: F32, test: F32, masks: dict[str, BOOL]) -> Means:
         name = _name(test, rgb, masks)
         known = _stored_means(self.store.get(name), masks) if self.store is not None else None
         if known is not None:
             return known
-        flip = self._map(metrics.display(rgb), metrics.display(test))
+        flip = self._map_of(c, rgb, test)
         out = {k: float(flip[m].mean()) for k, m in masks.items()}
         if self.store is not None:
             self.store.put(name, json.dumps({"format": FLIP_FORMAT, "means": out}))

@@ -22,7 +22,6 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -672,10 +671,8 @@ class Search:
         )
 
         def maps() -> tuple[F32, F32]:
-            # Both at once: flip-evaluator lets go of the GIL.
-            with ThreadPoolExecutor(max_workers=2) as pool:
-                first = pool.submit(t.flip_map, begin)
-                return first.result(), t.flip_map(final)
+            # Most often both are the maps of their FLIP means, computed while the search ran.
+            return t.flip_map(begin), t.flip_map(final)
 
         self.gated[begin, final] = gates(e0, e1, absorbed, maps, t.target.masks)
         return self.gated[begin, final]

@@ -16,7 +16,6 @@ from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.flip import Flips, Means
 from compare.diagnosis.score import Codes, Renderer, Score, Store, Target
 from compare.diagnosis.transforms import Transform
-from compare.judge import flip_crops, metrics
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL
 from compare.judge.exact_match import Bounds, ExactMatch, channel_matches, model_bounds
@@ -62,7 +61,6 @@ class Trials:
         self.keep: set[Candidate] = set()
         self.exact_memo: dict[Candidate, Future[ExactMatch]] = {}
         self.pairs: dict[Candidate, tuple[Bounds, Bounds]] = {}  # bounds of each exact match
-        self.flip_maps: dict[Candidate, F32] = {}  # the FLIP maps the gates average
 
     def _made(self, c: Candidate, *, passing: bool = False) -> Image:
         """c's render as the image's writer would have stored it: with the fitted value
@@ -79,12 +77,14 @@ class Trials:
         self.kept = {c: dataclasses.replace(im, rgb=t.apply(im.rgb)) for c, im in self.kept.items()}
         self.scores = {c: self.target.score(im.rgb) for c, im in self.kept.items()}
         self.target.reference = None
+        self.flips = Flips(self.store, self.background)
 
     def set_test(self, rgb: F32) -> None:
         """Judge against `rgb` from now on: every kept render is scored again, every other
         score is dropped."""
         self.target.set_test(rgb)
         self.scores = {c: self.target.score(im.rgb) for c, im in self.kept.items()}
+        self.flips = Flips(self.store, self.background)  # FLIP against the image as it was
 
     def keep_only(self, keep: set[Candidate]) -> None:
         self.kept = {c: im for c, im in self.kept.items() if c in keep}
@@ -232,12 +232,8 @@ class Trials:
 
     def flip_map(self, c: Candidate) -> F32:
         """The LDR-FLIP map of the image against c's centre render (metrics.flip_ldr_map's
-        values, computed only around the pixels where they differ), kept for this search."""
-        if c not in self.flip_maps:
-            ref = metrics.display(self.centre(c).rgb)
-            test = metrics.display(self.target.test)
-            self.flip_maps[c] = flip_crops.cropped_ldr_flip(ref, test)
-        return self.flip_maps[c]
+        values): the one its FLIP means came from, else computed from the first map."""
+        return self.flips.map_of(c, self.centre(c).rgb, self.target.test)
 
     def exact_of(self, c: Candidate) -> ExactMatch:
         """The verdict's own judging (exact_match.py) of the image against the candidate,
