@@ -76,6 +76,15 @@ def test_a_glass_ior_off_the_list_is_fitted(rtdemo: str, tmp_path: Path) -> None
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("ior", [1.13, 1.06])
+def test_an_ior_near_the_scenes_is_fitted(rtdemo: str, tmp_path: Path, ior: float) -> None:
+    # 0.03 and 0.04 off the scene's 1.1: no common index nor the scene's own +-0.05 and +-0.1
+    # helps there; the scene's own +-0.02 seeds the fit.
+    d = _diagnosed(rtdemo, tmp_path, ior=ior)
+    assert d.scene_changes == {"ior": ior} and d.exact, d.sentences
+
+
+@pytest.mark.slow
 def test_one_glass_spheres_ior_is_fitted_for_that_sphere(rtdemo: str, tmp_path: Path) -> None:
     # nested_spheres.json: glass spheres of ior 1.2 ('outer') and 1.5 ('middle'); the program
     # has 'middle' at 1.45. One ior for every glass sphere cannot reproduce it.

@@ -25,11 +25,12 @@ from scene_model.scene import Scene
 
 MAX_SEARCH_DEPTH = 32
 # Seeds of the ior fit (constant_fit.fitted_ior refines the one that helps): common indices,
-# and the scene's own each step of IOR_NEAR either side (a student's 1.45 for the scene's 1.5:
-# an ior as near as 0.05 changes too few refraction pixels to tell 1.4 from 1.5).
+# and the scene's own each step of IOR_NEAR either side (a student's 1.45 for the scene's 1.5,
+# 1.12 for 1.1: an ior that near changes too few refraction pixels to tell it from a seed
+# farther off, so no farther seed helps).
 # The background is not a seed: search.py reads it off the image (constant_fit.py).
 IORS = (1.1, 1.2, 1.33, 1.5)
-IOR_NEAR = (0.05, 0.1)
+IOR_NEAR = (0.02, 0.05, 0.1)
 # The kinds whose switch sets a value (any value of one kind sets the same thing).
 VALUED = ("depth", "background", "ior", "bias", "fresnel", "camera")
 # Where the paper's Fresnel curve (Q8) is on, the sweep tries these constants (mix, power) of
@@ -307,7 +308,7 @@ def _sphere_ior_seeds(c: Candidate, scene: Scene) -> list[Switch]:
         Switch("ior", f"{round(s.ior + d, 2):g}@{s.name}", True)
         for s in scene.spheres
         if s.transparency > 0
-        for d in (-IOR_NEAR[0], IOR_NEAR[0], -IOR_NEAR[1], IOR_NEAR[1])
+        for d in (sign * step for step in IOR_NEAR for sign in (-1, 1))
         if s.ior + d > 1
     ]
 
