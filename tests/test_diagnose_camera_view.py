@@ -65,6 +65,22 @@ def test_the_scenes_own_camera_is_no_slip(rtdemo: str, tmp_path: Path) -> None:
         assert camera_view.fitted(camera_view.image_edges(image.rgb), load_scene(LIT)) == []
 
 
+def test_a_scene_of_many_spheres_is_looked_at_on_fewer_pixels(rtdemo: str, tmp_path: Path) -> None:
+    # The thousand-sphere stress scene seen from the lit camera: id maps on every 5th pixel.
+    data = json.loads((SCENES / "stress" / "thousand_spheres.json").read_text())
+    data["camera"].update(position=[0, 1, 4], look_at=[0, -1.5, -18])
+    scene = tmp_path / "many.json"
+    scene.write_text(json.dumps(data))
+    data["camera"]["look_at"] = [0, 1, 3]
+    (tmp_path / "slipped.json").write_text(json.dumps(data))
+    loaded = load_scene(scene)
+    for name, words in (("many", []), ("slipped", [SLIPS[1][0]])):
+        image = render_demo(rtdemo, tmp_path / f"{name}.json", tmp_path / f"{name}.exr", "-q",
+                            "--mode", "classic", size=(320, 240))  # fmt: skip
+        found = camera_view.fitted(camera_view.image_edges(image.rgb), loaded)
+        assert [v.words for v in found][:1] == words
+
+
 def test_the_diagnosis_names_the_slip_and_renders_it_from_a_scene_copy(
     rtdemo: str, tmp_path: Path
 ) -> None:

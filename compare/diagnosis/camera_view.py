@@ -35,6 +35,8 @@ EDGE_MIN = 0.02
 # SILHOUETTE_GAIN times the scene camera's share and SILHOUETTE_NEAR of the best story's.
 SILHOUETTE_GAIN = 1.3
 SILHOUETTE_NEAR = 0.8
+# Sphere-pixel tests one id map may cost (a 640x480 image of 26 spheres at every pixel).
+FIRST_HIT_BUDGET = 8_000_000
 
 
 @dataclass(frozen=True)
@@ -76,14 +78,18 @@ def stories(scene: Scene) -> list[View]:
 def fitted(edges: np.ndarray, scene: Scene) -> list[View]:
     """The stories whose sphere boundaries the image's edges (H x W, True where the image has
     an edge, grown by a pixel) cover SILHOUETTE_GAIN times as well as the scene camera's, and
-    within SILHOUETTE_NEAR of the best story; best first."""
+    within SILHOUETTE_NEAR of the best story; best first. A scene of many spheres is looked at
+    on every step-th pixel (FIRST_HIT_BUDGET), the edges grown by the step."""
     h, w = edges.shape
-    cam = scene.camera
-    own = _covered(edges, _boundaries(_first_hits(scene, cam.position, cam.look_at, (w, h))))
-    scored = [
-        (_covered(edges, _boundaries(_first_hits(scene, v.position, v.look_at, (w, h)))), v)
-        for v in stories(scene)
-    ]
+    step = max(1, math.ceil(math.sqrt(len(scene.spheres) * w * h / FIRST_HIT_BUDGET)))
+    sampled = _grown(edges, step - 1)[::step, ::step]
+
+    def share(position: Vec3, look_at: Vec3) -> float:
+        ids = _first_hits(scene, position, look_at, (w, h), step)
+        return _covered(sampled, _boundaries(ids))
+
+    own = share(scene.camera.position, scene.camera.look_at)
+    scored = [(share(v.position, v.look_at), v) for v in stories(scene)]
     best = max((s for s, _ in scored), default=0.0)
     keep = [(s, v) for s, v in scored if s >= SILHOUETTE_GAIN * own and s >= SILHOUETTE_NEAR * best]
     return [v for _, v in sorted(keep, key=lambda sv: -sv[0])]
@@ -96,11 +102,15 @@ def image_edges(rgb: F32) -> np.ndarray:
     return _grown(strong)
 
 
-def _first_hits(scene: Scene, position: Vec3, look_at: Vec3, size: tuple[int, int]) -> np.ndarray:
-    """H x W: the index of the sphere each camera ray of that pinhole hits first (-1: none)."""
+def _first_hits(
+    scene: Scene, position: Vec3, look_at: Vec3, size: tuple[int, int], step: int
+) -> np.ndarray:
+    """The index of the sphere each camera ray of that pinhole hits first (-1: none), on every
+    step-th pixel of each row and column."""
     w, h = size
     cam = dataclasses.replace(scene.camera, position=position, look_at=look_at)
-    d = camera_directions(dataclasses.replace(scene, camera=cam), w, h).reshape(-1, 3)
+    grid = camera_directions(dataclasses.replace(scene, camera=cam), w, h)[::step, ::step]
+    d = grid.reshape(-1, 3)
     origin = np.array(position, np.float64)
     nearest = np.full(len(d), np.inf)
     ids = np.full(len(d), -1)
@@ -112,7 +122,7 @@ def _first_hits(scene: Scene, position: Vec3, look_at: Vec3, size: tuple[int, in
         t = np.where(-b - root > 0, -b - root, -b + root)
         hit = (disc >= 0) & (t > 0) & (t < nearest)
         nearest[hit], ids[hit] = t[hit], k
-    return ids.reshape(h, w)
+    return ids.reshape(grid.shape[:2])
 
 
 def _boundaries(ids: np.ndarray) -> np.ndarray:
@@ -128,12 +138,16 @@ def _covered(edges: np.ndarray, boundaries: np.ndarray) -> float:
     return float(edges[boundaries].mean()) if boundaries.any() else 0.0
 
 
-def _grown(mask: np.ndarray) -> np.ndarray:
+def _grown(mask: np.ndarray, pixels: int = 1) -> np.ndarray:
+    """mask grown by `pixels` in each of the four directions, in turn."""
     out = mask.copy()
-    out[1:] |= mask[:-1]
-    out[:-1] |= mask[1:]
-    out[:, 1:] |= mask[:, :-1]
-    out[:, :-1] |= mask[:, 1:]
+    for _ in range(pixels):
+        grown = out.copy()
+        grown[1:] |= out[:-1]
+        grown[:-1] |= out[1:]
+        grown[:, 1:] |= out[:, :-1]
+        grown[:, :-1] |= out[:, 1:]
+        out = grown
     return out
 
 
