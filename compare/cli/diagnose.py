@@ -80,12 +80,15 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "diagnose",
         help="explain a foreign image as the nearest demo model, quirks and named mistakes",
         description="Explains IMAGE (a render of SCENE by another program) as the nearest demo "
-        "model: mode, quirks present or absent, effects switched off, max depth (up to 32), a "
-        "hard-coded background or ior, named mistakes (rtdemo render --help lists them) and a "
-        "mirrored image, effect by effect, judged by exact match as the verdict judges (FLIP "
-        "before and after for the eye). An effect is explained when the result makes at least "
-        "half of its differing pixels match; a region nothing explains is named with its "
-        "remaining error: a new bug, not a quirk. Exit 0 diagnosed, "
+        "model: mode, quirks present or absent, effects switched off, max depth (up to 32), "
+        "constants fitted as values (background, ior, bias, the Fresnel curve's), the camera "
+        "fitted from the silhouettes (field of view, aspect, pixel centres, where it stands and "
+        "looks), named mistakes (rtdemo render --help lists them), what the image writer did "
+        "(mirroring, channel order, encoding, noise), effect by effect, judged by exact match "
+        "as the verdict judges (FLIP before and after for the eye). A cause is named only where "
+        "its render makes at least half of an effect's differing pixels match and passes the "
+        "gates (docs/diagnosis.md); what nothing explains is localised to the step of the "
+        "algorithm its pixels' paths share. Exit 0 diagnosed, "
         "1 renderer failure, 3 invalid scene, 4 unreadable image, an image without one finite "
         "pixel (all NaN or infinite) or unwritable --json, "
         "64 bad arguments (also --json naming IMAGE or the scene).",
