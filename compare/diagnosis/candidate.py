@@ -88,6 +88,8 @@ class Candidate:
         spheres differ in ior; default None: every glass sphere.
     bias : float or None
         The offset of secondary rays a program hard-codes; default None: the scene's.
+    light : tuple[float, float, float] or None
+        Where a program puts the scene's one light (its centre); default None: the scene's.
     camera : str or None
         Another camera, as camera_fit.Fitted.key writes it: "su,ou,sv,ov|what it is", the
         numbers rtdemo's ``--camera-map`` (camera_fit.py); or a view, "view:x,y,z;x,y,z|what
@@ -122,6 +124,7 @@ class Candidate:
     turn: tuple[float, float] | None = None
     grow: int | None = None
     ior_sphere: str | None = None
+    light: Vec3 | None = None
 
     @staticmethod
     def of_mode(mode: str) -> Candidate:
@@ -160,6 +163,8 @@ class Candidate:
             parts.append(f"[ior {self.ior:g}{where}]")
         if self.bias is not None:
             parts.append(f"[bias {self.bias:g}]")
+        if self.light is not None:
+            parts.append(f"[light at {rgb_text(self.light)}]")
         if self.turn is not None:
             parts.append(f"[camera turned {self.turn[0]:+g}, {self.turn[1]:+g} px]")
         if self.grow is not None:
@@ -190,7 +195,7 @@ class Candidate:
 
     def scene_changes(self) -> dict[str, Any]:
         """What the scene copy it is rendered from changes: {"background": [1, 1, 1],
-        "ior": 1.5, "camera": {"position": ..., "look_at": ...}} (the camera turn is not listed: it is how a candidate is judged)."""
+        "ior": 1.5, "light": [0, 30, -30], "camera": {"position": ..., "look_at": ...}} (the camera turn is not listed: it is how a candidate is judged)."""
         out: dict[str, Any] = {}
         if self.background is not None:
             out["background"] = list(self.background)
@@ -200,6 +205,8 @@ class Candidate:
                 out["ior_sphere"] = self.ior_sphere
         if self.bias is not None:
             out["bias"] = self.bias
+        if self.light is not None:
+            out["light"] = list(self.light)
         if self.camera is not None and is_view(self.camera):
             pos, at = view_of(self.camera)
             out["camera"] = {"position": list(pos), "look_at": list(at)}
@@ -245,6 +252,9 @@ class Candidate:
 
     def with_bias(self, bias: float | None) -> Candidate:
         return dataclasses.replace(self, bias=bias)
+
+    def with_light(self, centre: Vec3 | None) -> Candidate:
+        return dataclasses.replace(self, light=centre)
 
     def with_fresnel(self, curve: tuple[float, int] | None) -> Candidate:
         return dataclasses.replace(self, fresnel=curve)

@@ -48,7 +48,7 @@ def describe_cause(cause: str) -> str:
         return cause
     if cause.startswith("mirrored"):
         return f"image {cause}"
-    if cause.startswith("background"):
+    if cause.startswith(("background", "light at")):
         return f"{cause} hard-coded"
     if cause.startswith("ior"):
         # "ior 1.45 for 'middle'" names its sphere already
@@ -103,6 +103,8 @@ def render_command(d: Diagnosis, scene_file: str | Path) -> str:
         words.append(f"ior {changes['ior']:g} for {which}")
     if "bias" in changes:
         words.append(f"bias {changes['bias']:g}")
+    if "light" in changes:
+        words.append("the light at (" + ", ".join(f"{v:g}" for v in changes["light"]) + ")")
     if "camera" in changes:
         pos, at = (
             ", ".join(f"{v:g}" for v in changes["camera"][k]) for k in ("position", "look_at")

@@ -229,6 +229,7 @@ def _candidate_fields(c: Candidate) -> dict[str, Any]:
         "bias": c.bias,
         "fresnel": list(c.fresnel) if c.fresnel is not None else None,
         "camera": c.camera,
+        "light": list(c.light) if c.light is not None else None,
     }
 
 
@@ -246,7 +247,12 @@ def _candidate(raw: dict[str, Any]) -> Candidate:
         _fresnel(raw.get("fresnel")),
         None if raw.get("camera") is None else str(raw["camera"]),
         ior_sphere=None if raw.get("ior_sphere") is None else str(raw["ior_sphere"]),
+        light=_vec3(raw.get("light")),
     )
+
+
+def _vec3(raw: Any) -> tuple[float, float, float] | None:
+    return None if raw is None else (float(raw[0]), float(raw[1]), float(raw[2]))
 
 
 def _fresnel(raw: Any) -> tuple[float, int] | None:

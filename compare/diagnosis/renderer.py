@@ -248,6 +248,10 @@ class CandidateRenderer:
                 if sphere.get("transparency", 0) > 0 and c.ior_sphere in (None, sphere.get("name")):
                     sphere["ior"] = c.ior
         raw["camera"].update(c.scene_changes().get("camera", {}))
+        if c.light is not None:  # the scene's one light (light_fit.py offers no other)
+            for sphere in raw["spheres"]:
+                if any(v > 0 for v in sphere.get("emission", [0, 0, 0])):
+                    sphere["center"] = list(c.light)
         return json.dumps(raw, indent=1)
 
     def _scene_for(self, c: Candidate) -> str:

@@ -27,8 +27,16 @@ from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import camera_fit, camera_view, constant_fit, localise, noise, transforms
-from compare.diagnosis.candidate import RGB, Candidate
+from compare.diagnosis import (
+    camera_fit,
+    camera_view,
+    constant_fit,
+    light_fit,
+    localise,
+    noise,
+    transforms,
+)
+from compare.diagnosis.candidate import RGB, Candidate, Vec3
 from compare.diagnosis.constant_fit import fitted_bias, fitted_ior
 from compare.diagnosis.fresnel_fit import fitted_curve
 from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
@@ -162,6 +170,7 @@ class Search:
         self.noisy = False  # the image carries random noise (denoised)
         self.seen: RGB | None = None  # the background the image shows (_background_seen)
         self.seen_for: F32 | None = None  # ... in this test image
+        self.lights: dict[tuple[int, Candidate], list[Vec3]] = {}  # light_switches, per start
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
@@ -421,6 +430,24 @@ class Search:
             self.seen, self.seen_for = constant_fit.background_seen(t.test, misses), t.test
         return self.seen
 
+    def light_switches(self, current: Candidate) -> list[Switch]:
+        """Where the image's directly lit surfaces put the scene's one light (light_fit.py),
+        as switches, where current's shading has the cosine (no Q11 or Q12); the scene's
+        light back, where current moves it."""
+        if current.light is not None:
+            return [Switch("light", "scene", False)]
+        t = self.trials.target
+        direct = t.masks.get("direct")
+        if {11, 12} & current.quirks or direct is None:
+            return []
+        plain = Candidate(current.mode, current.quirks)
+        key = (id(t.test), plain)
+        if key not in self.lights:
+            start = self.trials.render.with_aovs(plain)
+            found = light_fit.lights_seen(t.test, start, direct, self.scene, t.image.encoding)
+            self.lights[key] = found
+        return [Switch("light", ",".join(f"{v:g}" for v in c), True) for c in self.lights[key]]
+
     def camera_switches(self, current: Candidate) -> list[Switch]:
         """The fitted camera as a switch of the search (the catalogue's camera mistakes are
         switches already)."""
@@ -562,6 +589,7 @@ class Search:
             for sw in switches(current, self.scene, self.quirks, full=promising is None)
             + self.camera_switches(current)
             + self.background_switches(current)
+            + self.light_switches(current)
             if (promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth")
             and (sw.kind, sw.key) not in self.banned
             and may_help(sw, still)
@@ -681,13 +709,19 @@ class Search:
         self, begin: Candidate, final: Candidate, sw: Switch
     ) -> tuple[set[str], set[str]]:
         """Effects whose matching pixels undoing `sw` would lose (more than the exact-match
-        allowance and a tenth of what the final gained over the start), and effects it would
-        win back (more than the allowance)."""
+        allowance and a tenth of what the final gained over the start, or the exact match
+        itself: the final passes there and would not), and effects it would win back (more
+        than the allowance)."""
         inverse = next(u for u in differences(final, begin, self.scene) if u.sets_same(sw))
         t = self.trials
         d0, d1 = t.exact_differing(begin), t.exact_differing(final)
         dw = t.exact_differing(inverse.apply(final, self.scene))
-        lose = {k for k in d1 if dw[k] - d1[k] > max(t.allowed(k), 0.1 * max(0, d0[k] - d1[k]))}
+        lose = {
+            k
+            for k in d1
+            if dw[k] - d1[k] > max(t.allowed(k), 0.1 * max(0, d0[k] - d1[k]))
+            or d1[k] <= t.allowed(k) < dw[k]
+        }
         win = {k for k in d1 if d1[k] - dw[k] > t.allowed(k)}
         return lose, win
 
@@ -784,8 +818,8 @@ class Search:
 
     def alike(self, begin: Candidate, final: Candidate, sw: Switch) -> list[tuple[str, str]]:
         """Constants (a depth, background, ior or bias) and named mistakes that, in place of
-        the quirk toggle or mistake sw, give an image the image cannot tell from final's: all
-        are said, since naming one alone could be false (a program with a deeper limit of its
+        the quirk toggle or mistake sw, give an image that fits the image at least as well as
+        final's: all are said, since naming one alone could be false (a program with a deeper limit of its
         own is not -Q6; a light that blocks its own shadow rays and a light direction turned
         round both leave every lit surface black)."""
         without = undone(final, begin, [sw], self.scene)
@@ -799,11 +833,9 @@ class Search:
         cands = [o.apply(without, self.scene) for o in options]
         t = self.trials
         t.evaluate(cands)
-        alike = [
-            o
-            for o, c in zip(options, cands, strict=True)
-            if t.fits_as_well(c, final) and t.fits_as_well(final, c)
-        ]
+        # One that fits better still is said too: the search may have reached sw first (-Q6
+        # before a deeper limit, which leaves fewer silhouette pixels differing).
+        alike = [o for o, c in zip(options, cands, strict=True) if t.fits_as_well(c, final)]
         depths = sorted((o for o in alike if o.kind == "depth"), key=lambda o: int(o.key))
         # Depths that all fit are one finding: the shallowest, "or more" when the deepest fits.
         more = bool(depths) and int(depths[-1].key) == MAX_SEARCH_DEPTH and len(depths) > 1
@@ -864,13 +896,16 @@ def may_help(sw: Switch, still: set[str]) -> bool:
     """Whether sw can explain an effect still open: a named mistake is added only where one
     of the effects it shows in (mistakes.json) differs, a Fresnel curve where reflection or
     refraction does, a glass ior (and its fit, constant_fit.py) where refraction does, a
-    background where the misses or what mirrors and glass show differ; every other switch may."""
+    background where the misses or what mirrors and glass show differ, a light's position
+    where the direct light does; every other switch may."""
     if sw.kind == "fresnel" and sw.present:
         return bool({"reflection", "refraction"} & set(still))
     if sw.kind == "ior" and sw.present:
         return "refraction" in still
     if sw.kind == "background" and sw.present:
         return bool({"background", "reflection", "refraction"} & set(still))
+    if sw.kind == "light" and sw.present:
+        return "direct" in still
     if sw.kind != "mistake" or not sw.present:
         return True
     return bool(set(catalogue()[sw.key].effects) & set(still))

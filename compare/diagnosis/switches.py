@@ -32,7 +32,7 @@ MAX_SEARCH_DEPTH = 32
 IORS = (1.1, 1.2, 1.33, 1.5)
 IOR_NEAR = (0.02, 0.05, 0.1)
 # The kinds whose switch sets a value (any value of one kind sets the same thing).
-VALUED = ("depth", "background", "ior", "bias", "fresnel", "camera")
+VALUED = ("depth", "background", "ior", "bias", "fresnel", "camera", "light")
 # Where the paper's Fresnel curve (Q8) is on, the sweep tries these constants (mix, power) of
 # it: a mirror at every angle (the facing ratio's sign lost), half and half, and Schlick's
 # curve for glass of ior 1.5; one that helps is then fitted as a value (fresnel_fit.py).
@@ -97,6 +97,8 @@ class Switch:
             return c.with_mistake(self.key, self.present)
         if self.kind == "background":
             return c.with_background(self._rgb() if self.present else None)
+        if self.kind == "light":
+            return c.with_light(self._rgb() if self.present else None)
         if self.kind == "ior":
             return c.with_ior(*self.ior_of()) if self.present else c.with_ior(None)
         if self.kind == "bias":
@@ -146,6 +148,7 @@ class Switch:
                 "ior": "refraction (the glass index)",
                 "bias": "secondary and shadow rays (their offset)",
                 "fresnel": "Fresnel (its curve's constants)",
+                "light": "direct light (where the light is)",
                 "camera": "the camera (the ray through each pixel)"}[self.kind]  # fmt: skip
 
     def sets_same(self, other: Switch) -> bool:
@@ -164,6 +167,8 @@ class Switch:
             return f"max depth {self.key}" + (" or more" if or_more else "")
         if self.kind == "background":
             return f"background {rgb_text(self._rgb())}" if self.present else "scene background"
+        if self.kind == "light":
+            return f"light at {rgb_text(self._rgb())}" if self.present else "scene light"
         if self.kind == "ior":
             if not self.present:
                 return "scene ior"
@@ -197,7 +202,7 @@ class Switch:
             if self.present:
                 return f"bias {float(self.key):g} hard-coded (the scene's is {scene.bias:g})"
             return f"the scene's bias {scene.bias:g}"
-        if self.kind in ("background", "ior"):
+        if self.kind in ("background", "ior", "light"):
             return self._constant_change(scene)
         if self.kind == "camera":
             return f"the camera: {camera_words(self.key)}" if self.present else "the scene's camera"
@@ -224,6 +229,13 @@ class Switch:
         return f"max depth {d}{more if or_more else cut} (the scene asks {scene.max_depth})"
 
     def _constant_change(self, scene: Scene) -> str:
+        if self.kind == "light":
+            theirs = ", ".join(rgb_text(s.center) for s in scene.spheres if s.kind == "light")
+            if self.present:
+                return (
+                    f"the light at {rgb_text(self._rgb())} hard-coded (the scene's is at {theirs})"
+                )
+            return f"the scene's light at {theirs}"
         if self.kind == "background":
             theirs = rgb_text(scene.background)
             if self.present:
@@ -333,6 +345,10 @@ def differences(a: Candidate, b: Candidate, scene: Scene) -> list[Switch]:
         hard = b if b.ior is not None else a
         where = f"@{hard.ior_sphere}" if hard.ior_sphere else ""
         out.append(Switch("ior", f"{hard.ior or 0.0:g}{where}", b.ior is not None))
+    if a.light != b.light:
+        centre = b.light or a.light
+        assert centre is not None
+        out.append(Switch("light", ",".join(f"{v:g}" for v in centre), b.light is not None))
     if a.bias != b.bias:
         out.append(Switch("bias", f"{b.bias or a.bias:g}", b.bias is not None))
     if a.camera != b.camera:

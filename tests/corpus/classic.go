@@ -24,6 +24,7 @@
 //	shadow_dir_unnormalized the shadow ray's direction light - p is not normalised
 //	lambert_unclamped       n.l without max(0, .)
 //	depth=N, bias=V         the recursion limit and the offset of secondary rays
+//	light_y=V               the light's centre at height V (CAPBenchmarks' RT kernel: 30)
 package main
 
 import (
@@ -103,7 +104,7 @@ var known = []string{
 	"shadow_dir_unnormalized", "lambert_unclamped",
 }
 
-// setMistakes reads "name,name,depth=N,bias=V".
+// setMistakes reads "name,name,depth=N,bias=V,light_y=V".
 func setMistakes(list string) error {
 	for _, item := range strings.Split(list, ",") {
 		key, value, valued := strings.Cut(item, "=")
@@ -114,6 +115,8 @@ func setMistakes(list string) error {
 			maxDepth, err = strconv.Atoi(value)
 		case valued && key == "bias":
 			bias, err = strconv.ParseFloat(value, 64)
+		case valued && key == "light_y":
+			world[len(world)-1].Centre.Y, err = strconv.ParseFloat(value, 64)
 		case !valued && contains(known, item):
 			slips[item] = true
 		default:

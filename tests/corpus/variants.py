@@ -259,6 +259,11 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
     # two changes at once
     "go-depth10-bias1e-3": (GO, "depth=10,bias=0.001", "depth 10 and an offset of 1e-3",
                             _c(depths(10), "bias 0.001"), _c(DEPTH, CONSTANT)),
+    # three, as CAPBenchmarks' RT kernel has them (its light at y 30, scratchapixel's at 20)
+    "go-cap-light_y30-depth10-bias1e-3": (GO, "light_y=30,depth=10,bias=0.001",
+                                          "the light at y 30, depth 10 and an offset of 1e-3",
+                                          _c(depths(10), "bias 0.001", "light at (0, 30, -30)"),
+                                          _c(DEPTH, CONSTANT, DIRECT)),
     "js-ior1.5-fresnel_exponent": (JS, "ior=1.5,fresnel_exponent", "ior 1.5 and (1 - cos)^2",
                                    _c("ior 1.5", "fresnel_exponent"), _c(GLASS, FRESNEL)),
     "rust-bgr-black_background": (RUST, "bgr,black_background", "BGR and a black background",
