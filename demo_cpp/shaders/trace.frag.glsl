@@ -210,7 +210,7 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
 #if LIGHT_COUNT > 0
     for (int li = 0; li < LIGHT_COUNT; ++li) {
         int light = LIGHTS[li];
-        vec3 to_light = center(light) - aim_from;
+        vec3 to_light = center(light) - (mistake(M_light_dir_from_normal) ? n : aim_from);
         float dist = length(to_light);
         vec3 l = mistake(M_shadow_dir_unnormalized) ? to_light : to_light / dist;
         l = mistake(M_light_dir_reversed) ? -l : l;

@@ -21,6 +21,7 @@
 //   fresnel_exponent         0.1 + 0.9 (1 - facing)^2 instead of the cube
 //   refraction_unweighted    the refracted colour not multiplied by the transparency
 //   light_blocks_itself      the light is not skipped in its own shadow test
+//   light_dir_from_normal    the light direction light - n, the normal where the point belongs
 //   no_shadows               the shadow test is left out
 //   ior=V                    the glass's index
 'use strict';
@@ -53,7 +54,7 @@ const BIAS = 1e-4;
 const KNOWN = [
   'bgr', 'gamma2', 'tan_full_fov', 'ray_dir_unnormalized', 'reflect_sign', 'reflect_half',
   'no_inside_flip', 'inside_test_reversed', 'k_eta_unsquared', 'fresnel_weights_swapped', 'fresnel_exponent',
-  'refraction_unweighted', 'light_blocks_itself', 'no_shadows',
+  'refraction_unweighted', 'light_blocks_itself', 'light_dir_from_normal', 'no_shadows',
 ];
 const slips = new Set();
 
@@ -109,7 +110,7 @@ function trace(o, d, depth) {
   } else {
     spheres.forEach((light, i) => {
       if (light.emit.x <= 0) return;
-      const l = normalize(sub(light.c, p));
+      const l = normalize(sub(light.c, slips.has('light_dir_from_normal') ? n : p));
       if (!inShadow(i, add(p, scale(n, BIAS)), l)) {
         color = add(color, scale(mul(hit.color, light.emit), Math.max(0, dot(n, l))));
       }

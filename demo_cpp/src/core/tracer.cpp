@@ -210,10 +210,12 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
     float shared_shadow = 1.0f;  // Q4: one shadow factor for all lights, compounded
     // Q11: the paper's colour starts at 1 and each light is added to it.
     color c(q.has(Quirk::lit_colour_starts_at_one) ? 1.0f : 0.0f);
+    const bool from_normal = opt_.mistakes.has(Mistake::light_dir_from_normal);
     for (std::size_t li = 0; li < lights_.size(); ++li) {
         const int light = lights_[li];
         const Sphere& l_sphere = scene_.spheres[light];
-        const vec3 to_light = l_sphere.center - aim_from;
+        // light_dir_from_normal: the normal where the hit point belongs.
+        const vec3 to_light = l_sphere.center - (from_normal ? n : aim_from);
         const float dist = length(to_light);
         const vec3 l = light_direction(opt_.mistakes, to_light, dist);
         // Q12: no Lambert cosine, so a light behind the surface counts too; its shadow ray is
