@@ -90,6 +90,9 @@ class Candidate:
         The offset of secondary rays a program hard-codes; default None: the scene's.
     light : tuple[float, float, float] or None
         Where a program puts the scene's one light (its centre); default None: the scene's.
+    colour : tuple[str, tuple[float, float, float]] or None
+        One sphere's surface colour as a program types it: (the sphere's name, the colour);
+        default None: the scene's.
     camera : str or None
         Another camera, as camera_fit.Fitted.key writes it: "su,ou,sv,ov|what it is", the
         numbers rtdemo's ``--camera-map`` (camera_fit.py); or a view, "view:x,y,z;x,y,z|what
@@ -125,6 +128,7 @@ class Candidate:
     grow: int | None = None
     ior_sphere: str | None = None
     light: Vec3 | None = None
+    colour: tuple[str, RGB] | None = None
 
     @staticmethod
     def of_mode(mode: str) -> Candidate:
@@ -165,6 +169,8 @@ class Candidate:
             parts.append(f"[bias {self.bias:g}]")
         if self.light is not None:
             parts.append(f"[light at {rgb_text(self.light)}]")
+        if self.colour is not None:
+            parts.append(f"[colour of '{self.colour[0]}' {rgb_text(self.colour[1])}]")
         if self.turn is not None:
             parts.append(f"[camera turned {self.turn[0]:+g}, {self.turn[1]:+g} px]")
         if self.grow is not None:
@@ -207,6 +213,8 @@ class Candidate:
             out["bias"] = self.bias
         if self.light is not None:
             out["light"] = list(self.light)
+        if self.colour is not None:
+            out["colour"] = {"sphere": self.colour[0], "rgb": list(self.colour[1])}
         if self.camera is not None and is_view(self.camera):
             pos, at = view_of(self.camera)
             out["camera"] = {"position": list(pos), "look_at": list(at)}
@@ -255,6 +263,9 @@ class Candidate:
 
     def with_light(self, centre: Vec3 | None) -> Candidate:
         return dataclasses.replace(self, light=centre)
+
+    def with_colour(self, colour: tuple[str, RGB] | None) -> Candidate:
+        return dataclasses.replace(self, colour=colour)
 
     def with_fresnel(self, curve: tuple[float, int] | None) -> Candidate:
         return dataclasses.replace(self, fresnel=curve)

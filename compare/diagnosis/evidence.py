@@ -48,7 +48,7 @@ def describe_cause(cause: str) -> str:
         return cause
     if cause.startswith("mirrored"):
         return f"image {cause}"
-    if cause.startswith(("background", "light at")):
+    if cause.startswith(("background", "light at", "colour of")):
         return f"{cause} hard-coded"
     if cause.startswith("ior"):
         # "ior 1.45 for 'middle'" names its sphere already
@@ -105,6 +105,9 @@ def render_command(d: Diagnosis, scene_file: str | Path) -> str:
         words.append(f"bias {changes['bias']:g}")
     if "light" in changes:
         words.append("the light at (" + ", ".join(f"{v:g}" for v in changes["light"]) + ")")
+    if "colour" in changes:
+        rgb = ", ".join(f"{v:g}" for v in changes["colour"]["rgb"])
+        words.append(f"the colour of '{changes['colour']['sphere']}' ({rgb})")
     if "camera" in changes:
         pos, at = (
             ", ".join(f"{v:g}" for v in changes["camera"][k]) for k in ("position", "look_at")

@@ -23,9 +23,10 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from compare.diagnosis.candidate import Vec3
+from compare.diagnosis.refine import code_readings
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL, camera_directions
-from compare.judge.images import Image, linear_to_srgb, srgb_to_linear
+from compare.judge.images import Image
 from scene_model.scene import Scene
 
 # The pixels used: lit in both images, by at least this much, and not clipped.
@@ -54,7 +55,7 @@ def lights_seen(test: F32, start: Image, direct: BOOL, scene: Scene, encoding: s
     reach = float(np.linalg.norm(own - np.array(scene.camera.position, np.float64)))
     points, normals, before = _surfaces(start, direct, scene)
     out: list[Vec3] = []
-    for reading in _readings(test, encoding):
+    for reading in code_readings(test, encoding):
         after = reading.mean(axis=-1)[direct]
         fitted = _fitted(points, normals, before, after, own)
         if fitted is None:
@@ -78,17 +79,6 @@ def _surfaces(start: Image, direct: BOOL, scene: Scene) -> tuple[np.ndarray, ...
     normals = points - centres
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     return points, normals, start.rgb[direct].mean(axis=-1).astype(np.float64)
-
-
-def _readings(test: F32, encoding: str) -> list[np.ndarray]:
-    """The image's values as a rounding writer and as a truncating one stored them."""
-    values = test.astype(np.float64)
-    if encoding == "float":
-        return [values]
-    if encoding == "srgb":
-        up = srgb_to_linear(np.clip(linear_to_srgb(test) + 0.5 / 255, 0, 1).astype(np.float32))
-        return [values, up.astype(np.float64)]
-    return [values, values + 0.5 / 255]
 
 
 def _fitted(

@@ -230,6 +230,7 @@ def _candidate_fields(c: Candidate) -> dict[str, Any]:
         "fresnel": list(c.fresnel) if c.fresnel is not None else None,
         "camera": c.camera,
         "light": list(c.light) if c.light is not None else None,
+        "colour": [c.colour[0], list(c.colour[1])] if c.colour is not None else None,
     }
 
 
@@ -248,7 +249,13 @@ def _candidate(raw: dict[str, Any]) -> Candidate:
         None if raw.get("camera") is None else str(raw["camera"]),
         ior_sphere=None if raw.get("ior_sphere") is None else str(raw["ior_sphere"]),
         light=_vec3(raw.get("light")),
+        colour=_colour(raw.get("colour")),
     )
+
+
+def _colour(raw: Any) -> tuple[str, tuple[float, float, float]] | None:
+    rgb = None if raw is None else _vec3(raw[1])
+    return None if raw is None or rgb is None else (str(raw[0]), rgb)
 
 
 def _vec3(raw: Any) -> tuple[float, float, float] | None:

@@ -1,12 +1,17 @@
 """Refining a fitted value (constant_fit.py, fresnel_fit.py): the best of a batch of
 candidates around it, rendered together, and the roundest value the image cannot tell from
-it (a student types 1.5, 1e-3 or 0.9, not 1.4962)."""
+it (a student types 1.5, 1e-3 or 0.9, not 1.4962); and the values an 8-bit image stands for,
+which the fits read (light_fit.py, colour_fit.py)."""
 
 from __future__ import annotations
+
+import numpy as np
 
 from compare.diagnosis.candidate import Candidate
 from compare.diagnosis.score import objective
 from compare.diagnosis.trials import Trials
+from compare.judge.arrays import F32
+from compare.judge.images import linear_to_srgb, srgb_to_linear
 
 
 def best_of(trials: Trials, best: Candidate, options: list[Candidate]) -> Candidate:
@@ -30,3 +35,16 @@ def snapped(trials: Trials, c: Candidate, rounder: list[Candidate]) -> Candidate
         if trials.fits_as_well(r, c):
             return r
     return c
+
+
+def code_readings(test: F32, encoding: str) -> list[np.ndarray]:
+    """The image's values as a rounding writer and as a truncating one stored them: an 8-bit
+    code c holds [c - 0.5, c + 0.5) / 255 or [c, c + 1) / 255 (the lineage truncates), read at
+    the middle; a float image as it is."""
+    values = test.astype(np.float64)
+    if encoding == "float":
+        return [values]
+    if encoding == "srgb":
+        up = srgb_to_linear(np.clip(linear_to_srgb(test) + 0.5 / 255, 0, 1).astype(np.float32))
+        return [values, up.astype(np.float64)]
+    return [values, values + 0.5 / 255]

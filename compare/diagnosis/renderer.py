@@ -248,6 +248,10 @@ class CandidateRenderer:
                 if sphere.get("transparency", 0) > 0 and c.ior_sphere in (None, sphere.get("name")):
                     sphere["ior"] = c.ior
         raw["camera"].update(c.scene_changes().get("camera", {}))
+        if c.colour is not None:
+            for sphere in raw["spheres"]:
+                if sphere.get("name") == c.colour[0]:
+                    sphere["color"] = list(c.colour[1])
         if c.light is not None:  # the scene's one light (light_fit.py offers no other)
             for sphere in raw["spheres"]:
                 if any(v > 0 for v in sphere.get("emission", [0, 0, 0])):

@@ -30,6 +30,7 @@ import numpy as np
 from compare.diagnosis import (
     camera_fit,
     camera_view,
+    colour_fit,
     constant_fit,
     light_fit,
     localise,
@@ -171,6 +172,7 @@ class Search:
         self.seen: RGB | None = None  # the background the image shows (_background_seen)
         self.seen_for: F32 | None = None  # ... in this test image
         self.lights: dict[tuple[int, Candidate], list[Vec3]] = {}  # light_switches, per start
+        self.colours: dict[tuple[int, Candidate], list[tuple[str, RGB]]] = {}  # colour_switches
 
     def run(self, starts: list[Candidate]) -> Diagnosis:
         t = self.trials
@@ -448,6 +450,21 @@ class Search:
             self.lights[key] = found
         return [Switch("light", ",".join(f"{v:g}" for v in c), True) for c in self.lights[key]]
 
+    def colour_switches(self, current: Candidate, *, full: bool) -> list[Switch]:
+        """In a full sweep, the sphere colours the image shows against current's render
+        (colour_fit.py), as switches; the scene's colours back, where current types one."""
+        if current.colour is not None:
+            return [Switch("colour", "scene=0,0,0", False)]
+        t = self.trials.target
+        key = (id(t.test), current)
+        if full and key not in self.colours:
+            start = self.trials.render.with_aovs(current)
+            self.colours[key] = colour_fit.colours_seen(t.test, start, self.scene, t.image.encoding)
+        return [
+            Switch("colour", f"{name}=" + ",".join(f"{v:g}" for v in rgb), True)
+            for name, rgb in self.colours.get(key, [])
+        ]
+
     def camera_switches(self, current: Candidate) -> list[Switch]:
         """The fitted camera as a switch of the search (the catalogue's camera mistakes are
         switches already)."""
@@ -590,6 +607,7 @@ class Search:
             + self.camera_switches(current)
             + self.background_switches(current)
             + self.light_switches(current)
+            + self.colour_switches(current, full=promising is None)
             if (promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth")
             and (sw.kind, sw.key) not in self.banned
             and may_help(sw, still)
@@ -906,6 +924,8 @@ def may_help(sw: Switch, still: set[str]) -> bool:
         return bool({"background", "reflection", "refraction"} & set(still))
     if sw.kind == "light" and sw.present:
         return "direct" in still
+    if sw.kind == "colour" and sw.present:
+        return bool({"direct", "reflection", "refraction"} & set(still))
     if sw.kind != "mistake" or not sw.present:
         return True
     return bool(set(catalogue()[sw.key].effects) & set(still))

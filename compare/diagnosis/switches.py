@@ -32,7 +32,7 @@ MAX_SEARCH_DEPTH = 32
 IORS = (1.1, 1.2, 1.33, 1.5)
 IOR_NEAR = (0.02, 0.05, 0.1)
 # The kinds whose switch sets a value (any value of one kind sets the same thing).
-VALUED = ("depth", "background", "ior", "bias", "fresnel", "camera", "light")
+VALUED = ("depth", "background", "ior", "bias", "fresnel", "camera", "light", "colour")
 # Where the paper's Fresnel curve (Q8) is on, the sweep tries these constants (mix, power) of
 # it: a mirror at every angle (the facing ratio's sign lost), half and half, and Schlick's
 # curve for glass of ior 1.5; one that helps is then fitted as a value (fresnel_fit.py).
@@ -99,6 +99,8 @@ class Switch:
             return c.with_background(self._rgb() if self.present else None)
         if self.kind == "light":
             return c.with_light(self._rgb() if self.present else None)
+        if self.kind == "colour":
+            return c.with_colour(self.colour_of() if self.present else None)
         if self.kind == "ior":
             return c.with_ior(*self.ior_of()) if self.present else c.with_ior(None)
         if self.kind == "bias":
@@ -119,6 +121,12 @@ class Switch:
         """A fresnel switch's (mix, power)."""
         mix, power = self.key.split(",")
         return float(mix), int(power)
+
+    def colour_of(self) -> tuple[str, RGB]:
+        """A colour switch's sphere and colour ("glass=1,0.32,0.26")."""
+        name, _, rgb = self.key.rpartition("=")
+        r, g, b = (float(v) for v in rgb.split(","))
+        return name, (r, g, b)
 
     def _rgb(self) -> RGB:
         r, g, b = (float(v) for v in self.key.split(","))
@@ -149,6 +157,7 @@ class Switch:
                 "bias": "secondary and shadow rays (their offset)",
                 "fresnel": "Fresnel (its curve's constants)",
                 "light": "direct light (where the light is)",
+                "colour": "shading (a sphere's surface colour)",
                 "camera": "the camera (the ray through each pixel)"}[self.kind]  # fmt: skip
 
     def sets_same(self, other: Switch) -> bool:
@@ -169,6 +178,11 @@ class Switch:
             return f"background {rgb_text(self._rgb())}" if self.present else "scene background"
         if self.kind == "light":
             return f"light at {rgb_text(self._rgb())}" if self.present else "scene light"
+        if self.kind == "colour":
+            if not self.present:
+                return "scene colours"
+            name, rgb = self.colour_of()
+            return f"colour of '{name}' {rgb_text(rgb)}"
         if self.kind == "ior":
             if not self.present:
                 return "scene ior"
@@ -202,7 +216,7 @@ class Switch:
             if self.present:
                 return f"bias {float(self.key):g} hard-coded (the scene's is {scene.bias:g})"
             return f"the scene's bias {scene.bias:g}"
-        if self.kind in ("background", "ior", "light"):
+        if self.kind in ("background", "ior", "light", "colour"):
             return self._constant_change(scene)
         if self.kind == "camera":
             return f"the camera: {camera_words(self.key)}" if self.present else "the scene's camera"
@@ -229,6 +243,12 @@ class Switch:
         return f"max depth {d}{more if or_more else cut} (the scene asks {scene.max_depth})"
 
     def _constant_change(self, scene: Scene) -> str:
+        if self.kind == "colour":
+            if not self.present:
+                return "the scene's sphere colours"
+            name, rgb = self.colour_of()
+            theirs = next((rgb_text(s.color) for s in scene.spheres if s.name == name), "?")
+            return f"the colour of '{name}' {rgb_text(rgb)} hard-coded (the scene's is {theirs})"
         if self.kind == "light":
             theirs = ", ".join(rgb_text(s.center) for s in scene.spheres if s.kind == "light")
             if self.present:
@@ -345,6 +365,10 @@ def differences(a: Candidate, b: Candidate, scene: Scene) -> list[Switch]:
         hard = b if b.ior is not None else a
         where = f"@{hard.ior_sphere}" if hard.ior_sphere else ""
         out.append(Switch("ior", f"{hard.ior or 0.0:g}{where}", b.ior is not None))
+    if a.colour != b.colour:
+        name, rgb = b.colour or a.colour or ("", (0.0, 0.0, 0.0))
+        coloured = f"{name}=" + ",".join(f"{v:g}" for v in rgb)
+        out.append(Switch("colour", coloured, b.colour is not None))
     if a.light != b.light:
         centre = b.light or a.light
         assert centre is not None

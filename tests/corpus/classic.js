@@ -24,6 +24,7 @@
 //   light_dir_from_normal    the light direction light - n, the normal where the point belongs
 //   no_shadows               the shadow test is left out
 //   ior=V                    the glass's index
+//   glass_blue=V             the glass's colour's blue (ggerholm's Java port types 0.26)
 'use strict';
 
 const fs = require('fs');
@@ -58,12 +59,14 @@ const KNOWN = [
 ];
 const slips = new Set();
 
-// Reads "name,name,ior=V"; returns an error message or null.
+// Reads "name,name,ior=V,glass_blue=V"; returns an error message or null.
 function setMistakes(list) {
   for (const item of list.split(',').filter((s) => s !== '')) {
     const [key, value] = item.split('=');
     if (key === 'ior' && value !== undefined && Number(value) > 0) {
       spheres.filter((s) => s.transp > 0).forEach((s) => { s.ior = Number(value); });
+    } else if (key === 'glass_blue' && value !== undefined && Number(value) >= 0) {
+      spheres.filter((s) => s.transp > 0).forEach((s) => { s.color = vec(s.color.x, s.color.y, Number(value)); });
     } else if (value === undefined && KNOWN.includes(key)) {
       slips.add(key);
     } else {

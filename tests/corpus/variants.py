@@ -260,6 +260,11 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
     "js-light_dir_from_normal": (JS, "light_dir_from_normal", "the light direction from the normal",
                                  _c("light_dir_from_normal"), _c(DIRECT)),
     # two changes at once
+    # ggerholm's Java port: the light's colour read off the shaded sphere, and its glass blue
+    "js-light_blocks_itself-glass_blue0.26": (JS, "light_blocks_itself,glass_blue=0.26",
+                                              "lit surfaces black and the glass (1, 0.32, 0.26)",
+                                              DARK_DIRECT | _c("colour of 'glass' (1, 0.32, 0.26)"),
+                                              _c(DIRECT, GLASS)),
     "go-depth10-bias1e-3": (GO, "depth=10,bias=0.001", "depth 10 and an offset of 1e-3",
                             _c(depths(10), "bias 0.001"), _c(DEPTH, CONSTANT)),
     # three, as CAPBenchmarks' RT kernel has them (its light at y 30, scratchapixel's at 20)
