@@ -196,6 +196,30 @@ def test_planted_scene_copies_are_checked_not_followed(tmp_path: Path) -> None:
     assert not any(c.is_symlink() for c in copies)
 
 
+def test_a_scene_copy_another_thread_writes_meanwhile_is_kept(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two candidates of one search share a scene copy; one thread found it missing while the
+    other renamed it in, then took it for a planted non-file and removed it: the render
+    failed with "cannot read the scene file". The other thread's write is simulated here,
+    right after the first look."""
+    cache = RenderCache(tmp_path / "c")
+    target = cache.derived("scene-x-candidate.json")
+    real_lstat = os.lstat
+
+    def written_meanwhile(path, *args, **kwargs):  # type: ignore[no-untyped-def]
+        if Path(path) == target and not target.exists():
+            try:
+                return real_lstat(path, *args, **kwargs)
+            finally:
+                target.write_text("{}")
+        return real_lstat(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "lstat", written_meanwhile)
+    assert cache.derived("scene-x-candidate.json") == target
+    assert target.read_text() == "{}"
+
+
 @pytest.mark.parametrize("plant", ["fifo", "link", "lock-link"])
 def test_the_counts_never_stop_a_verdict(
     tmp_path: Path, plant: str, capfd: pytest.CaptureFixture[str]

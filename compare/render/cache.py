@@ -250,9 +250,13 @@ class RenderCache:
         a regular file there (a planted link) is removed first: it is never followed."""
         self._ready()
         path = self.derived_dir / name
-        if _is_plain_file(path):
+        try:
+            mode = os.lstat(path).st_mode  # once: a file another thread just wrote is kept
+        except OSError:
+            return path
+        if stat.S_ISREG(mode):
             _touch(path)
-        elif os.path.lexists(path):
+        else:
             print(f"rtval: render cache: {path} is not a regular file; removed", file=sys.stderr)
             with contextlib.suppress(FileNotFoundError):
                 path.unlink()
