@@ -2,7 +2,8 @@
 // gl_program.cpp prepends `#version` and the specialisation: QUIRKS (bit q-1: quirk Qq
 // present), EFFECTS (bit 0 shadows, 1 reflection, 2 refraction), MAX_DEPTH, STACK_SIZE
 // (= max(MAX_DEPTH, 1)), SPHERE_COUNT, LIGHT_COUNT and LIGHT_INDICES, BIAS, BACKGROUND,
-// MISTAKES (bit m: named mistake m of mistakes.json present, M_<name> = m), EXACT_ARITHMETIC
+// MISTAKES_LO, MISTAKES_HI (bit m of the 64: named mistake m of mistakes.json present,
+// M_<name> = m), EXACT_ARITHMETIC
 // (below) and for small scenes SCENE_SPHERES (the spheres as constants). Constant switches
 // let the compiler drop every path the options rule out and unroll the sphere loops: a
 // mistake not set costs nothing.
@@ -96,7 +97,10 @@ bool quirk(int q) { return (QUIRKS & (1 << (q - 1))) != 0; }
 bool effect(int bit) { return (EFFECTS & (1 << bit)) != 0; }
 // A named student mistake (compare/diagnosis/mistakes.json), each written where the CPU
 // tracer has it (tracer.cpp, student_slips.h, camera_rays.cpp).
-bool mistake(int m) { return (MISTAKES & (1u << uint(m))) != 0u; }
+bool mistake(int m) {
+    uint half_mask = m < 32 ? MISTAKES_LO : MISTAKES_HI;
+    return (half_mask & (1u << uint(m & 31))) != 0u;
+}
 vec3 center(int i) { return spheres[i].center_radius.xyz; }
 float radius(int i) { return spheres[i].center_radius.w; }
 float transparency(int i) { return spheres[i].emission_transparency.w; }
@@ -307,6 +311,7 @@ vec3 trace(vec3 origin, vec3 dir) {
         bool refractive = tr > 0.0;
         float eta = (quirk(2) || !inside) ? 1.0 / ior : ior;
         eta = mistake(M_eta_inverted) ? 1.0 / eta : eta;
+        eta = (mistake(M_eta_one_leaving) && inside) ? 1.0 : eta;
         float cosi = -d_dot_n;
         float k = 1.0 - eta * eta * (1.0 - cosi * cosi);
         bool total_internal = refractive && k < 0.0 && !quirk(3);

@@ -18,6 +18,7 @@
 //	normal_not_normalized   the normal p - centre is used as it is
 //	reflection_untinted     the reflected colour is not multiplied by the surface colour
 //	eta_leaving             1/ior at both crossings (leaving glass too)
+//	eta_one_leaving         eta = 1 when leaving glass: the ray leaves undeflected
 //	fresnel_facing_sign     the facing ratio +d.n instead of -d.n
 //	fresnel_facing_clamped  max(0, +d.n): the sign lost inside the clamp, so the facing ratio is
 //	                        0 at every outside hit (a Fresnel weight of 1, no refraction)
@@ -100,7 +101,7 @@ var (
 
 var known = []string{
 	"rows_bottom_up", "no_clamp", "fov_on_x", "pixel_corners", "y_by_width", "near_root_only",
-	"normal_not_normalized", "reflection_untinted", "eta_leaving", "fresnel_facing_sign", "fresnel_facing_clamped",
+	"normal_not_normalized", "reflection_untinted", "eta_leaving", "eta_one_leaving", "fresnel_facing_sign", "fresnel_facing_clamped",
 	"shadow_dir_unnormalized", "lambert_unclamped",
 }
 
@@ -188,6 +189,9 @@ func mirror(s *Sphere, p, n, d Vec, inside bool, depth int) Vec {
 		eta := 1 / s.IOR
 		if inside && !slips["eta_leaving"] {
 			eta = s.IOR
+		}
+		if inside && slips["eta_one_leaving"] {
+			eta = 1
 		}
 		cosi := -n.Dot(d)
 		k := 1 - eta*eta*(1-cosi*cosi)

@@ -256,6 +256,9 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
     "rust-depth3": (RUST, "depth=3", "recursion limit 3", depths(3), _c(DEPTH, CONSTANT)),
     "rust-white_background": (RUST, "background=1", "a white background (1, 1, 1)",
                               _c("background (1, 1, 1)"), _c(BACKGROUND, CONSTANT)),
+    # a Python port's slip: eta = 1 if inside else 1 / ior
+    "go-eta_one_leaving": (GO, "eta_one_leaving", "eta 1 when leaving glass",
+                           _c("eta_one_leaving"), _c(LEAVING)),
     # a real program's slip (serifagir/ray-tracing-engine-cli): light - n for light - p
     "js-light_dir_from_normal": (JS, "light_dir_from_normal", "the light direction from the normal",
                                  _c("light_dir_from_normal"), _c(DIRECT)),

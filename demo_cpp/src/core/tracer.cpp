@@ -155,6 +155,7 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
     if (s.transparency > 0) {
         float eta = (q.has(Quirk::eta_one_over_ior_leaving) || !inside) ? 1.0f / s.ior : s.ior;
         if (opt_.mistakes.has(Mistake::eta_inverted)) eta = 1.0f / eta;
+        if (opt_.mistakes.has(Mistake::eta_one_leaving) && inside) eta = 1.0f;
         total_internal =
             refraction_k(r.dir, n, eta) < 0 && !q.has(Quirk::nan_at_total_internal_reflection);
         if (!total_internal && opt_.refraction)

@@ -106,7 +106,7 @@ std::string light_indices(const Scene& scene) {
 // catalogue, so that the shader names a mistake as mistakes.json does and a renamed or
 // removed one fails to compile rather than switching another.
 std::string mistake_numbers() {
-    static_assert(kMistakeCount <= 32, "MISTAKES is one 32-bit mask");
+    static_assert(kMistakeCount <= 64, "MISTAKES_LO and MISTAKES_HI hold 64 bits");
     std::string out;
     for (int m = 0; m < kMistakeCount; ++m)
         out += std::string("#define M_") + mistake_name(static_cast<Mistake>(m)) + " " +
@@ -121,11 +121,18 @@ bool needs_exact_arithmetic(const MistakeSet& mistakes) {
     return mistakes.has(Mistake::no_offset) || mistakes.has(Mistake::reflect_sign);
 }
 
-std::uint32_t mistake_mask(const MistakeSet& mistakes) {
-    std::uint32_t mask = 0;
+std::uint64_t mistake_mask(const MistakeSet& mistakes) {
+    std::uint64_t mask = 0;
     for (int m = 0; m < kMistakeCount; ++m)
-        if (mistakes.has(static_cast<Mistake>(m))) mask |= 1u << m;
+        if (mistakes.has(static_cast<Mistake>(m))) mask |= std::uint64_t{1} << m;
     return mask;
+}
+
+// The mask as trace.frag.glsl's two 32-bit halves (GLSL 4.30 has no 64-bit integers).
+std::string mistake_defines(const MistakeSet& mistakes) {
+    const std::uint64_t mask = mistake_mask(mistakes);
+    return "#define MISTAKES_LO " + std::to_string(mask & 0xffffffffu) + "u\n#define MISTAKES_HI " +
+           std::to_string(mask >> 32) + "u\n";
 }
 
 }  // namespace
@@ -164,8 +171,8 @@ unsigned TraceProgram::program_for(const TraceOptions& options) {
     std::string header = "#define QUIRKS " + std::to_string(quirks) + "\n#define EFFECTS " +
                          std::to_string(effects) + "\n#define MAX_DEPTH " +
                          std::to_string(options.max_depth) + "\n#define STACK_SIZE " +
-                         std::to_string(std::max(options.max_depth, 1)) + "\n#define MISTAKES " +
-                         std::to_string(mistake_mask(options.mistakes)) + "u\n";
+                         std::to_string(std::max(options.max_depth, 1)) + "\n" +
+                         mistake_defines(options.mistakes);
     if (needs_exact_arithmetic(options.mistakes)) header += "#define EXACT_ARITHMETIC\n";
     header += "#define FRESNEL_MIX " + float_constant(options.fresnel_curve.mix) +
               "\n#define FRESNEL_POWER " + std::to_string(options.fresnel_curve.power) + "\n";
