@@ -2,15 +2,16 @@
 
 Rooms by feature (docs/architecture.md): `judge` (pure: images, metrics, effect masks,
 exact match, tolerances, scores, rubric, target models), `render` (running and caching
-renderers), `diagnosis` (why an image differs), `verdict`, `check`, `report`, `grading`,
-`stress` (the applications), `sandbox`, `pages`, and `cli` (the `rtval` command line).
+renderers), `diagnose` (why an image differs: its function `compare.diagnose.diagnose`),
+`verdict`, `check`, `report`, `grading`, `stress` (the applications), `sandbox`, `pages`, and
+`cli` (the `rtval` command line).
 
 The public API below is what another program needs to judge images as rtval does.
 """
 
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.mistakes import Mistake, catalogue
-from compare.diagnosis.search import Diagnosis, diagnose
+from compare.diagnose import Diagnosis
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.mistakes import Mistake, catalogue
 from compare.judge.effects import EFFECTS, effect_masks
 from compare.judge.evaluate import EffectResult, Evaluation, ExactInputs, evaluate_pair
 from compare.judge.exact_match import ExactMatch, exact_match
@@ -45,7 +46,6 @@ __all__ = [
     "catalogue",
     "compute_maps",
     "compute_metrics",
-    "diagnose",
     "effect_masks",
     "evaluate_pair",
     "exact_match",

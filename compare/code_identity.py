@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]  # the folder that holds our packages
 
 def code_identity(*modules: str, distributions: tuple[str, ...] = ()) -> str:
     """Hex sha256 of the modules' code (see the module's docstring) and the distributions'
-    versions, e.g. code_identity("compare.diagnosis.flip", distributions=("flip-evaluator",))."""
+    versions, e.g. code_identity("compare.diagnose.flip", distributions=("flip-evaluator",))."""
     return _identity(ROOT, tuple(sorted(modules)), tuple(sorted(distributions)))
 
 

@@ -5,7 +5,7 @@ Run by `make lint`. The rooms (docs/architecture.md) import downwards only:
 
     safe_files  <- scene_model <- mitsuba_ref
     compare's helpers (escape, errors, sizes, interrupts, student_ids, code_identity)
-    judge, sandbox, pages  <- render <- diagnosis, verdict <- check, report, grading, stress <- cli
+    judge, sandbox, pages  <- render <- diagnose, verdict <- check, report, grading, stress <- cli
 """
 
 from __future__ import annotations
@@ -29,11 +29,11 @@ ALLOWED: dict[str, set[str]] = {
     "compare.sandbox": BASE,
     "compare.pages": BASE,
     "compare.render": BASE | {"compare.judge", "compare.sandbox", "mitsuba_ref"},
-    "compare.diagnosis": BASE | {"compare.judge", "compare.render"},
+    "compare.diagnose": BASE | {"compare.judge", "compare.render"},
     "compare.verdict": BASE | {"compare.judge", "compare.render"},
 }
 _UPPER = BASE | {"compare.judge", "compare.sandbox", "compare.pages", "compare.render"}
-_UPPER |= {"compare.diagnosis", "compare.verdict", "mitsuba_ref"}
+_UPPER |= {"compare.diagnose", "compare.verdict", "mitsuba_ref"}
 for _room in ("check", "report", "grading", "stress"):
     ALLOWED[f"compare.{_room}"] = _UPPER
 ALLOWED["compare.cli"] = _UPPER | {f"compare.{r}" for r in ("check", "report", "grading", "stress")}

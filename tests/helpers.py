@@ -46,8 +46,8 @@ def diagnosed(
     """`image` diagnosed against `scene_file` through a CandidateRenderer on `cache` (every
     render read from the cache, none from this process's memory): the diagnosis without its
     seconds, and the names of the candidates it asked for."""
-    from compare.diagnosis.renderer import CandidateRenderer, forget_recent
-    from compare.diagnosis.search import diagnose
+    from compare.diagnose.renderer import CandidateRenderer, forget_recent
+    from compare.diagnose.search import diagnose
     from scene_model.scene import load_scene
 
     forget_recent()

@@ -130,7 +130,7 @@ def _regression_cycle(tmp_path: Path, renderer: list[str], name: str, scenes: li
     assert case["effects"]["direct"]["status"] == "pass"
     page = (html / "index.html").read_text()
     assert f"{name}/classic" in page and "classic: shadow FLIP" in page
-    # The diagnosis slot (compare.diagnosis.search) names the switch that reproduces the bug.
+    # The diagnosis slot (compare.diagnose.search) names the switch that reproduces the bug.
     assert "<h3>Diagnosis</h3>" in page and "looks like classic --no-shadows" in page
     assert "Content-Security-Policy" in page
     _ray_tree_opens(html / "index.html")

@@ -49,11 +49,11 @@ def test_a_change_to_an_imported_module_changes_the_identity(tmp_path: Path) -> 
 
 
 def test_the_diagnosis_is_keyed_by_what_it_decides_with() -> None:
-    covered = _files(ROOT, "compare.diagnosis.search")
+    covered = _files(ROOT, "compare.diagnose.search")
     assert {
-        "compare/diagnosis/search.py",
-        "compare/diagnosis/score.py",
-        "compare/diagnosis/mistakes.json",
+        "compare/diagnose/search.py",
+        "compare/diagnose/score.py",
+        "compare/diagnose/mistakes.json",
         "compare/judge/exact_match.py",
         "compare/judge/effects.py",
     } <= covered
@@ -65,5 +65,5 @@ def test_the_report_metrics_are_keyed_by_the_judge_only() -> None:
     roots = ("evaluate", "effects", "convergence", "penumbra", "pareto", "scoring", "sentences")
     covered = _files(ROOT, *(f"compare.judge.{m}" for m in roots))
     assert {"compare/judge/metrics.py", "compare/judge/images.py"} <= covered
-    assert not any(f.startswith("compare/diagnosis/") for f in covered)
+    assert not any(f.startswith("compare/diagnose/") for f in covered)
     assert "compare/judge/rubric.py" not in covered

@@ -15,11 +15,11 @@ import pytest
 from helpers import SCENES, render_demo, run
 from student_variants import MORE, VARIANTS, render_variant
 
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.evidence import render_command, short_reason
-from compare.diagnosis.mistakes import catalogue, parse_mistakes
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import (
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.evidence import render_command, short_reason
+from compare.diagnose.mistakes import catalogue, parse_mistakes
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import (
     DiagnoseOptions,
     Diagnosis,
     FunctionRenderer,

@@ -13,10 +13,10 @@ from pathlib import Path
 import pytest
 from helpers import SCENES, diagnosed, render_demo, run
 
-from compare.diagnosis import flip as diagnose_flip
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.renderer import CandidateRenderer, forget_recent
-from compare.diagnosis.search import DiagnoseOptions, diagnose
+from compare.diagnose import flip as diagnose_flip
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.renderer import CandidateRenderer, forget_recent
+from compare.diagnose.search import DiagnoseOptions, diagnose
 from compare.judge.images import Image
 from compare.judge.target_model import parse_model
 from compare.render import jobs

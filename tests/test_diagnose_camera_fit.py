@@ -1,4 +1,4 @@
-"""The camera fitted from the silhouettes (compare/diagnosis/camera_fit.py): rtdemo's own
+"""The camera fitted from the silhouettes (compare/diagnose/camera_fit.py): rtdemo's own
 renders with a camera a pixel loop's slip makes are read as that slip, with its field of
 view; the scene's camera is not fitted at all; and a diagnosis names the camera cause."""
 
@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.diagnosis import camera_fit
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, diagnose
+from compare.diagnose import camera_fit
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, diagnose
 from compare.judge.images import read_image
 from scene_model.scene import load_scene
 

@@ -1,4 +1,4 @@
-"""Where the camera stands and looks (compare/diagnosis/camera_view.py): on the lit scene, whose
+"""Where the camera stands and looks (compare/diagnose/camera_view.py): on the lit scene, whose
 camera looks down from (0, 1, 4), rtdemo's renders of each slip with the scene's position and
 look_at are read as that slip from the silhouettes alone, the scene's own render as none; a
 scene whose camera is the lineage's fixed one has no such slips; and a diagnosis names the
@@ -12,10 +12,10 @@ from pathlib import Path
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.diagnosis import camera_view
-from compare.diagnosis.evidence import render_command
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, diagnose
+from compare.diagnose import camera_view
+from compare.diagnose.evidence import render_command
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, diagnose
 from compare.judge.images import read_image
 from scene_model.scene import load_scene
 

@@ -1,4 +1,4 @@
-"""A sphere's colour as a program types it (compare/diagnosis/colour_fit.py): rtdemo's classic
+"""A sphere's colour as a program types it (compare/diagnose/colour_fit.py): rtdemo's classic
 render of classic.json with one number of the glass's colour changed is read as that colour
 off the glass's pixels; the scene's own render, and a sphere made darker in every channel (a
 brightness, not a colour typed), offer none; and the diagnosis names the colour."""
@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.diagnosis.colour_fit import colours_seen
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, diagnose
+from compare.diagnose.colour_fit import colours_seen
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, diagnose
 from scene_model.scene import load_scene
 
 CLASSIC = SCENES / "classic.json"

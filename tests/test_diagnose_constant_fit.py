@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.diagnosis.constant_fit import background_seen
-from compare.diagnosis.evidence import render_command
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, Diagnosis, diagnose
+from compare.diagnose.constant_fit import background_seen
+from compare.diagnose.evidence import render_command
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, Diagnosis, diagnose
 from scene_model.scene import load_scene
 
 CLASSIC = SCENES / "classic.json"

@@ -1,4 +1,4 @@
-"""The Fresnel curve's constants fitted as values (compare/diagnosis/fresnel_fit.py): rtdemo's
+"""The Fresnel curve's constants fitted as values (compare/diagnose/fresnel_fit.py): rtdemo's
 own renders of the classic scene with a curve a student might type are diagnosed as that
 curve, named as a constant with its mix and power; the paper's curve gets none."""
 
@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, Diagnosis, diagnose
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, Diagnosis, diagnose
 from compare.judge.images import read_image
 from scene_model.scene import load_scene
 

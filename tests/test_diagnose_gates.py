@@ -1,4 +1,4 @@
-"""A cause is named for an effect only when every gate holds (compare/diagnosis/gates.py): its
+"""A cause is named for an effect only when every gate holds (compare/diagnose/gates.py): its
 render matches the pixels that differed by the verdict's exact match, not through a spread
 wider than the start's; FLIP over them falls by half; no other effect gets worse. Each test
 reproduces a mechanism by which the diagnosis once named a false cause."""
@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.diagnosis import transforms
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.evidence import short_reason
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, Diagnosis, FunctionRenderer, diagnose
+from compare.diagnose import transforms
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.evidence import short_reason
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, Diagnosis, FunctionRenderer, diagnose
 from compare.judge.effects import effect_masks
 from compare.judge.images import Image, read_image
 from compare.judge.target_model import TargetModel

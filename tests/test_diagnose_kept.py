@@ -1,4 +1,4 @@
-"""A candidate's exact-match bounds are kept between diagnoses (compare/diagnosis/kept.py):
+"""A candidate's exact-match bounds are kept between diagnoses (compare/diagnose/kept.py):
 read back they are the bounds computed, a damaged or foreign file is computed again, and a second
 image judged against the same candidates renders none of its perturbed renders."""
 
@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 from helpers import SCENES, diagnosed, render_demo
 
-from compare.diagnosis import flip as diagnose_flip
-from compare.diagnosis import kept as diagnose_kept
-from compare.diagnosis import memo as diagnose_memo
-from compare.diagnosis import score as diagnose_score
-from compare.diagnosis import trials as diagnose_trials
-from compare.diagnosis.candidate import Candidate
+from compare.diagnose import flip as diagnose_flip
+from compare.diagnose import kept as diagnose_kept
+from compare.diagnose import memo as diagnose_memo
+from compare.diagnose import score as diagnose_score
+from compare.diagnose import trials as diagnose_trials
+from compare.diagnose.candidate import Candidate
 from compare.judge.exact_match import Bounds, model_bounds
 from compare.judge.images import Image
 from compare.render.cache import RenderCache
@@ -171,8 +171,8 @@ def test_planted_codes_out_of_range_are_not_used() -> None:
 def test_names_are_the_same_in_every_process() -> None:
     """A candidate's set fields are named in one order whatever the hash seed."""
     code = (
-        "from compare.diagnosis.candidate import Candidate\n"
-        "from compare.diagnosis.kept import kept_name\n"
+        "from compare.diagnose.candidate import Candidate\n"
+        "from compare.diagnose.kept import kept_name\n"
         "c = Candidate.of_mode('classic').with_mistake('no_offset', True)"
         ".with_mistake('double_gamma', True).with_effect('shadows', False)"
         ".with_effect('refraction', False)\n"

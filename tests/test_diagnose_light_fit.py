@@ -1,4 +1,4 @@
-"""Where the light is (compare/diagnosis/light_fit.py): rtdemo's classic render of classic.json
+"""Where the light is (compare/diagnose/light_fit.py): rtdemo's classic render of classic.json
 with its one light moved is read as that light's position off the directly lit surfaces, and
 the diagnosis names it as a constant; the scene's own render offers no position."""
 
@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.diagnosis.light_fit import lights_seen
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, diagnose
+from compare.diagnose.light_fit import lights_seen
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, diagnose
 from compare.judge.effects import effect_masks
 from scene_model.scene import load_scene
 

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from helpers import SCENES
 
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, FunctionRenderer, diagnose
-from compare.diagnosis.trials import RAY_FACTOR, TIME_LIMIT_MAX, TIME_LIMIT_MIN
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, FunctionRenderer, diagnose
+from compare.diagnose.trials import RAY_FACTOR, TIME_LIMIT_MAX, TIME_LIMIT_MIN
 from compare.judge.images import Image
 from compare.judge.target_model import TargetModel
 from compare.render.jobs import RenderRayBudget, RenderTimeLimit

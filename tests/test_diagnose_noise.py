@@ -1,4 +1,4 @@
-"""Random noise on every pixel (compare/diagnosis/noise.py): named as an image cause and taken
+"""Random noise on every pixel (compare/diagnose/noise.py): named as an image cause and taken
 out before the search, so that a bug beyond it is still found; never named for an error that
 has structure (a scale, shadow acne) or for a clean image."""
 
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.diagnosis import noise
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, Diagnosis, diagnose
+from compare.diagnose import noise
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, Diagnosis, diagnose
 from compare.judge.images import read_image
 from scene_model.scene import load_scene
 

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from helpers import SCENES, run
 
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.search import DiagnoseError, FunctionRenderer, NoFinitePixels, diagnose
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.search import DiagnoseError, FunctionRenderer, NoFinitePixels, diagnose
 from compare.judge.images import Image, write_exr
 from compare.judge.target_model import TargetModel
 from scene_model.scene import load_scene

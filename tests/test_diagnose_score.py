@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from helpers import SCENES
 
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.score import Target
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.score import Target
 from compare.judge.images import Image
 from scene_model.scene import load_scene
 

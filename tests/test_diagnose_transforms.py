@@ -1,4 +1,4 @@
-"""What a program's image writer does to a right image (compare/diagnosis/transforms.py),
+"""What a program's image writer does to a right image (compare/diagnose/transforms.py),
 fitted on the image against the start's render and named as a cause of kind "image": the
 classic program's pixels from rtdemo, written by a PPM writer with one such mistake."""
 
@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from helpers import SCENES, render_demo
 
-from compare.diagnosis.evidence import diagnose_image
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, diagnose
+from compare.diagnose.evidence import diagnose_image
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, diagnose
 from compare.judge.images import linear_to_srgb, read_image
 from scene_model.scene import load_scene
 

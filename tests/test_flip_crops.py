@@ -11,7 +11,7 @@ import flip_evaluator
 import numpy as np
 import pytest
 
-from compare.diagnosis import flip as diagnose_flip
+from compare.diagnose import flip as diagnose_flip
 from compare.judge import flip_crops, metrics
 from compare.judge.evaluate import Evaluation
 from compare.judge.exact_match import exact_match

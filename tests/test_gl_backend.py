@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from helpers import SCENES, render_demo, run
 
-from compare.diagnosis.mistakes import catalogue
+from compare.diagnose.mistakes import catalogue
 from compare.judge.images import read_image
 from compare.judge.metrics import compute_maps, compute_metrics
 

@@ -12,11 +12,11 @@ import pytest
 from helpers import ROOT, SCENES, render_demo, run
 from PIL import Image as PILImage
 
-from compare.diagnosis.mistakes import catalogue
+from compare.diagnose.mistakes import catalogue
 from compare.judge.images import read_image, write_exr
 
 RTVAL = str(Path(sys.executable).with_name("rtval"))
-# Every named mistake (compare/diagnosis/mistakes.json) but shadow_past_light, which is quirk Q5:
+# Every named mistake (compare/diagnose/mistakes.json) but shadow_past_light, which is quirk Q5:
 # already present in paper and classic, and invisible in physical mode in the built-in scenes
 # (nothing lies beyond their light).
 MISTAKES = [m for m in catalogue() if m != "shadow_past_light"]

@@ -1,4 +1,4 @@
-"""Where the error lives (compare/diagnosis/localise.py): differing pixels grouped by rtdemo's
+"""Where the error lives (compare/diagnose/localise.py): differing pixels grouped by rtdemo's
 path-class AOV, and the step of the algorithm the counts point to."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ import numpy as np
 from helpers import SCENES, render_demo
 from student_variants import render_variant
 
-from compare.diagnosis.localise import PATH_BITS, RECALL_MIN, classes, locate, on_silhouettes
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, FunctionRenderer, diagnose
+from compare.diagnose.localise import PATH_BITS, RECALL_MIN, classes, locate, on_silhouettes
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, FunctionRenderer, diagnose
 from compare.judge.images import read_image
 from compare.judge.target_model import parse_model
 from scene_model.scene import load_scene

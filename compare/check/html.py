@@ -1,6 +1,6 @@
 """`rtval check --html DIR`: one page for the failures only. Each failing case shows the
 reference (baseline or target model) and the render side by side, the difference and the
-FLIP map, its per-effect numbers and a diagnosis (compare.diagnosis.search: the nearest demo
+FLIP map, its per-effect numbers and a diagnosis (compare.diagnose.search: the nearest demo
 model, quirks and named mistakes). User text is escaped by Jinja's autoescape, the page
 carries a Content-Security-Policy (compare/pages/writer.py), every file is written atomically;
 NaN/Inf pixels show in the PNGs' marker colour (compare/judge/png.py)."""
@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 
 from compare.check.run import CaseResult
-from compare.diagnosis.record import Diagnosis
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, diagnose
+from compare.diagnose.record import Diagnosis
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, diagnose
 from compare.judge.images import Image
 from compare.judge.png import display_values, write_display_png
 from compare.judge.tolerances import diff_image
@@ -42,7 +42,7 @@ def _magma(values: np.ndarray) -> np.ndarray:
 
 def _diagnosis(case: CaseResult, note: Callable[[str], None]) -> dict[str, Any] | None:
     """The nearest demo model, quirks and named mistakes that explain a failing render
-    (compare.diagnosis.search), as lines for the page, with that model's ray trees at a few
+    (compare.diagnose.search), as lines for the page, with that model's ray trees at a few
     pixels that differ. Optional: when it cannot be made (no pictures, rtdemo fails, the
     search fails), the page says so and `note` is told."""
     if case.pictures is None or not case.scene_file:

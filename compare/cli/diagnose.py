@@ -14,10 +14,10 @@ EXIT_RENDERER = 1
 
 def run_diagnose(args: argparse.Namespace) -> int:
     from compare.cli.common import stderr_progress
-    from compare.diagnosis.candidate import Candidate
-    from compare.diagnosis.evidence import render_command
-    from compare.diagnosis.renderer import CandidateRenderer
-    from compare.diagnosis.search import (
+    from compare.diagnose.candidate import Candidate
+    from compare.diagnose.evidence import render_command
+    from compare.diagnose.renderer import CandidateRenderer
+    from compare.diagnose.search import (
         DiagnoseError,
         DiagnoseOptions,
         NoFinitePixels,

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from compare.diagnosis.evidence import describe_cause
+from compare.diagnose.evidence import describe_cause
 from compare.grading.results import SceneResult, StudentResult
 from compare.judge.scoring import Term, weighted_score
 from compare.pages.writer import write_page
@@ -75,7 +75,7 @@ def _scene_causes(s: SceneResult) -> list[str]:
     start, assigned = detail.get("start"), detail.get("assigned")
     if start and assigned and start != assigned:  # nearer another mode than the model
         labels.append(f"looks like {start}")
-    # Each cause is a record (diagnosis/record.py cause_list): its name is what it names.
+    # Each cause is a record (diagnose/record.py cause_list): its name is what it names.
     labels += [describe_cause(_cause_name(c)) for c in detail.get("causes") or []]
     if detail.get("unexplained"):
         labels.append("not explained by a known mistake")

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from compare.diagnosis.transforms import encoding_cause
+from compare.diagnose.transforms import encoding_cause
 from compare.judge.arrays import F32
 from compare.judge.images import ImageError, linear_to_srgb, read_image
 from compare.verdict.against import judge_against_model

@@ -12,7 +12,7 @@ cluster (grade_executors.py); each gives a typed result (grade_results.py), summ
 gradebook (gradebook.py). Every folder written under OUT is made without following a link
 (safe_paths.own_folder): a link planted there stops the run, naming it.
 
-A submission that fails against a demo model is diagnosed (compare/diagnosis/evidence.py): the
+A submission that fails against a demo model is diagnosed (compare/diagnose/evidence.py): the
 gradebook's `diagnosis` column and the fail reasons say what it looks like ("looks like Q2
 (...)"), its page shows the evidence. Passing submissions cost nothing more; --no-diagnose
 skips it. Candidate renders are entries of the render cache like any render, shared by every
@@ -36,8 +36,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from compare.diagnosis.evidence import EvidenceOptions, diagnose_image
-from compare.diagnosis.search import DiagnoseError
+from compare.diagnose.evidence import EvidenceOptions, diagnose_image
+from compare.diagnose.search import DiagnoseError
 from compare.errors import ToolError
 from compare.grading.class_page import write_class_page
 from compare.grading.encodings import choose_encoding, with_encoding, with_encoding_cause
@@ -102,7 +102,7 @@ from safe_files.paths import atomic_output, own_folder, write_atomic
 from scene_model.scene import load_scene
 
 if TYPE_CHECKING:
-    from compare.diagnosis.search import FlipSeed
+    from compare.diagnose.search import FlipSeed
     from compare.grading.programs import ProgramResult
     from compare.judge.arrays import F32
     from compare.judge.evaluate import Evaluation
@@ -519,7 +519,7 @@ def _student_result(
         score=score,
         model=", ".join(sorted({s.model for s in scenes})),
         reasons=reasons,
-        # Failing scenes against a demo model: what they look like (compare/diagnosis/evidence.py).
+        # Failing scenes against a demo model: what they look like (compare/diagnose/evidence.py).
         diagnosis="; ".join(
             (f"{s.scene}: " if len(scenes) > 1 else "") + s.diagnosis for s in scenes if s.diagnosis
         ),

@@ -1,14 +1,14 @@
 """A given image under test against its assigned model (is the implementation right?), what
 each of the model's quirks costs against Mitsuba, and the diagnosis "What this image
-implements" (compare/diagnosis/evidence.py)."""
+implements" (compare/diagnose/evidence.py)."""
 
 from __future__ import annotations
 
 import itertools
 from typing import Any
 
-from compare.diagnosis.evidence import EvidenceOptions, diagnose_image
-from compare.diagnosis.search import DiagnoseError
+from compare.diagnose.evidence import EvidenceOptions, diagnose_image
+from compare.diagnose.search import DiagnoseError
 from compare.errors import ToolError
 from compare.judge.target_model import MODE_QUIRKS, parse_model
 from compare.report.context import ReportContext

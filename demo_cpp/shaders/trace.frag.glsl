@@ -95,7 +95,7 @@ const float INF = uintBitsToFloat(0x7F800000u);
 
 bool quirk(int q) { return (QUIRKS & (1 << (q - 1))) != 0; }
 bool effect(int bit) { return (EFFECTS & (1 << bit)) != 0; }
-// A named student mistake (compare/diagnosis/mistakes.json), each written where the CPU
+// A named student mistake (compare/diagnose/mistakes.json), each written where the CPU
 // tracer has it (tracer.cpp, student_slips.h, camera_rays.cpp).
 bool mistake(int m) {
     uint half_mask = m < 32 ? MISTAKES_LO : MISTAKES_HI;

@@ -78,7 +78,7 @@ FRESNEL, SHADOW, DIRECT = "fresnel", "shadow rays", "direct light"
 DEPTH, CONSTANT, BACKGROUND = "depth limit", "constant", "background"
 GLASS = frozenset({ENTERING, LEAVING})
 
-# Cause names as the diagnosis JSON writes them (compare/diagnosis/record.py, switches.py,
+# Cause names as the diagnosis JSON writes them (compare/diagnose/record.py, switches.py,
 # transforms.py): the writer's transforms, the switches, the named mistakes.
 BGR = "channels written as B, G, R (not R, G, B)"
 UPSIDE_DOWN = "mirrored upside down"

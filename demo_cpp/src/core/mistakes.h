@@ -1,7 +1,7 @@
 // Named common mistakes of a Whitted ray tracer as run-time switches (--mistake NAME), so that
 // `rtval diagnose` can render what a program with that mistake shows and `rtval check` can be
 // tested against a broken build. The names and explanations live in one file,
-// compare/diagnosis/mistakes.json, embedded at build time and read by the Python side too: a
+// compare/diagnose/mistakes.json, embedded at build time and read by the Python side too: a
 // mistake is one row there (the enum below is made from its names) and its code in the tracers.
 #pragma once
 

@@ -14,7 +14,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from compare.diagnosis.mistakes import catalogue
+from compare.diagnose.mistakes import catalogue
 from compare.judge.target_model import MODE_QUIRKS, SWITCHABLE_EFFECTS, TargetModel
 
 if TYPE_CHECKING:

@@ -10,9 +10,9 @@ import dataclasses
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.gates import EXPLAINED_SHARE, Gate
-from compare.diagnosis.switches import aliases
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.gates import EXPLAINED_SHARE, Gate
+from compare.diagnose.switches import aliases
 from compare.judge.exact_match import ExactMatch
 from compare.judge.target_model import QUIRK_COUNT, SWITCHABLE_EFFECTS
 from scene_model.scene import Scene

@@ -22,8 +22,8 @@ import math
 import numpy as np
 from scipy.optimize import least_squares
 
-from compare.diagnosis.candidate import Vec3
-from compare.diagnosis.refine import code_readings
+from compare.diagnose.candidate import Vec3
+from compare.diagnose.refine import code_readings
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL, camera_directions
 from compare.judge.images import Image

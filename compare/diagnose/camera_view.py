@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from compare.diagnosis import camera_fit
-from compare.diagnosis.candidate import Vec3, view_key
+from compare.diagnose import camera_fit
+from compare.diagnose.candidate import Vec3, view_key
 from compare.judge.arrays import F32
 from compare.judge.effects import camera_directions
 from scene_model.scene import Scene

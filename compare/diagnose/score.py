@@ -17,7 +17,7 @@ from typing import Any, Protocol, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from compare.diagnosis.candidate import Candidate
+from compare.diagnose.candidate import Candidate
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL, effect_masks
 from compare.judge.exact_match import Bounds, ExactMatch, allowed_differing, match_bounds

@@ -1,4 +1,4 @@
-"""The diagnosis (compare/diagnosis/search.py) as the report and the gradebook show it: what an
+"""The diagnosis (compare/diagnose/search.py) as the report and the gradebook show it: what an
 image implements, a short reason for a gradebook cell, and evidence pictures per explaining
 change (the image beside the candidate it was explained by, and their difference before and
 after the change).
@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from compare.diagnosis.mistakes import catalogue
-from compare.diagnosis.renderer import CandidateRenderer
-from compare.diagnosis.search import DiagnoseOptions, Diagnosis, FlipSeed, diagnose, unmirror
-from compare.diagnosis.transforms import of_spec
+from compare.diagnose.mistakes import catalogue
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, Diagnosis, FlipSeed, diagnose, unmirror
+from compare.diagnose.transforms import of_spec
 from compare.judge.images import Image, linear_to_srgb
 from compare.judge.png import FAST, write_display_png
 from compare.judge.quirks import QUIRKS

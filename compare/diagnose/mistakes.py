@@ -1,4 +1,4 @@
-"""The public catalogue of named common mistakes (compare/diagnosis/mistakes.json).
+"""The public catalogue of named common mistakes (compare/diagnose/mistakes.json).
 
 Each is a run-time switch of rtdemo (`--mistake NAME[,NAME]`), so that `rtval diagnose` can
 render what a student's program with that mistake would show. rtdemo embeds the same JSON file
@@ -68,7 +68,7 @@ def catalogue() -> dict[str, Mistake]:
     ValueError
         mistakes.json is not in the CATALOGUE_FORMAT ("rtval-mistakes/1") format.
     """
-    raw = json.loads(resources.files("compare.diagnosis").joinpath("mistakes.json").read_text())
+    raw = json.loads(resources.files("compare.diagnose").joinpath("mistakes.json").read_text())
     if raw.get("format") != CATALOGUE_FORMAT:
         raise ValueError(f"mistakes.json: format is not {CATALOGUE_FORMAT}")
     out: dict[str, Mistake] = {}

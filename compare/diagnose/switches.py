@@ -10,7 +10,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from compare.diagnosis.candidate import (
+from compare.diagnose.candidate import (
     FRESNEL_QUIRK,
     PAPERS_FRESNEL,
     RGB,
@@ -18,7 +18,7 @@ from compare.diagnosis.candidate import (
     camera_words,
     rgb_text,
 )
-from compare.diagnosis.mistakes import catalogue
+from compare.diagnose.mistakes import catalogue
 from compare.judge.quirks import QUIRKS
 from compare.judge.target_model import MODE_QUIRKS, SWITCHABLE_EFFECTS
 from scene_model.scene import Scene

@@ -11,11 +11,11 @@ from concurrent.futures import Future, ThreadPoolExecutor
 
 import numpy as np
 
-from compare.diagnosis import kept as diagnose_kept
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.flip import Flips, Means
-from compare.diagnosis.score import Codes, Renderer, Score, Store, Target
-from compare.diagnosis.transforms import Transform
+from compare.diagnose import kept as diagnose_kept
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.flip import Flips, Means
+from compare.diagnose.score import Codes, Renderer, Score, Store, Target
+from compare.diagnose.transforms import Transform
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL
 from compare.judge.exact_match import Bounds, ExactMatch, channel_matches, model_bounds

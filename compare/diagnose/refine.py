@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.score import objective
-from compare.diagnosis.trials import Trials
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.score import objective
+from compare.diagnose.trials import Trials
 from compare.judge.arrays import F32
 from compare.judge.images import linear_to_srgb, srgb_to_linear
 

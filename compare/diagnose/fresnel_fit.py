@@ -6,9 +6,9 @@ four, so that the renders of one batch run in parallel."""
 
 from __future__ import annotations
 
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.refine import best_of, snapped
-from compare.diagnosis.trials import Trials
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.refine import best_of, snapped
+from compare.diagnose.trials import Trials
 
 # The mix grid: each round tries two steps either side of the best mix so far, the step
 # shrinking; the steps divide 0.1, so that the grid holds the round values a student types.

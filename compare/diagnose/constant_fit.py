@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
-from compare.diagnosis.candidate import RGB, Candidate
-from compare.diagnosis.refine import best_of, snapped
-from compare.diagnosis.trials import Trials
+from compare.diagnose.candidate import RGB, Candidate
+from compare.diagnose.refine import best_of, snapped
+from compare.diagnose.trials import Trials
 
 # The ior grid: each round tries two steps either side of the best so far, the step shrinking
 # (steps that divide 0.1, so that the grid holds the values a student types).

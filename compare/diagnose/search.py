@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.diagnosis import (
+from compare.diagnose import (
     camera_fit,
     camera_view,
     colour_fit,
@@ -37,14 +37,14 @@ from compare.diagnosis import (
     noise,
     transforms,
 )
-from compare.diagnosis.candidate import RGB, Candidate, Vec3
-from compare.diagnosis.constant_fit import fitted_bias, fitted_ior
-from compare.diagnosis.fresnel_fit import fitted_curve
-from compare.diagnosis.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
-from compare.diagnosis.localise import INT
-from compare.diagnosis.memo import keep, load, record_name
-from compare.diagnosis.mistakes import catalogue
-from compare.diagnosis.record import (
+from compare.diagnose.candidate import RGB, Candidate, Vec3
+from compare.diagnose.constant_fit import fitted_bias, fitted_ior
+from compare.diagnose.fresnel_fit import fitted_curve
+from compare.diagnose.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
+from compare.diagnose.localise import INT
+from compare.diagnose.memo import keep, load, record_name
+from compare.diagnose.mistakes import catalogue
+from compare.diagnose.record import (
     MODE_CLOSE_RATIO,
     MODE_CLOSE_SHARE,
     Diagnosis,
@@ -57,7 +57,7 @@ from compare.diagnosis.record import (
     finding,
     summary,
 )
-from compare.diagnosis.score import (
+from compare.diagnose.score import (
     MIRRORS,
     DiagnoseError,
     NoFinitePixels,
@@ -70,7 +70,7 @@ from compare.diagnosis.score import (
     unmirror,
     worsened,
 )
-from compare.diagnosis.switches import (
+from compare.diagnose.switches import (
     MAX_SEARCH_DEPTH,
     VALUED,
     Switch,
@@ -79,7 +79,7 @@ from compare.diagnosis.switches import (
     switches,
     undone,
 )
-from compare.diagnosis.trials import Trials
+from compare.diagnose.trials import Trials
 from compare.judge import flip_crops, metrics
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL, EFFECTS

@@ -18,8 +18,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from compare.diagnosis.score import encoded
-from compare.diagnosis.transforms import Transform, noise_transform
+from compare.diagnose.score import encoded
+from compare.diagnose.transforms import Transform, noise_transform
 from compare.judge.arrays import F32
 from compare.judge.images import linear_to_srgb, srgb_to_linear
 

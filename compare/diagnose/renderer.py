@@ -1,5 +1,5 @@
 """Renders diagnose candidates (and demo target models) with rtdemo at a given size, for
-compare.diagnosis.search's injected `render`, through the render cache every command shares
+compare.diagnose.search's injected `render`, through the render cache every command shares
 (cache.py, jobs.py): a candidate is a RenderJob, the command a person could type, keyed by
 render_key and stored by the cache's atomic insert, so the candidates a search tries for one
 student are read, not rendered, for the next (a class's diagnoses share most of their renders),
@@ -25,8 +25,8 @@ from types import TracebackType
 import numpy as np
 from numpy.typing import NDArray
 
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.search import BASE_QUIRKS, LATER_QUIRKS
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.search import BASE_QUIRKS, LATER_QUIRKS
 from compare.errors import ToolError
 from compare.judge.images import Image, ImageError, read_image
 from compare.judge.target_model import TargetModel

@@ -19,8 +19,8 @@ from functools import cache
 import numpy as np
 
 from compare.code_identity import code_identity
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.score import Store
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.score import Store
 from compare.judge import flip_crops, metrics
 from compare.judge.arrays import F32
 from compare.judge.effects import BOOL

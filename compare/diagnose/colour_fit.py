@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.diagnosis.candidate import RGB
-from compare.diagnosis.refine import code_readings
+from compare.diagnose.candidate import RGB
+from compare.diagnose.refine import code_readings
 from compare.judge.arrays import F32
 from compare.judge.images import Image
 from scene_model.scene import Scene

@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 
 from compare.code_identity import code_identity
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.score import Codes, Store
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.score import Codes, Store
 from compare.judge import effects
 from compare.judge.effects import BOOL
 from compare.judge.exact_match import Bounds

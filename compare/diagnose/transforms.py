@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.diagnosis.score import code_distance, encoded
+from compare.diagnose.score import code_distance, encoded
 from compare.judge.arrays import F32
 from compare.judge.images import linear_to_srgb
 

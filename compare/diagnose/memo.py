@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from compare.code_identity import code_identity
-from compare.diagnosis.candidate import Candidate
-from compare.diagnosis.record import Diagnosis
-from compare.diagnosis.score import Store
+from compare.diagnose.candidate import Candidate
+from compare.diagnose.record import Diagnosis
+from compare.diagnose.score import Store
 from compare.judge.images import Image
 from scene_model.scene import Scene
 
@@ -37,7 +37,7 @@ def record_name(
 ) -> str:
     """The store name of this diagnosis; `search`: what it may try (quirks, turns, grows,
     max_renders)."""
-    h = hashlib.sha256(code_identity("compare.diagnosis.search").encode() + identity.encode())
+    h = hashlib.sha256(code_identity("compare.diagnose.search").encode() + identity.encode())
     rgb = np.ascontiguousarray(image.rgb)
     h.update(f"{rgb.dtype}{rgb.shape}{image.encoding}".encode() + rgb.data.cast("B"))
     h.update(repr(scene).encode())

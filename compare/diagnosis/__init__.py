@@ -1,1 +1,0 @@
-"""The diagnosis: which changes to a demo model explain an image, and the evidence for them."""
