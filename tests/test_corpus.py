@@ -48,21 +48,17 @@ def _rtdemo_has_direct_light_quirks() -> bool:
     return "Q13" in proc.stdout + proc.stderr
 
 
-# Correct variants that pass but keep a few pixels outside the model's spread, so their score
-# is below 100 (measured at the sizes below; tests/corpus/measure.py lists the pixels).
-_CHAINS = (
-    "stray pixels: pixels of the paper's depth-10 mirror and glass chains that every perturbed "
-    "render of the model agrees on and a correct program does not: "
-)
-# Measured after the spread gained the sphere-perturbed renders (docs/metrics.md): every
-# classic program scores 100; the paper student keeps 2 stray pixels of its depth-10 chains,
-# within the 4 an effect tolerates, so it passes.
-_STRAY = {
-    "paper-gcc-O2": _CHAINS + "2 px: (72, 128) red 15 where the model says 36.0, (54, 136) edges",
-    "paper-clang-O2": _CHAINS + "2 px: (72, 128) red 15 where the model says 36.0, (54, 136) edges",
-    # At 1200x800 (measured 2026-12-04): it passes; one silhouette pixel's green is 237 where
-    # every perturbed render gives 235.8-236.1.
-    "paper-c-style-full": "a stray pixel: (375, 158) edges, green 237 where the model says 236.1",
+# Correct variants that pass with a few stray pixels outside the model's spread, within the
+# allowance (so they score 100), per effect, measured at the sizes below (tests/corpus/measure.py
+# lists the pixels; docs/metrics.md): the paper student's depth-10 chains, where (72, 128) is 15
+# in builds without FMA contraction and 36 in the model and every perturbed render of it (an
+# arithmetic-order branch), and (54, 136) on a silhouette.
+_STRAYS = {
+    "paper-gcc-O2": {"refraction": 1, "edges": 1},
+    "paper-clang-O2": {"refraction": 1, "edges": 1},
+    # At 1200x800 (measured 2026-12-04): one silhouette pixel's green is 237 where every
+    # perturbed render gives 235.8-236.1.
+    "paper-c-style-full": {"edges": 1},
 }
 _NO_Q11 = "rtdemo without Q11-Q13 (the paper's direct light): rebuild it (make setup)"
 
@@ -71,8 +67,6 @@ def _not_yet(v: Variant, what: str) -> str | None:
     """Why `what` ("passes", "scores 100") cannot hold for v yet, or None."""
     if v.against == "paper" and not _rtdemo_has_direct_light_quirks() and v.scene == "lit":
         return _NO_Q11
-    if what == "scores 100" and v.name in _STRAY:
-        return _STRAY[v.name]
     return None
 
 
@@ -99,4 +93,6 @@ def test_correct_program_passes(corpus: Corpus, variant: Variant) -> None:
 def test_correct_program_scores_100(corpus: Corpus, variant: Variant) -> None:
     o = corpus.outcome(variant)
     assert o.score == 100.0, report(o)
-    assert not any(o.differing().values()), report(o)
+    strays = {effect: n for effect, n in o.differing().items() if n}
+    known = _STRAYS.get(variant.name, {})
+    assert all(n <= known.get(effect, 0) for effect, n in strays.items()), report(o)

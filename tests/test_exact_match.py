@@ -96,13 +96,14 @@ def test_effect_bound_and_scores() -> None:
     test[0, :2] = 0.0
     ev = evaluate_pair(model, test, masks=masks, exact=ExactInputs("classic", [], "float"))
     assert ev.score is not None and ev.score.status == "pass" and ev.score.basis == "exact"
-    assert ev.score.score == pytest.approx(100 * (1 - 2 / 2000))
+    assert ev.score.score == 100.0  # strays within the allowance cost no point
     assert "maps" not in ev.__dict__  # an exact pass never computes FLIP or SSIM
     test[0, :5] = 0.0
     ev = evaluate_pair(model, test, masks=masks, exact=ExactInputs("classic", [], "float"))
     assert ev.score is not None and ev.score.status == "fail"
     (reason,) = ev.score.reasons()
     assert reason.startswith("direct: 5 px (0.25 %) differ from classic beyond half-float")
+    assert ev.score.score == pytest.approx(100 * (1 - 5 / 2000))  # a fail: the share matching
     assert "FLIP" in reason and ev.score.effects["direct"].flip is not None
 
 

@@ -146,25 +146,6 @@ def test_dask_workers_diagnose_too(graded: tuple[Path, Path], tmp_path: Path) ->
     assert _book(dask_out)["eta"]["diagnosis"] == _book(out)["eta"]["diagnosis"]
 
 
-def test_a_match_within_the_allowance_is_not_called_a_look_alike_of_a_failed_model() -> None:
-    # A rubric's pass_score of 100 fails an image whose every effect is within the exact-match
-    # allowance (a few stray pixels); its diagnosis then matches the model itself, and the cell
-    # says why the verdict failed instead of "looks like classic".
-    from compare.grading.grade import _beside_verdict
-
-    matching = {"short": "looks like classic", "matches": True, "result": "classic", "causes": []}
-    cell = _beside_verdict(matching, "classic", {"score": 99.99})
-    assert cell == (
-        "matches classic in every effect within the exact-match allowance; the score 99.99 is "
-        "below the pass score"
-    )
-    other = {"short": "looks like +Q2", "matches": True, "result": "classic+Q2", "causes": ["+Q2"]}
-    assert _beside_verdict(other, "classic", {"score": 40.0}) == "looks like +Q2"
-    assert _beside_verdict({"short": "no diagnosis: x"}, "classic", {"score": 0.0}) == (
-        "no diagnosis: x"
-    )
-
-
 def test_a_png_of_linear_values_is_diagnosed_with_its_encoding(tmp_path: Path) -> None:
     # A student's PPM writer's bytes (Q2's refraction) saved as a PNG keeping every value:
     # graded in both encodings, read as linear; the diagnosis names the encoding first,

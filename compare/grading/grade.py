@@ -213,7 +213,6 @@ def _judge_scene(
         seed = None if known is None else (model.reference.rgb, *known)
         diagnosis = _diagnose_scene(img, scene_name, task.models[scene_name], task, page_dir, seed)
         diagnosis = with_encoding_cause(diagnosis, img)
-        diagnosis["short"] = _beside_verdict(diagnosis, model.renders.model, verdict)
         reasons.append(diagnosis["short"])
     matches = ev.exact.matches if ev.exact is not None else None
     if diagnosis is not None and matches is not None:
@@ -264,19 +263,6 @@ def _write_scene_pictures(
     if matches is not None:
         diff = np.where(matches[..., None], np.float32(0), diff)
     write_display_png(page_dir / f"{scene_name}-diff.png", diff, compress_level=FAST)
-
-
-def _beside_verdict(diagnosis: dict[str, Any], model: str, verdict: dict[str, Any]) -> str:
-    """The diagnosis' cell, never contradicting the failed verdict beside it. Both judge by
-    exact match, so the diagnosis finds the assigned model matching only when every effect
-    is within the allowance and the score alone (a pass_score above it) failed."""
-    short = str(diagnosis["short"])
-    if diagnosis.get("matches") and diagnosis.get("result") == model and not diagnosis["causes"]:
-        return (
-            f"matches {model} in every effect within the exact-match allowance; the score "
-            f"{verdict['score']:.2f} is below the pass score"
-        )
-    return short
 
 
 def _diagnose_scene(

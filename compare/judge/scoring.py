@@ -13,8 +13,10 @@ and is listed as absent (`absent_effects`), so that a page can say so.
 
 Against a demo model the basis is the exact match instead (score_exact): an effect passes when
 no more of its pixels differ from the model beyond the test's quantisation than the stray
-allowance, ceil(sqrt(pixels) / 16), at most 1 % and at least 1 (exact_match.py), and its score is 100 x the share of its pixels that match. FLIP is then only
-evidence in the reason of a failing effect.
+allowance, ceil(sqrt(pixels) / 16), at most 1 % and at least 1 (exact_match.py). A passing
+effect scores 100 (its strays are the float chaos a correct program shows), a failing one 100 x
+the share of its pixels that match. FLIP is then only evidence in the reason of a failing
+effect.
 """
 
 from __future__ import annotations
@@ -63,8 +65,8 @@ class EffectScore:
     status : str
         "pass" or "fail".
     score : float
-        From 0 to 100: 100 (1 - FLIP / flip_at_zero), clamped; against a demo model, 100
-        times the share of the effect's pixels that match it.
+        From 0 to 100: 100 (1 - FLIP / flip_at_zero), clamped; against a demo model, 100 when
+        it passes, else 100 times the share of the effect's pixels that match it.
     reasons : list[str]
         Why it fails ("FLIP 0.310 > 0.1"); empty when it passes.
     pixels : int
@@ -252,7 +254,7 @@ def score_exact(
         reasons = [] if e.passed else [f"{exact.sentence(name)}; FLIP {flip:.2f}"]
         effects[name] = EffectScore(
             "pass" if e.passed else "fail",
-            100.0 * (1.0 - e.share),
+            100.0 if e.passed else 100.0 * (1.0 - e.share),
             reasons,
             e.pixels,
             None,
