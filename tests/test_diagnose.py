@@ -416,6 +416,37 @@ def test_cli_writes_json_and_documents_exit_codes(
     assert same.returncode == 64 and "IMAGE" in same.stderr and image.read_bytes()[:2] == b"P6"
 
 
+def test_a_png_of_linear_values_is_read_as_linear_and_a_gamma_ppm_as_double_gamma(
+    rtdemo: str, tmp_path: Path
+) -> None:
+    """ggerholm-raytracing's Java writes its linear values to a PNG (ImageIO, no curve): read
+    as sRGB, as a PNG claims, it was told "physical" with the background wrong. Without
+    --encoding the PNG is read in the reading nearer the modes, and that is the first cause;
+    a PPM with the gamma applied stays the search's exact double_gamma, and an sRGB PNG is
+    read as sRGB."""
+    from PIL import Image as PILImage
+
+    _render(rtdemo, tmp_path / "lin.ppm", "--mode", "classic", "--mistake", "reflection_untinted")
+    PILImage.open(tmp_path / "lin.ppm").save(tmp_path / "lin.png")
+    _render(rtdemo, tmp_path / "srgb.png", "--mode", "classic", "--mistake", "reflection_untinted")
+    _render(rtdemo, tmp_path / "gamma.ppm", "--mode", "classic", "--mistake", "double_gamma")
+    told = {}
+    for name in ("lin.png", "srgb.png", "gamma.ppm"):
+        out = tmp_path / f"{name}.json"
+        proc = run([RTVAL, "diagnose", str(tmp_path / name), "--scene", str(CLASSIC), "-q",
+                    "--json", str(out)])  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        told[name] = (proc.stdout, json.loads(out.read_text()))
+    stdout, data = told["lin.png"]
+    assert "read as linear: the PNG holds the values a PPM writer stores" in stdout
+    assert [c["kind"] for c in data["causes"]][0] == "image" and data["matches"], stdout
+    assert data["mistakes"] == ["reflection_untinted"], stdout
+    stdout, data = told["srgb.png"]
+    assert "read as" not in stdout and data["mistakes"] == ["reflection_untinted"], stdout
+    stdout, data = told["gamma.ppm"]
+    assert "read as" not in stdout and data["mistakes"] == ["double_gamma"], stdout
+
+
 @pytest.mark.slow
 def test_several_causes_from_a_far_start_are_retold_from_the_simplest_mode(
     rtdemo: str, tmp_path: Path

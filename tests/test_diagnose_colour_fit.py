@@ -60,3 +60,21 @@ def test_the_diagnosis_names_the_colour(rtdemo: str, tmp_path: Path) -> None:
     assert d.causes == ["colour of 'glass' (1, 0.32, 0.26)"] and d.exact, d.sentences
     assert d.as_dict()["causes"][0]["kind"] == "constant"
     assert d.scene_changes == {"colour": {"sphere": "glass", "rgb": [1.0, 0.32, 0.26]}}
+
+
+def test_a_colour_the_lost_direct_light_hides_is_read_once_that_is_kept(
+    rtdemo: str, tmp_path: Path
+) -> None:
+    """ggerholm-raytracing (Java): the light's colour read from the hit sphere (every lit
+    surface black) and the glass's blue typed 0.26. Against the start the glass shows a
+    darker world, not a colour; fitted again once the lost light is kept, the colour shows
+    (the search was past its renders for a second full sweep, so it was never fitted)."""
+    scene = _coloured(tmp_path, "glass", [1.0, 0.32, 0.26])
+    image = render_demo(
+        rtdemo, scene, tmp_path / "i.ppm", "-q", "--mode", "classic",
+        "--mistake", "light_colour_from_hit", size=(W, H),
+    )  # fmt: skip
+    with CandidateRenderer(CLASSIC, W, H, threads=1) as render:
+        d = diagnose(image, load_scene(CLASSIC), render, DiagnoseOptions(parallel=2))
+    assert d.exact and "colour of 'glass' (1, 0.32, 0.26)" in d.causes, d.sentences
+    assert "direct light lost" in d.causes, d.sentences

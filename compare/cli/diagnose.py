@@ -18,12 +18,14 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from compare.diagnose.evidence import render_command
     from compare.diagnose.renderer import CandidateRenderer
     from compare.diagnose.search import (
+        MODES,
         DiagnoseError,
         DiagnoseOptions,
         NoFinitePixels,
         diagnose,
     )
     from compare.errors import ToolError
+    from compare.grading.encodings import encoding_note, nearer_reading, with_encoding_cause
     from compare.judge.images import ImageError, read_image
     from compare.judge.target_model import parse_model
     from safe_files.paths import check_outputs_distinct, write_atomic
@@ -53,21 +55,25 @@ def run_diagnose(args: argparse.Namespace) -> int:
     try:
         threads = 1 if args.parallel > 1 else 0
         with CandidateRenderer(scene_file, w, h, threads=threads, cache=args.cache) as r:
+            if args.encoding is None:  # a PNG of a PPM writer's bytes is read as such
+                image = nearer_reading(image, [r.passing(Candidate.of_mode(m)).rgb for m in MODES])
             how = DiagnoseOptions(start=start, progress=progress, parallel=args.parallel)
             result = diagnose(image, scene, r, how)
     except NoFinitePixels as e:  # an input with nothing to judge: as an unusable image
         raise ImageError(str(e)) from None
     except DiagnoseError as e:
         raise ToolError(str(e)) from None
+    record = with_encoding_cause(result.as_dict(), image)
     if args.json:
-        write_atomic(args.json, json.dumps(result.as_dict(), indent=2) + "\n")
+        write_atomic(args.json, json.dumps(record, indent=2) + "\n")
     mirrored = f", mirrored {result.mirrored}" if result.mirrored else ""
     # Modes as near before the search; a result that matches exactly was told from them.
     near = [] if result.exact else result.modes_as_near()
     tied = f" (as near: {', '.join(near)}; the image cannot tell them apart)" if near else ""
     print(f"{args.image}: {result.result}{mirrored}{tied}")
-    for line in result.sentences:
-        print(f"  {line}")
+    for line in [encoding_note(image), *result.sentences]:
+        if line:  # the note: how an 8-bit file was read, where not as its format implies
+            print(f"  {line}")
     print(f"  ({render_command(result, scene_file)} renders it)")
     sys.stdout.flush()
     return EXIT_DIAGNOSED
@@ -106,7 +112,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--encoding",
         choices=("srgb", "linear"),
         default=None,
-        help="8-bit encoding of IMAGE (default: PNG srgb, PPM linear)",
+        help="8-bit encoding of IMAGE (default: the format's own, PNG srgb and PPM linear, "
+        "unless the other reading lies clearly nearer every demo mode: then that one, said as "
+        "the first cause)",
     )
     p.add_argument(
         "--parallel",

@@ -123,6 +123,9 @@ CHAOS_RATIO = 4
 # No new full sweep starts after this many seconds of search: with the time limit of each
 # render (trials.TIME_LIMIT_MAX) a 640x480 diagnosis ends within 30 s, whatever the image.
 SEARCH_SECONDS = 15.0
+# Switches tried in every round, not only where they helped in the last full sweep: the
+# depth, and the colours fitted against the current candidate (colour_switches).
+FITTED_EACH_ROUND = ("depth", "colour")
 # Mistakes that move every pixel's tone: the nearest mode is chosen with and without them, so
 # that a gamma-encoded paper image is not taken for physical mode (it starts from paper).
 TONE_MISTAKES = ("double_gamma",)
@@ -450,14 +453,16 @@ class Search:
             self.lights[key] = found
         return [Switch("light", ",".join(f"{v:g}" for v in c), True) for c in self.lights[key]]
 
-    def colour_switches(self, current: Candidate, *, full: bool) -> list[Switch]:
-        """In a full sweep, the sphere colours the image shows against current's render
-        (colour_fit.py), as switches; the scene's colours back, where current types one."""
+    def colour_switches(self, current: Candidate) -> list[Switch]:
+        """The sphere colours the image shows against current's render (colour_fit.py), as
+        switches, fitted again whenever current changes (a lost direct light darkens what
+        glass shows: fitted against the start, the glass's colour does not show); the scene's
+        colours back, where current types one."""
         if current.colour is not None:
             return [Switch("colour", "scene=0,0,0", False)]
         t = self.trials.target
         key = (id(t.test), current)
-        if full and key not in self.colours:
+        if key not in self.colours:
             start = self.trials.render.with_aovs(current)
             self.colours[key] = colour_fit.colours_seen(t.test, start, self.scene, t.image.encoding)
         return [
@@ -607,8 +612,9 @@ class Search:
             + self.camera_switches(current)
             + self.background_switches(current)
             + self.light_switches(current)
-            + self.colour_switches(current, full=promising is None)
-            if (promising is None or (sw.kind, sw.key) in promising or sw.kind == "depth")
+            + self.colour_switches(current)
+            # the depth and current's own colour fit are tried every round
+            if (promising is None or (sw.kind, sw.key) in promising or sw.kind in FITTED_EACH_ROUND)
             and (sw.kind, sw.key) not in self.banned
             and may_help(sw, still)
         ]

@@ -8,6 +8,7 @@ image was read in the encoding its format does not imply."""
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -101,6 +102,34 @@ def _looks_nearer(other: Image, implied: Image, model: LoadedModel) -> bool:
     ref = _display(model.reference.rgb)
     near_other = np.abs(_display(other.rgb) - ref).mean()
     return bool(near_other < np.abs(_display(implied.rgb) - ref).mean())
+
+
+def nearer_reading(image: Image, references: Sequence[F32]) -> Image:
+    """A PNG read as linear where that reading lies nearer the nearest of `references` (the
+    modes' renders; `rtval diagnose` without --encoding) by both measures: more pixels within
+    a display code and a lower mean display difference; else as read. Both must agree: noise
+    matches a few more pixels by chance in one reading while it looks further off in it
+    (_looks_nearer). A PNG of linear values is a program that writes no curve; a PPM of
+    gamma-encoded values is the search's double_gamma, an exact fit, so a PPM is read as is."""
+    if image.encoding != "srgb" or _kind(image) != "png" or not references:
+        return image
+    try:
+        other = reread(image, "linear")
+    except ImageError:  # it was readable a moment ago: keep the first reading
+        return image
+    (share, distance), (other_share, other_distance) = (
+        _nearness(x, references) for x in (image, other)
+    )
+    return other if other_share > share and other_distance < distance else image
+
+
+def _nearness(image: Image, references: Sequence[F32]) -> tuple[float, float]:
+    """(the largest share of pixels within a display code of a reference, the smallest mean
+    display difference from one)."""
+    shown = _display(image.rgb)
+    diffs = [np.abs(shown - _display(ref)) for ref in references]
+    share = max(float((d.max(axis=2) <= 1 / 255).mean()) for d in diffs)
+    return share, min(float(d.mean()) for d in diffs)
 
 
 def _display(rgb: F32) -> F32:
