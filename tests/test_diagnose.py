@@ -439,7 +439,7 @@ def test_a_png_of_linear_values_is_read_as_linear_and_a_gamma_ppm_as_double_gamm
         told[name] = (proc.stdout, json.loads(out.read_text()))
     stdout, data = told["lin.png"]
     assert "read as linear: the PNG holds the values a PPM writer stores" in stdout
-    assert [c["kind"] for c in data["causes"]][0] == "image" and data["matches"], stdout
+    assert data["causes"][0]["kind"] == "image" and data["matches"], stdout
     assert data["mistakes"] == ["reflection_untinted"], stdout
     stdout, data = told["srgb.png"]
     assert "read as" not in stdout and data["mistakes"] == ["reflection_untinted"], stdout
