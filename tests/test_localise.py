@@ -56,6 +56,23 @@ def test_differing_pixels_of_one_bit_name_its_step(rtdemo: str, tmp_path: Path) 
     assert {c["class"] for c in classes(mixed, paths, top=50)} >= {"CAMERA_MISS"}
 
 
+def test_a_class_of_which_few_pixels_differ_blames_no_step_as_a_whole(
+    rtdemo: str, tmp_path: Path
+) -> None:
+    """maede97/RayTracer shades with the last sphere a ray hits: a quarter of the pixels
+    reflecting the sky differ. Those pixels lie on such paths, but "the background is wrong"
+    would make every one of them differ: the sentence says the error lives on them."""
+    paths = _paths(rtdemo, tmp_path)
+    sky_bounce = (paths & PATH_BITS["SECONDARY_MISS"]) != 0
+    some = sky_bounce & (np.arange(W)[None, :] % 4 == 0)
+    found = locate(some, paths)
+    assert found is not None and found.precision < 0.5, found
+    assert "mostly those" in found.sentence and "is wrong" not in found.sentence
+    assert "the error lives on such paths, in the " in found.sentence
+    every = locate(sky_bounce, paths)
+    assert every is not None and every.sentence.endswith("is wrong"), every.sentence
+
+
 def test_pixels_spread_over_the_image_name_no_step(rtdemo: str, tmp_path: Path) -> None:
     paths = _paths(rtdemo, tmp_path)
     noise = np.random.default_rng(7).random(paths.shape) < 0.2

@@ -207,14 +207,19 @@ def _step(names: tuple[str, ...]) -> str:
 
 def _sentence(names: tuple[str, ...], counts: tuple[int, int, float], steps: list[str]) -> str:
     hit, n, precision = counts
-    how = "exactly" if precision >= EXACT_PRECISION else "mostly"
+    exact = precision >= EXACT_PRECISION
+    how = "exactly" if exact else "mostly"
     what = " and ".join(BIT_PHRASES[x] for x in names)
-    blame = f"the {steps[0]} is wrong"
+    named = f"the {steps[0]}"
     if len(steps) > 1:
-        blame = (
-            f"the error lies in a step every such path takes: the {', the '.join(steps[:-1])} "
-            f"or the {steps[-1]} (the image cannot tell which)"
-        )
+        named = f"the {', the '.join(steps[:-1])} or the {steps[-1]} (the image cannot tell which)"
+    # Where most such paths come out right, no step they all take is wrong as a whole.
+    blame = (
+        (f"{named} is wrong" if len(steps) == 1 else f"the error lies in a step every such "
+         f"path takes: {named}")
+        if exact
+        else f"the error lives on such paths, in {named} or a step only some of them take"
+    )  # fmt: skip
     return (
         f"the differing pixels are {how} those whose path {what} ({hit:,} of {n:,}; "
         f"{precision:.0%} of such pixels differ): {blame}"
