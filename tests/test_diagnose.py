@@ -447,6 +447,21 @@ def test_a_png_of_linear_values_is_read_as_linear_and_a_gamma_ppm_as_double_gamm
     assert "read as" not in stdout and data["mistakes"] == ["double_gamma"], stdout
 
 
+def test_the_headline_says_a_symptoms_mistake_is_one_of_several(
+    rtdemo: str, tmp_path: Path
+) -> None:
+    """A Python port's shadow rays all count as blocked; the result renders light_dir_reversed,
+    which gives the same image. The headline must not read as that mistake named."""
+    image = tmp_path / "dark.ppm"
+    _render(rtdemo, image, "--mode", "classic", "--mistake", "light_blocks_itself")
+    proc = run([RTVAL, "diagnose", str(image), "--scene", str(CLASSIC), "-q"])
+    assert proc.returncode == 0, proc.stderr
+    headline = proc.stdout.splitlines()[0]
+    assert headline.endswith(
+        "(direct light lost: one of its mistakes, the image cannot tell which)"
+    )
+
+
 @pytest.mark.slow
 def test_several_causes_from_a_far_start_are_retold_from_the_simplest_mode(
     rtdemo: str, tmp_path: Path

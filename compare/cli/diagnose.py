@@ -70,7 +70,10 @@ def run_diagnose(args: argparse.Namespace) -> int:
     # Modes as near before the search; a result that matches exactly was told from them.
     near = [] if result.exact else result.modes_as_near()
     tied = f" (as near: {', '.join(near)}; the image cannot tell them apart)" if near else ""
-    print(f"{args.image}: {result.result}{mirrored}{tied}")
+    # A symptom's mistakes give the same image: the result renders one of them, not the cause.
+    symptoms = [c["name"] for c in record["causes"] if c["kind"] == "step"]
+    stands = "".join(f" ({n}: one of its mistakes, the image cannot tell which)" for n in symptoms)
+    print(f"{args.image}: {result.result}{mirrored}{tied}{stands}")
     for line in [encoding_note(image), *result.sentences]:
         if line:  # the note: how an 8-bit file was read, where not as its format implies
             print(f"  {line}")
