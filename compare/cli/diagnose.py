@@ -7,6 +7,11 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from compare.diagnose.search import Diagnosis
+    from compare.judge.images import Image
 
 EXIT_DIAGNOSED = 0
 EXIT_RENDERER = 1
@@ -15,7 +20,6 @@ EXIT_RENDERER = 1
 def run_diagnose(args: argparse.Namespace) -> int:
     from compare.cli.common import stderr_progress
     from compare.diagnose.candidate import Candidate
-    from compare.diagnose.evidence import render_command
     from compare.diagnose.renderer import CandidateRenderer
     from compare.diagnose.search import (
         MODES,
@@ -25,10 +29,10 @@ def run_diagnose(args: argparse.Namespace) -> int:
         diagnose,
     )
     from compare.errors import ToolError
-    from compare.grading.encodings import encoding_note, nearer_reading, with_encoding_cause
+    from compare.grading.encodings import nearer_reading
     from compare.judge.images import ImageError, read_image
     from compare.judge.target_model import parse_model
-    from safe_files.paths import check_outputs_distinct, write_atomic
+    from safe_files.paths import check_outputs_distinct
     from scene_model.scene import load_scene
 
     start = None
@@ -63,6 +67,17 @@ def run_diagnose(args: argparse.Namespace) -> int:
         raise ImageError(str(e)) from None
     except DiagnoseError as e:
         raise ToolError(str(e)) from None
+    _tell(args, result, image, scene_file)
+    return EXIT_DIAGNOSED
+
+
+def _tell(args: argparse.Namespace, result: Diagnosis, image: Image, scene_file: Path) -> None:
+    """The diagnosis as --json's record and as lines on stdout: the headline, how an 8-bit
+    file was read where not as its format implies, the sentences and the render command."""
+    from compare.diagnose.evidence import render_command
+    from compare.grading.encodings import encoding_note, with_encoding_cause
+    from safe_files.paths import write_atomic
+
     record = with_encoding_cause(result.as_dict(), image)
     if args.json:
         write_atomic(args.json, json.dumps(record, indent=2) + "\n")
@@ -75,11 +90,10 @@ def run_diagnose(args: argparse.Namespace) -> int:
     stands = "".join(f" ({n}: one of its mistakes, the image cannot tell which)" for n in symptoms)
     print(f"{args.image}: {result.result}{mirrored}{tied}{stands}")
     for line in [encoding_note(image), *result.sentences]:
-        if line:  # the note: how an 8-bit file was read, where not as its format implies
+        if line:
             print(f"  {line}")
     print(f"  ({render_command(result, scene_file)} renders it)")
     sys.stdout.flush()
-    return EXIT_DIAGNOSED
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
