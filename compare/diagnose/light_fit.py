@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from compare.diagnose.candidate import Vec3
 from compare.diagnose.refine import code_readings
@@ -90,6 +89,8 @@ def _fitted(
         return None
     p, n = points[lit], normals[lit]
     target = after[lit] / before[lit] * _cosines(own, p, n)
+
+    from scipy.optimize import least_squares  # 0.4 s to import: only where a light is fitted
 
     def residual(centre: np.ndarray) -> np.ndarray:
         return np.asarray(_cosines(centre, p, n) - target)

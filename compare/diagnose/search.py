@@ -445,6 +445,8 @@ class Search:
         direct = t.masks.get("direct")
         if {11, 12} & current.quirks or direct is None:
             return []
+        if "direct" not in self.trials.open_effects(current):  # the light is where it shows
+            return []
         plain = Candidate(current.mode, current.quirks)
         key = (id(t.test), plain)
         if key not in self.lights:
