@@ -40,11 +40,22 @@ def snapped(trials: Trials, c: Candidate, rounder: list[Candidate]) -> Candidate
 def code_readings(test: F32, encoding: str) -> list[np.ndarray]:
     """The image's values as a rounding writer and as a truncating one stored them: an 8-bit
     code c holds [c - 0.5, c + 0.5) / 255 or [c, c + 1) / 255 (the lineage truncates), read at
-    the middle; a float image as it is."""
+    the middle; a float image as it is. The last image's are kept: the light and colour fits
+    read them every round."""
+    last = _LAST_READINGS.get(encoding)
+    if last is not None and last[0] is test:
+        return last[1]
     values = test.astype(np.float64)
     if encoding == "float":
-        return [values]
-    if encoding == "srgb":
+        out = [values]
+    elif encoding == "srgb":
         up = srgb_to_linear(np.clip(linear_to_srgb(test) + 0.5 / 255, 0, 1).astype(np.float32))
-        return [values, up.astype(np.float64)]
-    return [values, values + 0.5 / 255]
+        out = [values, up.astype(np.float64)]
+    else:
+        out = [values, values + 0.5 / 255]
+    _LAST_READINGS[encoding] = (test, out)
+    return out
+
+
+# encoding -> (the image, its readings): one image per encoding, replaced by the next.
+_LAST_READINGS: dict[str, tuple[F32, list[np.ndarray]]] = {}
