@@ -373,12 +373,14 @@ class Search:
             return ()
         changes = [Switch("mistake", m, True) for m in camera_mistakes()]
         changes += self.fitted_cameras(starts)
-        tried = {sw.apply(c, self.scene): sw for c in starts for sw in changes}
+        nearest = min(starts, key=t.whole_differing)
+        tried = {sw.apply(nearest, self.scene): sw for sw in changes}
         t.evaluate(list(tried))
         best = min(tried, key=t.whole_differing)
         if t.whole_differing(best) > CAMERA_RATIO * plain:
             return ()
         slip = tried[best]
+        t.evaluate([slip.apply(c, self.scene) for c in starts])  # the modes, through it
         self.say(f"diagnose: the silhouettes fit {slip.cause()}; the modes are compared through it")
         return (slip,)
 
