@@ -16,9 +16,11 @@ from helpers import SCENES, render_demo
 from compare.diagnose import transforms
 from compare.diagnose.candidate import Candidate
 from compare.diagnose.evidence import short_reason
+from compare.diagnose.gates import FOLLOWED_MIN, FOLLOWED_SHARE, changed_pixels, followed
 from compare.diagnose.renderer import CandidateRenderer
 from compare.diagnose.search import DiagnoseOptions, Diagnosis, FunctionRenderer, diagnose
 from compare.judge.effects import effect_masks
+from compare.judge.exact_match import Bounds
 from compare.judge.images import Image, read_image
 from compare.judge.target_model import TargetModel
 from scene_model.scene import load_scene
@@ -214,3 +216,39 @@ def test_a_mode_the_image_cannot_tell_from_the_assigned_one_is_not_claimed() -> 
     apart = dataclasses.replace(tied, mode_objectives={"classic": 250_000.0, "physical": 187_552.0})
     assert apart.modes_as_near() == []
     assert short_reason(apart, "classic").startswith("looks like physical")
+
+
+# --- where a change alters the picture, the image follows it --------------------------------
+
+
+def _pair(values: np.ndarray) -> tuple[Bounds, Bounds]:
+    b = Bounds(values.astype(np.float32), values.astype(np.float32), np.zeros(values.shape, bool))
+    return b, b
+
+
+def test_a_change_the_image_does_not_follow_where_it_changes_most_is_contradicted() -> None:
+    # A shadow loop that skips glass, told "--no-shadows": the switch lifts both the glass's
+    # shadow (the image shows it lifted) and the opaque spheres' (the image keeps them). The
+    # red-team's program: 9,342 of 11,719 changed pixels followed (80 %), and it was named.
+    shadow = np.zeros((10, 10), bool)
+    shadow[5:] = True  # 50 px of shadow (FOLLOWED_MIN): 40 under glass, 10 under an opaque one
+    before = np.zeros((10, 10, 3))
+    after = np.where(shadow[..., None], 200.0, 0.0)
+    changed = changed_pixels(_pair(after), _pair(before), float_image=False)
+    assert changed.sum() == 50
+    matches = np.ones((10, 10), bool)
+    matches[5] = False  # the opaque sphere's shadow: the image keeps it
+    masks = {"shadow": shadow, "direct": ~shadow}
+    f = followed(changed, matches, masks)
+    assert f is not None and (f.effect, f.changed, f.matched) == ("shadow", 50, 40)
+    assert not f.holds  # 80 % < FOLLOWED_SHARE
+    matches[5] = True  # the image follows the change everywhere: a true cause
+    assert (g := followed(changed, matches, masks)) is not None and g.holds
+    # A change within a code (float rounding) is no change; nor is one that alters nothing.
+    near = np.where(shadow[..., None], 1.0, 0.0)
+    assert not changed_pixels(_pair(near), _pair(before), float_image=False).any()
+    assert followed(np.zeros((10, 10), bool), matches, masks) is None
+    assert FOLLOWED_SHARE == 0.9 and FOLLOWED_MIN == 50
+    # Where the candidate's own renders scatter (acne), a changed pixel is no evidence.
+    noisy = (after, Bounds(after - 100.0, after + 100.0, np.zeros(after.shape, bool)))
+    assert not changed_pixels(noisy, _pair(before), float_image=False).any()

@@ -40,7 +40,14 @@ from compare.diagnose import (
 from compare.diagnose.candidate import RGB, Candidate, Vec3
 from compare.diagnose.constant_fit import fitted_bias, fitted_ior
 from compare.diagnose.fresnel_fit import fitted_curve
-from compare.diagnose.gates import EXPLAINED_SHARE, Gate, absorbed_pixels, gates
+from compare.diagnose.gates import (
+    EXPLAINED_SHARE,
+    Gate,
+    absorbed_pixels,
+    changed_pixels,
+    followed,
+    gates,
+)
 from compare.diagnose.localise import INT
 from compare.diagnose.memo import keep, load, record_name
 from compare.diagnose.mistakes import catalogue
@@ -777,6 +784,7 @@ class Search:
             needs = self.joint_partial(final, {sw: lose & gained for sw, (lose, _) in undo.items()})
             drop = [sw for sw, eff in needs.items() if not eff]
             drop += [sw for sw in self.unconfirmed(final, needs, gained) if sw not in drop]
+            drop += [sw for sw in self.contradicted(final, begin, needs) if sw not in drop]
             culprits = [sw for sw, (_, win) in undo.items() if win & worse and sw not in drop]
             if worse and not culprits:  # together, not one by one: none of them is named
                 culprits = [sw for sw in needs if sw not in drop]
@@ -811,6 +819,32 @@ class Search:
                     f"{', '.join(sorted(shows & open_k))}, which it leaves unexplained"
                 )
                 out.append(sw)
+        return out
+
+    def contradicted(
+        self, final: Candidate, begin: Candidate, needs: dict[Switch, set[str]]
+    ) -> list[Switch]:
+        """Switches the image does not follow where they change the picture most among the
+        effects they explain (gates.followed): undone from final, the render differs in
+        pixels of that effect that the image keeps as they were. (Among all effects, a change
+        would be blamed for what another mistake not yet found hides: a BGR writer's glass.)"""
+        t, out = self.trials, []
+        matches = t.exact_of(final).matches
+        for sw, explains in needs.items():
+            if not explains:
+                continue
+            without = undone(final, begin, [sw], self.scene)
+            t.exact_of(without)  # its bounds
+            changed = changed_pixels(t.pairs[final], t.pairs[without], t.target.values_judged)
+            masks = {k: m for k, m in t.target.masks.items() if k in explains}
+            f = followed(changed, matches, masks)
+            if f is None or f.holds:
+                continue
+            self.say(
+                f"diagnose: drop {sw.change(self.scene)}: of the {f.changed:,} px of {f.effect} "
+                f"it changes, the image shows the change in only {f.matched:,}"
+            )
+            out.append(sw)
         return out
 
     def joint_partial(
