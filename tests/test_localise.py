@@ -133,3 +133,25 @@ def test_differing_pixels_on_the_silhouettes_point_to_camera_or_intersection() -
     assert "silhouettes" in found.sentence
     assert on_silhouettes(rim | (r < 5), edges) is None
     assert on_silhouettes(rim, None) is None and on_silhouettes(np.zeros_like(rim), edges) is None
+
+
+def test_two_classes_that_differ_whole_are_both_named_with_the_step_they_share() -> None:
+    # A normal written p - c/r (an operator-precedence slip): every reflected path and every
+    # lit diffuse surface differs. Naming "the reflection is wrong" alone, as the red-team's
+    # C program was told, would be false: both are named, and the normal they share.
+    paths = np.full((20, 20), PATH_BITS["CAMERA_MISS"], np.int64)
+    paths[:9] = PATH_BITS["MIRROR"] | PATH_BITS["MIRROR_HIT"]
+    paths[9] = PATH_BITS["DIFFUSE_LIT"]
+    differing = np.zeros((20, 20), bool)
+    differing[:10] = True
+    found = locate(differing, paths)
+    assert found is not None and found.step == "reflection"
+    assert "direct light" in found.alternatives and "normal" in found.alternatives
+    assert "the other 20 exactly those whose path reaches a diffuse surface" in found.sentence
+    assert found.sentence.endswith("the hit point or its normal")
+    # A few stray pixels elsewhere (under SECOND_SHARE of them) leave one step named.
+    differing[9] = False
+    differing[9, :2] = True
+    alone = locate(differing, paths)
+    assert alone is not None and "normal" not in alone.alternatives
+    assert alone.sentence.endswith("the reflection is wrong"), alone.sentence

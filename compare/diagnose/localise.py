@@ -10,6 +10,7 @@ bit the error is "spread over several steps" and only the largest classes are gi
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from itertools import combinations
 from typing import Any
@@ -97,6 +98,9 @@ FIRST_SURFACE = ("GLASS_HIT", "MIRROR_HIT")
 # A pair of bits is named instead of its best single bit only when it is this much more
 # precise: one bit is the plainer statement.
 PAIR_GAIN = 0.15
+# Differing pixels outside the class named, at least this share of them, that are "exactly"
+# another class of their own: two steps differ, or one both take.
+SECOND_SHARE = 0.05
 
 
 @dataclass(frozen=True)
@@ -184,7 +188,7 @@ def locate(differing: BOOL, path: INT, region: BOOL | None = None) -> Located | 
     tied = sorted((x for x in scored if x[0] == top), key=lambda x: _rank(x[1]))
     (precision, recall), names, hit, p = tied[0]
     steps = list(dict.fromkeys(_step(x[1]) for x in tied))
-    return Located(
+    found = Located(
         steps[0],
         _sentence(names, (hit, n, precision), steps),
         names,
@@ -194,6 +198,50 @@ def locate(differing: BOOL, path: INT, region: BOOL | None = None) -> Located | 
         precision,
         tuple(steps[1:]),
     )
+    outside = ~_pixels(names, path)
+    second = _second(d & outside, path, within & outside, n)
+    if second is None or precision < EXACT_PRECISION or BIT_STEPS[second[0]] in steps:
+        return found
+    return _with_second(found, second)
+
+
+def _pixels(names: tuple[str, ...], path: INT) -> BOOL:
+    out = np.ones(path.shape, bool)
+    for x in names:
+        out &= (path & PATH_BITS[x]) != 0
+    return out
+
+
+def _second(rest: BOOL, path: INT, region: BOOL, n: int) -> tuple[str, int, float] | None:
+    """The bit whose pixels (within `region`) are exactly the differing pixels `rest` that the
+    class named leaves, where they are SECOND_SHARE of all n: (bit, pixels, precision)."""
+    m = int(np.count_nonzero(rest))
+    if m < SECOND_SHARE * n:
+        return None
+    best: tuple[str, int, float] | None = None
+    for name, bit in PATH_BITS.items():
+        where = ((path & bit) != 0) & region
+        p, hit = int(np.count_nonzero(where)), int(np.count_nonzero(where & rest))
+        if name in FIRST_SURFACE or hit < RECALL_MIN * m or hit < EXACT_PRECISION * p:
+            continue
+        if best is None or hit / p > best[2]:
+            best = (name, m, hit / p)
+    return best
+
+
+def _with_second(found: Located, second: tuple[str, int, float]) -> Located:
+    """found, told with the second class of differing pixels: two steps are wrong, or one
+    that both kinds of path take (the surface's hit point or normal)."""
+    name, m, precision = second
+    step = BIT_STEPS[name]
+    head = found.sentence.split(": ", 1)[0]
+    sentence = (
+        f"{head}, and the other {m:,} exactly those whose path {BIT_PHRASES[name]} "
+        f"({precision:.0%} of such pixels differ): the {found.step} and the {step} are both "
+        "wrong, or a step both kinds of path take: the hit point or its normal"
+    )
+    more = (*found.alternatives, step, "normal")
+    return dataclasses.replace(found, sentence=sentence, alternatives=more)
 
 
 def _rank(names: tuple[str, ...]) -> int:
