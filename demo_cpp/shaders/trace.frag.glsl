@@ -228,7 +228,8 @@ vec3 shade_direct(int hit, vec3 p, vec3 n) {
                 // Evaluated for every sphere and applied by select: no divergent branch.
                 bool blocked = blocks(j, origin, l, max_t);
                 bool tests = (j != light || mistake(M_light_blocks_itself)) &&
-                             !(j == hit && !quirk(1));
+                             !(j == hit && !quirk(1)) &&
+                             !(mistake(M_shadow_skips_glass) && transparency(j) > 0.0);
                 bool counts = blocked && tests && !(tested && mistake(M_shadow_first_only));
                 tested = tested || tests;
                 float opacity = quirk(9) ? 1.0 - transparency(j) : 1.0;
@@ -312,11 +313,13 @@ vec3 trace(vec3 origin, vec3 dir) {
         float eta = (quirk(2) || !inside) ? 1.0 / ior : ior;
         eta = mistake(M_eta_inverted) ? 1.0 / eta : eta;
         eta = (mistake(M_eta_one_leaving) && inside) ? 1.0 : eta;
+        eta = mistake(M_eta_ior_both) ? ior : eta;
         float cosi = -d_dot_n;
         float k = 1.0 - eta * eta * (1.0 - cosi * cosi);
         bool total_internal = refractive && k < 0.0 && !quirk(3);
         // With Q3 present and k < 0 this is NaN, like the original's sqrt(k).
-        vec3 t_dir = unit(d * eta + n * (eta * cosi - sqrt(k)));
+        float cos_dir = mistake(M_cosi_sign) ? -cosi : cosi;
+        vec3 t_dir = unit(d * eta + n * (eta * cos_dir - sqrt(k)));
         float fresnel = total_internal ? 1.0
                       : quirk(8) ? paper_fresnel(facing)
                       : refractive ? dielectric_fresnel(inside ? -facing : facing, ior) : 1.0;

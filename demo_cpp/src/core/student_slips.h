@@ -9,6 +9,7 @@
 
 #include "core/camera_rays.h"
 #include "core/mistakes.h"
+#include "core/optics.h"
 #include "core/ray.h"
 #include "core/sphere.h"
 #include "core/tracer.h"
@@ -54,6 +55,13 @@ inline std::optional<float> intersect_robust_with_root_slip(const Sphere& s, con
 // reflect_sign: d + 2(d.n)n, the mirror formula with its sign turned.
 inline vec3 reflect_wrong_sign(const vec3& d, const vec3& n) {
     return normalize(d + n * (2.0f * dot(d, n)));
+}
+
+// cosi_sign: the refracted direction with cos i taken as +n.d (k, which squares it, is the
+// same).
+inline vec3 refract_cosi_sign(const vec3& d, const vec3& n, float eta) {
+    const float cosi = dot(n, d);
+    return normalize(d * eta + n * (eta * cosi - std::sqrt(refraction_k(d, n, eta))));
 }
 
 // The direction towards the light (to_light / dist), or as light_dir_reversed and

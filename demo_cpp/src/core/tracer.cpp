@@ -156,12 +156,14 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
         float eta = (q.has(Quirk::eta_one_over_ior_leaving) || !inside) ? 1.0f / s.ior : s.ior;
         if (opt_.mistakes.has(Mistake::eta_inverted)) eta = 1.0f / eta;
         if (opt_.mistakes.has(Mistake::eta_one_leaving) && inside) eta = 1.0f;
+        if (opt_.mistakes.has(Mistake::eta_ior_both)) eta = s.ior;
         total_internal =
             refraction_k(r.dir, n, eta) < 0 && !q.has(Quirk::nan_at_total_internal_reflection);
         if (!total_internal && opt_.refraction)
             refracted =
                 traced(RayKind::refraction,
-                       {refraction_origin(p, n, offset), refract(r.dir, n, eta)}, depth + 1, -1);
+                       {refraction_origin(p, n, offset), refracted_direction(r.dir, n, eta)},
+                       depth + 1, -1);
         eta_ti_sq = eta * eta;
     }
 
@@ -196,6 +198,11 @@ color Tracer::shade_specular(int hit_index, const ray& r, const point3& p, const
            s.surface_color;
 }
 
+vec3 Tracer::refracted_direction(const vec3& d, const vec3& n, float eta) const {
+    return opt_.mistakes.has(Mistake::cosi_sign) ? refract_cosi_sign(d, n, eta)
+                                                 : refract(d, n, eta);
+}
+
 point3 Tracer::refraction_origin(const point3& p, const vec3& n, float offset) const {
     return opt_.mistakes.has(Mistake::refraction_bias_outside) ? p + n * offset : p - n * offset;
 }
@@ -228,6 +235,7 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
             ++counts_.shadow;
             const ray shadow_ray{origin, l};
             const bool first_only = opt_.mistakes.has(Mistake::shadow_first_only);
+            const bool skip_glass = opt_.mistakes.has(Mistake::shadow_skips_glass);
             const float max_t = q.has(Quirk::shadow_rays_pass_light) ||
                                         opt_.mistakes.has(Mistake::shadow_past_light)
                                     ? kInf
@@ -237,6 +245,7 @@ color Tracer::shade_direct(int hit_index, const point3& p, const vec3& n) const 
                 use_lanes_ ? lanes_.blockers_paper(shadow_ray, max_t) : 0;
             for (int j = 0; j < static_cast<int>(scene_.spheres.size()); ++j) {
                 if (j == light && !opt_.mistakes.has(Mistake::light_blocks_itself)) continue;
+                if (skip_glass && scene_.spheres[j].transparency > 0) continue;
                 // Q1 fixed: a ray leaving a convex sphere outward cannot hit it again.
                 if (j == hit_index && !q.has(Quirk::paper_intersection)) continue;
                 const bool blocked =

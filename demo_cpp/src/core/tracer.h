@@ -105,6 +105,7 @@ private:
     float offset_at(const point3& p) const;
     // Where a refracted ray starts: bias inside the surface (or outside: refraction_bias_outside).
     point3 refraction_origin(const point3& p, const vec3& n, float offset) const;
+    vec3 refracted_direction(const vec3& d, const vec3& n, float eta) const;
 
     const Scene& scene_;
     TraceOptions opt_;
