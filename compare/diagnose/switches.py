@@ -258,9 +258,16 @@ class Switch:
             return f"the scene's light at {theirs}"
         if self.kind == "background":
             theirs = rgb_text(scene.background)
-            if self.present:
-                return f"background {rgb_text(self._rgb())} hard-coded (the scene's is {theirs})"
-            return f"the scene's background {theirs}"
+            if not self.present:
+                return f"the scene's background {theirs}"
+            said = f"background {rgb_text(self._rgb())} hard-coded (the scene's is {theirs})"
+            if all(v == 1.0 for v in self._rgb()) and max(scene.background) > 1.0:
+                # A program that caps what each ray returns at 1 mixes the sky in as 1 too.
+                said += (
+                    ", or every colour a ray returns capped at 1 (the same image wherever "
+                    "the light is not seen)"
+                )
+            return said
         theirs = ", ".join(f"{v:g}" for v in sorted(glass_iors(scene)))
         value, sphere = self.ior_of() if self.present else (0.0, None)
         if sphere is not None:
