@@ -24,6 +24,10 @@
 //	                        0 at every outside hit (a Fresnel weight of 1, no refraction)
 //	shadow_dir_unnormalized the shadow ray's direction light - p is not normalised
 //	lambert_unclamped       n.l without max(0, .)
+//	glass_no_shadow         the shadow loop skips transparent spheres
+//	eta_ior_both            eta = ior at both crossings (the inside test left out)
+//	normal_precedence       the normal normalize(p - c/r): (p - c)/r without its brackets
+//	cosi_unflipped          cos i from the normal before the inside flip (wrong leaving glass)
 //	depth=N, bias=V         the recursion limit and the offset of secondary rays
 //	light_y=V               the light's centre at height V (CAPBenchmarks' RT kernel: 30)
 package main
@@ -102,7 +106,8 @@ var (
 var known = []string{
 	"rows_bottom_up", "no_clamp", "fov_on_x", "pixel_corners", "y_by_width", "near_root_only",
 	"normal_not_normalized", "reflection_untinted", "eta_leaving", "eta_one_leaving", "fresnel_facing_sign", "fresnel_facing_clamped",
-	"shadow_dir_unnormalized", "lambert_unclamped",
+	"shadow_dir_unnormalized", "lambert_unclamped", "glass_no_shadow", "eta_ior_both",
+	"normal_precedence", "cosi_unflipped",
 }
 
 // setMistakes reads "name,name,depth=N,bias=V,light_y=V".
@@ -154,6 +159,9 @@ func trace(o, d Vec, depth int) Vec {
 	}
 	p := o.Add(d.Scale(tNear))
 	n := p.Sub(s.Centre)
+	if slips["normal_precedence"] {
+		n = p.Sub(s.Centre.Scale(1 / s.Radius))
+	}
 	if !slips["normal_not_normalized"] {
 		n = n.Norm()
 	}
@@ -193,7 +201,13 @@ func mirror(s *Sphere, p, n, d Vec, inside bool, depth int) Vec {
 		if inside && slips["eta_one_leaving"] {
 			eta = 1
 		}
+		if slips["eta_ior_both"] {
+			eta = s.IOR
+		}
 		cosi := -n.Dot(d)
+		if inside && slips["cosi_unflipped"] {
+			cosi = -cosi
+		}
 		k := 1 - eta*eta*(1-cosi*cosi)
 		t := d.Scale(eta).Add(n.Scale(eta*cosi - math.Sqrt(k))).Norm()
 		refracted = trace(p.Sub(n.Scale(bias)), t, depth+1)
@@ -214,7 +228,7 @@ func lit(i int, p, n Vec) float64 {
 	}
 	from := p.Add(n.Scale(bias))
 	for j := range world {
-		if j == i {
+		if j == i || (slips["glass_no_shadow"] && world[j].Transparency > 0) {
 			continue
 		}
 		if _, ok := world[j].Hit(from, shadowDir); ok {

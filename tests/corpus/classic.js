@@ -17,6 +17,9 @@
 //   no_inside_flip           the normal is not turned round inside a sphere
 //   inside_test_reversed     the inside test written d.n < 0: outside hits taken as inside
 //   k_eta_unsquared          1 - eta (1 - cos^2) under the refraction's square root
+//   cosi_sign                cos i taken as +n.d (an rtv1 C port's)
+//   watt_refraction          the root divided by eta^2 in the direction ("Watt's formula")
+//   clamp_each_trace         every colour trace() returns capped at 1 (before the mix)
 //   fresnel_weights_swapped  reflection weighted by 1 - fresnel and refraction by fresnel
 //   fresnel_exponent         0.1 + 0.9 (1 - facing)^2 instead of the cube
 //   refraction_unweighted    the refracted colour not multiplied by the transparency
@@ -56,6 +59,7 @@ const KNOWN = [
   'bgr', 'gamma2', 'tan_full_fov', 'ray_dir_unnormalized', 'reflect_sign', 'reflect_half',
   'no_inside_flip', 'inside_test_reversed', 'k_eta_unsquared', 'fresnel_weights_swapped', 'fresnel_exponent',
   'refraction_unweighted', 'light_blocks_itself', 'light_dir_from_normal', 'no_shadows',
+  'cosi_sign', 'watt_refraction', 'clamp_each_trace',
 ];
 const slips = new Set();
 
@@ -89,6 +93,12 @@ function intersect(s, o, d) {
 }
 
 function trace(o, d, depth) {
+  const c = traceRay(o, d, depth);
+  if (!slips.has('clamp_each_trace')) return c;
+  return vec(Math.min(1, c.x), Math.min(1, c.y), Math.min(1, c.z));
+}
+
+function traceRay(o, d, depth) {
   let hit = null;
   let tmin = Infinity;
   for (const s of spheres) {
@@ -136,9 +146,10 @@ function shadeMirror(hit, p, n, d, inside, depth) {
   let refracted = BLACK;
   if (hit.transp > 0) {
     const eta = inside ? hit.ior : 1 / hit.ior;
-    const cosi = -dot(n, d);
+    const cosi = slips.has('cosi_sign') ? dot(n, d) : -dot(n, d);
     const k = 1 - (slips.has('k_eta_unsquared') ? eta : eta * eta) * (1 - cosi * cosi);
-    const tdir = normalize(add(scale(d, eta), scale(n, eta * cosi - Math.sqrt(k))));
+    const root = slips.has('watt_refraction') ? Math.sqrt(k) / (eta * eta) : Math.sqrt(k);
+    const tdir = normalize(add(scale(d, eta), scale(n, eta * cosi - root)));
     refracted = trace(sub(p, scale(n, BIAS)), tdir, depth + 1);
   }
   const kr = slips.has('fresnel_weights_swapped') ? 1 - fresnel : fresnel;

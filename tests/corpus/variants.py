@@ -295,6 +295,24 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
                         _c(REFLECTION)),
     "js-k_eta_unsquared": (JS, "k_eta_unsquared", "1 - eta (1 - cos^2) under the root",
                            frozenset(), GLASS),
+    # A red-team pass's programs (docs/diagnosis.md "Measured"): before the gate `followed`,
+    # each got a false cause (--no-shadows, eta_inverted with +Q2, direct light lost, ior 1.3
+    # and +Q2 in turn); the first two are named mistakes now, the others only localised.
+    "go-glass_no_shadow": (GO, "glass_no_shadow", "the shadow loop skips glass",
+                           _c("shadow_skips_glass"), _c(SHADOW, "shadow through glass")),
+    "go-eta_ior_both": (GO, "eta_ior_both", "eta = ior at both crossings", _c("eta_ior_both"),
+                        GLASS),
+    "js-cosi_sign": (JS, "cosi_sign", "cos i taken as +n.d", _c("cosi_sign"), GLASS),
+    "go-normal_precedence": (GO, "normal_precedence", "the normal p - c/r", frozenset(),
+                             _c(NORMAL)),
+    "js-watt_refraction": (JS, "watt_refraction", "the root over eta^2 in the direction",
+                           frozenset(), GLASS),
+    "go-cosi_unflipped": (GO, "cosi_unflipped", "cos i from the normal before the flip",
+                          frozenset(), GLASS),
+    # Capped at 1, the sky mixes in as a background of 1 would: the diagnosis says both, the
+    # cap as the alternative (switches.py), since only the light seen in glass tells them apart.
+    "js-clamp_each_trace": (JS, "clamp_each_trace", "every traced colour capped at 1",
+                            _c("background (1, 1, 1)"), _c(BACKGROUND, "emission")),
 }  # fmt: skip
 
 
