@@ -208,10 +208,21 @@ class Followed:
 
 
 def followed(changed: BOOL, matches: BOOL, masks: dict[str, BOOL]) -> Followed | None:
-    """The effect a change alters most (`changed`) and how many of those pixels the result
-    matches; None where it alters none."""
-    counts = {k: int(np.count_nonzero(changed & m)) for k, m in masks.items()}
-    if not counts or max(counts.values()) == 0:
+    """Of the effects in `masks` where a change alters at least FOLLOWED_MIN pixels
+    (`changed`), the one where the result matches the largest share of them, with its
+    counts; else the one it alters most; None where it alters none. The best, not the
+    largest: a second mistake nothing reproduces may share the largest effect's pixels
+    (maede97's glass, whose lit surfaces seen through it shade with the wrong sphere)."""
+    found = [
+        Followed(
+            k, int(np.count_nonzero(changed & m)), int(np.count_nonzero(changed & m & matches))
+        )
+        for k, m in masks.items()
+    ]
+    found = [f for f in found if f.changed]
+    if not found:
         return None
-    k = max(counts, key=lambda e: counts[e])
-    return Followed(k, counts[k], int(np.count_nonzero(changed & masks[k] & matches)))
+    enough = [f for f in found if f.changed >= FOLLOWED_MIN]
+    if not enough:
+        return max(found, key=lambda f: f.changed)
+    return max(enough, key=lambda f: f.matched / f.changed)

@@ -784,7 +784,6 @@ class Search:
             needs = self.joint_partial(final, {sw: lose & gained for sw, (lose, _) in undo.items()})
             drop = [sw for sw, eff in needs.items() if not eff]
             drop += [sw for sw in self.unconfirmed(final, needs, gained) if sw not in drop]
-            drop += [sw for sw in self.contradicted(final, begin, needs) if sw not in drop]
             culprits = [sw for sw, (_, win) in undo.items() if win & worse and sw not in drop]
             if worse and not culprits:  # together, not one by one: none of them is named
                 culprits = [sw for sw in needs if sw not in drop]
@@ -794,6 +793,10 @@ class Search:
                 )
             for sw in drop:
                 self.say(f"diagnose: drop {sw.change(self.scene)}: it explains no effect")
+            if not drop + culprits:
+                # Judged once the rest is settled, the least followed first: a switch dropped
+                # above (or one not yet dropped) must not leave its pixels to blame another.
+                culprits = self.contradicted(final, begin, needs)[:1]
             if not drop + culprits:
                 break
             final = undone(final, begin, drop + culprits, self.scene)
@@ -838,14 +841,15 @@ class Search:
             changed = changed_pixels(t.pairs[final], t.pairs[without], t.target.values_judged)
             masks = {k: m for k, m in t.target.masks.items() if k in explains}
             f = followed(changed, matches, masks)
-            if f is None or f.holds:
-                continue
+            if f is not None and not f.holds:
+                out.append((f.matched / f.changed, sw, f))
+        out.sort(key=lambda x: x[0])
+        for _, sw, f in out[:1]:
             self.say(
                 f"diagnose: drop {sw.change(self.scene)}: of the {f.changed:,} px of {f.effect} "
                 f"it changes, the image shows the change in only {f.matched:,}"
             )
-            out.append(sw)
-        return out
+        return [sw for _, sw, _ in out]
 
     def joint_partial(
         self, final: Candidate, needs: dict[Switch, set[str]]
