@@ -17,10 +17,12 @@ exact match of the start):
            the error at all (VISIBLE) and the match covers less than WHOLE_MATCH of D;
   others   no effect differs from the candidate in more pixels than from the start, beyond
            its exact-match allowance (search.py drops the change that does it);
-  followed where a change alters the picture most (the effect where its render and the
-           render without it differ in the most pixels), the image follows it: the result
-           matches at least FOLLOWED_SHARE of those pixels (search.py drops a change the
-           image contradicts, however much it helps elsewhere).
+  followed where a change alters the picture (its render and the render without it lie
+           apart, where its own renders agree), the image follows it: in the effect it
+           explains where the result matches the largest share of those pixels (of at least
+           FOLLOWED_MIN), that share is FOLLOWED_SHARE or more (search.py drops a change the
+           image contradicts, however much it helps elsewhere, unless the result's own
+           chaos covers what is not followed).
 """
 
 from __future__ import annotations
