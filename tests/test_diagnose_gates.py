@@ -274,3 +274,25 @@ def test_a_change_is_judged_where_the_image_follows_it_best() -> None:
     g = followed(changed, matches, {"direct": direct, "refraction": glass})
     assert g is not None and (g.effect, g.changed, g.matched) == ("refraction", 140, 60)
     assert not g.holds
+
+
+def test_spheres_drawn_elsewhere_get_no_shading_cause(rtdemo: str, tmp_path: Path) -> None:
+    # A sphere test comparing d^2 with the radius instead of its square (a red-team C
+    # program): every sphere drawn at the root of its radius, the ground gone. It was told
+    # "physical --mistake shadow_dir_unnormalized" (direct light lost), a false cause; the
+    # image's edges lie on 2 % of the model's outlines (measured at 320x240), where an image
+    # with the model's spheres in place has 41 % or more.
+    raw = json.loads(CLASSIC.read_text())
+    for s in raw["spheres"]:
+        s["radius"] = s["radius"] ** 0.5
+    own = tmp_path / "shrunk.json"
+    own.write_text(json.dumps(raw))
+    image = render_demo(rtdemo, own, tmp_path / "shrunk.ppm", "-q", "--mode", "classic",
+                        size=(W, H))  # fmt: skip
+    with CandidateRenderer(CLASSIC, W, H, threads=1, cache=tmp_path / "cache") as render:
+        d = diagnose(image, load_scene(CLASSIC), render, DiagnoseOptions(parallel=2))
+    out = d.as_dict()
+    assert out["causes"] == [] and d.steps == [], d.sentences
+    top = out["localisation"][0]
+    assert top["step"] == "the camera" and "the intersection" in top["alternatives"]
+    assert top["precision"] < 0.2 and "outlines" in top["sentence"], top

@@ -95,6 +95,12 @@ def fitted(edges: np.ndarray, scene: Scene) -> list[View]:
     return [v for _, v in sorted(keep, key=lambda sv: -sv[0])]
 
 
+def outline_share(rgb: F32, ids: np.ndarray) -> float:
+    """The share of the sphere outlines of an id map (a render's id AOV, -1 on a miss) on
+    which the image has an edge: where its spheres lie against where the model draws them."""
+    return _covered(image_edges(rgb), _boundaries(ids))
+
+
 def image_edges(rgb: F32) -> np.ndarray:
     """H x W: where the image's display luminance changes by EDGE_MIN towards the next pixel
     right or down, grown by a pixel (a silhouette's edge lies on either side of it)."""

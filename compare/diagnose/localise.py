@@ -98,6 +98,10 @@ FIRST_SURFACE = ("GLASS_HIT", "MIRROR_HIT")
 # A pair of bits is named instead of its best single bit only when it is this much more
 # precise: one bit is the plainer statement.
 PAIR_GAIN = 0.15
+# The background seen directly is judged right where this many pixels see it and under this
+# share of them differ: then a bounced ray's background is not the only suspect.
+SKY_MIN = 100
+SKY_DIFFERING = 0.02
 # Differing pixels outside the class named, at least this share of them, that are "exactly"
 # another class of their own: two steps differ, or one both take.
 SECOND_SHARE = 0.05
@@ -188,6 +192,10 @@ def locate(differing: BOOL, path: INT, region: BOOL | None = None) -> Located | 
     tied = sorted((x for x in scored if x[0] == top), key=lambda x: _rank(x[1]))
     (precision, recall), names, hit, p = tied[0]
     steps = list(dict.fromkeys(_step(x[1]) for x in tied))
+    if "SECONDARY_MISS" in names and _sky_matches(differing, path):
+        # The background seen directly is right: a bounced ray's may still be (a program
+        # that returns black after a bounce), or the bounce before it is wrong.
+        steps = list(dict.fromkeys([*steps, "reflection", "fresnel"]))
     found = Located(
         steps[0],
         _sentence(names, (hit, n, precision), steps),
@@ -203,6 +211,14 @@ def locate(differing: BOOL, path: INT, region: BOOL | None = None) -> Located | 
     if second is None or precision < EXACT_PRECISION or BIT_STEPS[second[0]] in steps:
         return found
     return _with_second(found, second)
+
+
+def _sky_matches(differing: BOOL, path: INT) -> bool:
+    """The pixels that see the background directly (at least SKY_MIN of them) nearly all
+    match (under SKY_DIFFERING of them differ)."""
+    sky = (path & PATH_BITS["CAMERA_MISS"]) != 0
+    n = int(np.count_nonzero(sky))
+    return n >= SKY_MIN and int(np.count_nonzero(sky & differing)) < SKY_DIFFERING * n
 
 
 def _pixels(names: tuple[str, ...], path: INT) -> BOOL:
@@ -291,6 +307,20 @@ def on_silhouettes(differing: BOOL, edges: BOOL | None) -> Located | None:
     )
     steps = ("the camera", "the intersection")
     return Located(steps[0], sentence, ("SILHOUETTE",), n, p, hit / n, hit / p, steps[1:])
+
+
+def outlines_elsewhere(share: float, least: float) -> Located:
+    """The image's edges lie on few of the model's sphere outlines (a share under `least`):
+    its spheres are drawn elsewhere or at another size, which the camera rays or the
+    intersection test decide, and every other effect differs through that."""
+    sentence = (
+        f"the image's edges lie on {share:.0%} of the outlines of the spheres the model draws "
+        f"(an image with the model's spheres in place: {least:.0%} or more): its spheres are "
+        "drawn elsewhere or at another size, which the camera rays or the intersection test "
+        "decide; no shading cause can be read off such an image"
+    )
+    steps = ("the camera", "the intersection")
+    return Located(steps[0], sentence, ("OUTLINES",), 0, 0, 0.0, share, steps[1:])
 
 
 def _spread(d: BOOL, path: INT, n: int) -> Located:

@@ -127,6 +127,12 @@ MAX_ROUNDS = 40
 # effect as still differ is settled: the rest is where float rounding decides its pixels (a
 # mistake's acne), which no further switch reproduces, so no second full sweep is made.
 CHAOS_RATIO = 4
+# Below this share of a model's sphere outlines covered by the image's edges, its spheres are
+# not where the model draws them (camera_view.outline_share): measured at 320x240, every
+# red-team, real and correct image with the model's geometry 0.41-0.97 (0.41: a camera
+# explained exactly); a discriminant without its 4, a radius for its square, a field of view
+# in degrees 0.01-0.06. Shading causes named on such an image were false.
+OUTLINES_MIN = 0.2
 # No new full sweep starts after this many seconds of search: with the time limit of each
 # render (trials.TIME_LIMIT_MAX) a 640x480 diagnosis ends within 30 s, whatever the image.
 SEARCH_SECONDS = 15.0
@@ -182,6 +188,7 @@ class Search:
         self.images: list[ImageCause] = []  # the writer's transforms found (transformed)
         # a camera mistake or fitted camera (a switch) the modes are judged with
         self.camera_slips: tuple[Switch, ...] = ()
+        self.outlines = 1.0  # the start's outlines the image's edges cover (begin)
         self.near_by_count: list[Candidate] = []  # the nearest start and those within its margin
         self.banned: set[tuple[str, str]] = set()  # switches of a dead end (searched)
         self.noisy = False  # the image carries random noise (denoised)
@@ -204,8 +211,14 @@ class Search:
         found = dataclasses.replace(found, skipped=skipped, images=tuple(self.images))
         if len(begins) > 1:
             self.say(f"diagnose: told from {found.begin.name}, the better explanation")
+        outlines = self.outline_share(found.result) if self.outlines < OUTLINES_MIN else 1.0
+        if outlines < OUTLINES_MIN:
+            self.say(f"diagnose: the spheres lie elsewhere than {found.result.name} draws them")
+            found = dataclasses.replace(found, result=found.begin, steps=[], images=())
         findings, text = self.report(found)
         where = self.localised(found.result, findings)
+        if outlines < OUTLINES_MIN:
+            where["overall"] = [localise.outlines_elsewhere(outlines, OUTLINES_MIN).as_dict()]
         seconds = time.perf_counter() - self.t0
         self.say(f"diagnose: {found.result.name} after {len(t.scores)} renders in {seconds:.1f} s")
         facts = {
@@ -216,6 +229,11 @@ class Search:
             "localisation": where,
         }
         return diagnosis(self.scene, self.image.path, found, findings, text, facts)
+
+    def outline_share(self, c: Candidate) -> float:
+        """How much of c's sphere outlines the image's edges cover (camera_view)."""
+        ids = self.trials.render.with_aovs(c).aovs["id"]
+        return camera_view.outline_share(self.trials.target.test, ids)
 
     # --- where to begin ------------------------------------------------------------------
 
@@ -267,6 +285,7 @@ class Search:
             self.say(f"diagnose: each candidate may trace {budget} rays")
         mirrored = self.mirrored(starts + toned)
         self.camera_slips = self.camera_slip(starts)
+        self.outlines = self.outline_share(starts[0])
         begins = self.nearest(starts)
         # The writer's transforms are fitted against the nearest start and those close to it by
         # count, not against the far-off ones searched only because every start is far.
@@ -274,7 +293,9 @@ class Search:
         if self.denoised(begins[0]):  # the modes are judged again without the noise
             begins = self.nearest(starts)
             fitted_on = [c for c in begins if c in self.near_by_count]
-        if self.transformed(fitted_on):  # the modes are judged again through it
+        # A writer's transform fitted over spheres drawn elsewhere only rescales what is there.
+        outlines_off = self.outlines < OUTLINES_MIN and not self.camera_slips
+        if not outlines_off and self.transformed(fitted_on):  # judged again through it
             begins = self.nearest(starts)
         self.trials.keep_only(set(begins))
         return mirrored, begins
