@@ -121,7 +121,7 @@ bool intersect_paper(int i, vec3 o, vec3 d, out float t) {
     // the sphere missed when t0 < 0 (written as student_slips.h does, NaN included).
     bool negative_root = mistake(M_negative_root_hit), near_only = mistake(M_near_root_only);
     bool keep_t0 = (negative_root || near_only) ? (t0 >= 0.0 || negative_root) : !(t0 < 0.0);
-    t = keep_t0 ? t0 : tca + thc;
+    t = (keep_t0 && !mistake(M_far_root)) ? t0 : tca + thc;
     return !(tca < 0.0) && !(d2 > r2) && (keep_t0 || !near_only);
 }
 
@@ -142,6 +142,7 @@ bool intersect_robust(int i, vec3 o, vec3 d, float t_min, float t_max, out float
     double t1 = q;
     if (t0 > t1) { double s = t0; t0 = t1; t1 = s; }
     float f0 = float(t0), f1 = float(t1);
+    if (mistake(M_far_root)) { t = f1; return t_min < f1 && f1 < t_max; }
     if (t_min < f0 && f0 < t_max) { t = f0; return true; }
     if (f0 <= t_min && mistake(M_negative_root_hit)) { t = f0; return true; }
     if (f0 <= t_min && mistake(M_near_root_only)) return false;

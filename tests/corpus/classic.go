@@ -28,6 +28,7 @@
 //	eta_ior_both            eta = ior at both crossings (the inside test left out)
 //	normal_precedence       the normal normalize(p - c/r): (p - c)/r without its brackets
 //	cosi_unflipped          cos i from the normal before the inside flip (wrong leaving glass)
+//	far_root                the sphere test returns the far root tca + thc
 //	depth=N, bias=V         the recursion limit and the offset of secondary rays
 //	light_y=V               the light's centre at height V (CAPBenchmarks' RT kernel: 30)
 package main
@@ -77,6 +78,9 @@ func (s *Sphere) Hit(o, d Vec) (float64, bool) {
 	}
 	thc := math.Sqrt(s.Radius*s.Radius - d2)
 	t := tca - thc
+	if slips["far_root"] {
+		t = tca + thc
+	}
 	if t < 0 {
 		if slips["near_root_only"] {
 			return 0, false
@@ -107,7 +111,7 @@ var known = []string{
 	"rows_bottom_up", "no_clamp", "fov_on_x", "pixel_corners", "y_by_width", "near_root_only",
 	"normal_not_normalized", "reflection_untinted", "eta_leaving", "eta_one_leaving", "fresnel_facing_sign", "fresnel_facing_clamped",
 	"shadow_dir_unnormalized", "lambert_unclamped", "glass_no_shadow", "eta_ior_both",
-	"normal_precedence", "cosi_unflipped",
+	"normal_precedence", "cosi_unflipped", "far_root",
 }
 
 // setMistakes reads "name,name,depth=N,bias=V,light_y=V".

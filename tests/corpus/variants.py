@@ -309,6 +309,8 @@ SWITCHED: dict[str, tuple[Build, str, str, frozenset[str], frozenset[str]]] = {
                            frozenset(), GLASS),
     "go-cosi_unflipped": (GO, "cosi_unflipped", "cos i from the normal before the flip",
                           frozenset(), GLASS),
+    # The second pass's: told "direct light lost" and reflect_sign before far_root existed.
+    "go-far_root": (GO, "far_root", "the far root tca + thc", _c("far_root"), _c(INTERSECTION)),
     # Capped at 1, the sky mixes in as a background of 1 would: the diagnosis says both, the
     # cap as the alternative (switches.py), since only the light seen in glass tells them apart.
     "js-clamp_each_trace": (JS, "clamp_each_trace", "every traced colour capped at 1",

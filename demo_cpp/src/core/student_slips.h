@@ -18,11 +18,13 @@
 namespace rt {
 
 inline bool has_root_slip(const MistakeSet& m) {
-    return m.has(Mistake::near_root_only) || m.has(Mistake::negative_root_hit);
+    return m.has(Mistake::near_root_only) || m.has(Mistake::negative_root_hit) ||
+           m.has(Mistake::far_root);
 }
 
 // The paper's geometric test, with a slip at its last line: near_root_only misses the sphere
-// when t0 < 0 (a ray inside never leaves), negative_root_hit keeps a negative t0.
+// when t0 < 0 (a ray inside never leaves), negative_root_hit keeps a negative t0, far_root
+// always takes t1.
 inline std::optional<float> intersect_with_root_slip(const Sphere& s, const ray& r,
                                                      const MistakeSet& m) {
     const vec3 l = s.center - r.origin;
@@ -33,18 +35,22 @@ inline std::optional<float> intersect_with_root_slip(const Sphere& s, const ray&
     if (d2 > radius2) return std::nullopt;
     const float thc = std::sqrt(radius2 - d2);
     const float t0 = tca - thc;
+    if (m.has(Mistake::far_root)) return tca + thc;
     if (t0 >= 0 || m.has(Mistake::negative_root_hit)) return t0;
     if (m.has(Mistake::near_root_only)) return std::nullopt;
     return tca + thc;
 }
 
 // The robust test (quirk Q1 fixed) with the same slips: near_root_only misses the sphere
-// when t0 lies before the range, negative_root_hit takes a t0 behind the origin.
+// when t0 lies before the range, negative_root_hit takes a t0 behind the origin, far_root
+// takes t1 alone.
 inline std::optional<float> intersect_robust_with_root_slip(const Sphere& s, const ray& r,
                                                             interval range, const MistakeSet& m) {
     const auto roots = robust_roots(s, r);
     if (!roots) return std::nullopt;
     const float t0 = float(roots->first), t1 = float(roots->second);
+    if (m.has(Mistake::far_root))
+        return range.surrounds(t1) ? std::optional<float>(t1) : std::nullopt;
     if (range.surrounds(t0)) return t0;
     if (t0 <= range.min && m.has(Mistake::negative_root_hit)) return t0;
     if (t0 <= range.min && m.has(Mistake::near_root_only)) return std::nullopt;

@@ -13,7 +13,7 @@
 
 // The root slips of student_slips.h a robust test can carry: negative_root_hit takes t0 when
 // it lies at or behind the origin, near_root_only misses the sphere there (kernels.inc).
-constexpr int kRootPlain = 0, kRootNegative = 1, kRootNearOnly = 2;
+constexpr int kRootPlain = 0, kRootNegative = 1, kRootNearOnly = 2, kRootFar = 3;
 
 #if RT_SIMD_LEVEL == 0
 
@@ -110,6 +110,7 @@ inline VF robust_candidate(VF ox_, VF oy_, VF oz_, VF dx_, VF dy_, VF dz_, float
         t1 = s;
     }
     const float f0 = float(t0), f1 = float(t1);
+    if (slip == kRootFar) return {f1 > 0 ? f1 : std::numeric_limits<float>::infinity()};
     if (slip != kRootPlain && f0 <= 0)
         return {slip == kRootNegative ? f0 : std::numeric_limits<float>::infinity()};
     return {f0 > 0 ? f0 : (f1 > 0 ? f1 : std::numeric_limits<float>::infinity())};
@@ -263,7 +264,8 @@ inline __m128 robust4(__m256d ox, __m256d oy, __m256d oz, __m256d dx, __m256d dy
     const __m128 f0 = _mm256_cvtpd_ps(t0), f1 = _mm256_cvtpd_ps(t1);
     const __m128 z = _mm_setzero_ps(), inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
     __m128 t = _mm_blendv_ps(_mm_blendv_ps(inf, f1, _mm_cmpgt_ps(f1, z)), f0, _mm_cmpgt_ps(f0, z));
-    if (slip != kRootPlain)
+    if (slip == kRootFar) t = _mm_blendv_ps(inf, f1, _mm_cmpgt_ps(f1, z));
+    if (slip == kRootNegative || slip == kRootNearOnly)
         t = _mm_blendv_ps(t, slip == kRootNegative ? f0 : inf, _mm_cmple_ps(f0, z));
     const __m128 miss =
         _mm256_cvtpd_ps(_mm256_cmp_pd(disc, zero, _CMP_LT_OQ));  // all-ones -> NaN: nonzero sign
@@ -406,6 +408,7 @@ inline __m256 robust8(__m512d ox, __m512d oy, __m512d oz, __m512d dx, __m512d dy
     const __m256 t = _mm256_blendv_ps(_mm256_blendv_ps(inf, f1, _mm256_cmp_ps(f1, z, _CMP_GT_OQ)),
                                       f0, _mm256_cmp_ps(f0, z, _CMP_GT_OQ));
     if (slip == kRootPlain) return t;
+    if (slip == kRootFar) return _mm256_blendv_ps(inf, f1, _mm256_cmp_ps(f1, z, _CMP_GT_OQ));
     return _mm256_blendv_ps(t, slip == kRootNegative ? f0 : inf, _mm256_cmp_ps(f0, z, _CMP_LE_OQ));
 }
 
