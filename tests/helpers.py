@@ -3,12 +3,18 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
+from compare.diagnose.renderer import CandidateRenderer
+from compare.diagnose.search import DiagnoseOptions, Diagnosis, diagnose
 from compare.judge.images import Image, read_image
 from compare.render.cache import RenderCache
+from scene_model.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
@@ -66,3 +72,18 @@ def chromium_browser():  # type: ignore[no-untyped-def]
     p = sync_playwright().start()
     args = ["--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-sync"]
     return p, p.chromium.launch(executable_path=chromium, args=args)
+
+
+def diagnose_scene_copy(
+    rtdemo: str, tmp_path: Path, scene: Path, edit: Callable[[dict[str, Any]], None]
+) -> Diagnosis:
+    """rtdemo's classic render at 160x120 of a copy of `scene` that `edit` changes (a program
+    with values of its own), diagnosed against the unchanged scene."""
+    raw = json.loads(scene.read_text())
+    edit(raw)
+    own = tmp_path / "own.json"
+    own.write_text(json.dumps(raw))
+    size = (160, 120)
+    image = render_demo(rtdemo, own, tmp_path / "own.ppm", "-q", "--mode", "classic", size=size)
+    with CandidateRenderer(scene, *size, threads=1, cache=tmp_path / "cache") as render:
+        return diagnose(image, load_scene(scene), render, DiagnoseOptions(parallel=2))

@@ -4,18 +4,15 @@ classic.json with one constant altered in the scene."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, render_demo
+from helpers import SCENES, diagnose_scene_copy
 
 from compare.diagnose.constant_fit import background_seen
 from compare.diagnose.evidence import render_command
-from compare.diagnose.renderer import CandidateRenderer
-from compare.diagnose.search import DiagnoseOptions, Diagnosis, diagnose
-from scene_model.scene import load_scene
+from compare.diagnose.search import Diagnosis
 
 CLASSIC = SCENES / "classic.json"
 W, H = 160, 120
@@ -39,20 +36,17 @@ def test_the_background_is_read_where_rays_miss() -> None:
 def _diagnosed(rtdemo: str, tmp_path: Path, scene: Path = CLASSIC, **changes: object) -> Diagnosis:
     """rtdemo's classic render of `scene` with `changes` made to it (ior: every glass
     sphere's; ior_<name>: that sphere's), diagnosed against the unchanged scene."""
-    raw = json.loads(scene.read_text())
-    for key, value in changes.items():
-        if key.startswith("ior"):
-            for s in raw["spheres"]:
-                if s.get("transparency", 0) > 0 and key in ("ior", f"ior_{s['name']}"):
-                    s["ior"] = value
-        else:
-            raw[key] = value
-    own = tmp_path / "own.json"
-    own.write_text(json.dumps(raw))
-    image = render_demo(rtdemo, own, tmp_path / "own.ppm", "-q", "--mode", "classic",
-                        size=(W, H))  # fmt: skip
-    with CandidateRenderer(scene, W, H, threads=1, cache=tmp_path / "cache") as render:
-        return diagnose(image, load_scene(scene), render, DiagnoseOptions(parallel=2))
+
+    def edit(raw: dict) -> None:
+        for key, value in changes.items():
+            if key.startswith("ior"):
+                for s in raw["spheres"]:
+                    if s.get("transparency", 0) > 0 and key in ("ior", f"ior_{s['name']}"):
+                        s["ior"] = value
+            else:
+                raw[key] = value
+
+    return diagnose_scene_copy(rtdemo, tmp_path, scene, edit)
 
 
 def _constant(d: Diagnosis) -> list[str]:

@@ -6,12 +6,11 @@ reproduces a mechanism by which the diagnosis once named a false cause."""
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import SCENES, render_demo
+from helpers import SCENES, diagnose_scene_copy, render_demo
 
 from compare.diagnose import transforms
 from compare.diagnose.candidate import Candidate
@@ -165,14 +164,10 @@ def test_two_constants_of_the_programs_own_are_not_told_as_quirks(
     # "-Q6, -Q1" (measured at 160x120), though the program has both quirks. Now the bias is
     # found as the constant it is, and the depth limit, which the image cannot tell from -Q6
     # (both reproduce it exactly), is said beside it.
-    raw = json.loads(CLASSIC.read_text())
-    raw["max_depth"], raw["bias"] = 10, 1e-3
-    own = tmp_path / "own.json"
-    own.write_text(json.dumps(raw))
-    image = render_demo(rtdemo, own, tmp_path / "own.ppm", "-q", "--mode", "classic",
-                        size=(W, H))  # fmt: skip
-    with CandidateRenderer(CLASSIC, W, H, threads=1, cache=tmp_path / "cache") as render:
-        d = diagnose(image, load_scene(CLASSIC), render, DiagnoseOptions(parallel=2))
+    def own(raw: dict) -> None:
+        raw["max_depth"], raw["bias"] = 10, 1e-3
+
+    d = diagnose_scene_copy(rtdemo, tmp_path, CLASSIC, own)
     assert "bias 0.001" in d.causes and "-Q1" not in d.causes and d.exact, d.sentences
     assert d.scene_changes["bias"] == 1e-3
     for st in d.steps:
@@ -282,16 +277,11 @@ def test_spheres_drawn_elsewhere_get_no_shading_cause(rtdemo: str, tmp_path: Pat
     # "physical --mistake shadow_dir_unnormalized" (direct light lost), a false cause; the
     # image's edges lie on 2 % of the model's outlines (measured at 320x240), where an image
     # with the model's spheres in place has 41 % or more.
-    raw = json.loads(CLASSIC.read_text())
-    for s in raw["spheres"]:
-        s["radius"] = s["radius"] ** 0.5
-    own = tmp_path / "shrunk.json"
-    own.write_text(json.dumps(raw))
-    image = render_demo(rtdemo, own, tmp_path / "shrunk.ppm", "-q", "--mode", "classic",
-                        size=(W, H))  # fmt: skip
-    with CandidateRenderer(CLASSIC, W, H, threads=1, cache=tmp_path / "cache") as render:
-        d = diagnose(image, load_scene(CLASSIC), render, DiagnoseOptions(parallel=2))
-    out = d.as_dict()
+    def shrunk(raw: dict) -> None:
+        for s in raw["spheres"]:
+            s["radius"] = s["radius"] ** 0.5
+
+    out = (d := diagnose_scene_copy(rtdemo, tmp_path, CLASSIC, shrunk)).as_dict()
     assert out["causes"] == [] and d.steps == [], d.sentences
     top = out["localisation"][0]
     assert top["step"] == "the camera" and "the intersection" in top["alternatives"]
