@@ -817,7 +817,7 @@ class Search:
             if not drop + culprits:
                 # Judged once the rest is settled, the least followed first: a switch dropped
                 # above (or one not yet dropped) must not leave its pixels to blame another.
-                culprits = self.contradicted(final, begin, needs)[:1]
+                culprits = self.least_followed(final, begin, needs)
             if not drop + culprits:
                 break
             final = undone(final, begin, drop + culprits, self.scene)
@@ -845,13 +845,13 @@ class Search:
                 out.append(sw)
         return out
 
-    def contradicted(
+    def least_followed(
         self, final: Candidate, begin: Candidate, needs: dict[Switch, set[str]]
     ) -> list[Switch]:
-        """Switches the image does not follow where they change the picture most among the
-        effects they explain (gates.followed): undone from final, the render differs in
-        pixels of that effect that the image keeps as they were. (Among all effects, a change
-        would be blamed for what another mistake not yet found hides: a BGR writer's glass.)"""
+        """The switch the image follows least of those it does not follow (gates.followed),
+        or none: undone from final, the render differs in pixels of the effects it explains
+        that the image keeps otherwise. (Judged among all effects, a change would be blamed
+        for what another mistake not yet found hides there: a BGR writer's glass.)"""
         t, out = self.trials, []
         exact = t.exact_of(final)
         for sw, explains in needs.items():
@@ -872,13 +872,14 @@ class Search:
             ):
                 continue
             out.append((f.matched / f.changed, sw, f))
-        out.sort(key=lambda x: x[0])
-        for _, sw, f in out[:1]:
-            self.say(
-                f"diagnose: drop {sw.change(self.scene)}: of the {f.changed:,} px of {f.effect} "
-                f"it changes, the image shows the change in only {f.matched:,}"
-            )
-        return [sw for _, sw, _ in out]
+        if not out:
+            return []
+        _, sw, f = min(out, key=lambda x: x[0])
+        self.say(
+            f"diagnose: drop {sw.change(self.scene)}: of the {f.changed:,} px of {f.effect} "
+            f"it changes, the image shows the change in only {f.matched:,}"
+        )
+        return [sw]
 
     def joint_partial(
         self, final: Candidate, needs: dict[Switch, set[str]]
