@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,16 +79,8 @@ def stories(scene: Scene) -> list[View]:
 def fitted(edges: np.ndarray, scene: Scene) -> list[View]:
     """The stories whose sphere boundaries the image's edges (H x W, True where the image has
     an edge, grown by a pixel) cover SILHOUETTE_GAIN times as well as the scene camera's, and
-    within SILHOUETTE_NEAR of the best story; best first. A scene of many spheres is looked at
-    on every step-th pixel (FIRST_HIT_BUDGET), the edges grown by the step."""
-    h, w = edges.shape
-    step = max(1, math.ceil(math.sqrt(len(scene.spheres) * w * h / FIRST_HIT_BUDGET)))
-    sampled = _grown(edges, step - 1)[::step, ::step]
-
-    def share(position: Vec3, look_at: Vec3) -> float:
-        ids = _first_hits(scene, position, look_at, (w, h), step)
-        return _covered(sampled, _boundaries(ids))
-
+    within SILHOUETTE_NEAR of the best story; best first."""
+    share = _share_of(edges, scene)
     own = share(scene.camera.position, scene.camera.look_at)
     scored = [(share(v.position, v.look_at), v) for v in stories(scene)]
     best = max((s for s, _ in scored), default=0.0)
@@ -99,6 +92,26 @@ def outline_share(rgb: F32, ids: np.ndarray) -> float:
     """The share of the sphere outlines of an id map (a render's id AOV, -1 on a miss) on
     which the image has an edge: where its spheres lie against where the model draws them."""
     return _covered(image_edges(rgb), _boundaries(ids))
+
+
+def scene_outline_share(rgb: F32, scene: Scene) -> float:
+    """outline_share for the scene's own camera, its id map computed here (no render)."""
+    return _share_of(image_edges(rgb), scene)(scene.camera.position, scene.camera.look_at)
+
+
+def _share_of(edges: np.ndarray, scene: Scene) -> Callable[[Vec3, Vec3], float]:
+    """The share of a pinhole's sphere boundaries (position, look_at) that `edges` cover. A
+    scene of many spheres is looked at on every step-th pixel (FIRST_HIT_BUDGET), the edges
+    grown by the step."""
+    h, w = edges.shape
+    step = max(1, math.ceil(math.sqrt(len(scene.spheres) * w * h / FIRST_HIT_BUDGET)))
+    sampled = _grown(edges, step - 1)[::step, ::step]
+
+    def share(position: Vec3, look_at: Vec3) -> float:
+        ids = _first_hits(scene, position, look_at, (w, h), step)
+        return _covered(sampled, _boundaries(ids))
+
+    return share
 
 
 def image_edges(rgb: F32) -> np.ndarray:

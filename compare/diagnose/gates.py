@@ -198,9 +198,9 @@ def changed_pixels(a: Pair, b: Pair, float_image: bool) -> BOOL:
 
 @dataclass(frozen=True)
 class Followed:
-    """Where a change alters the picture most, how much of it the image shows."""
+    """In one effect a change alters, how much of the change the image shows."""
 
-    effect: str  # the effect with the most changed pixels
+    effect: str  # the effect judged (followed() says which)
     changed: int  # its pixels the change alters
     matched: int  # ... that the result matches
 

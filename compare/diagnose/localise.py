@@ -210,7 +210,7 @@ def locate(differing: BOOL, path: INT, region: BOOL | None = None) -> Located | 
     second = _second(d & outside, path, within & outside, n)
     if second is None or precision < EXACT_PRECISION or BIT_STEPS[second[0]] in steps:
         return found
-    return _with_second(found, second)
+    return _with_second(found, _head(names, (hit, n, precision)), second)
 
 
 def _sky_matches(differing: BOOL, path: INT) -> bool:
@@ -245,12 +245,11 @@ def _second(rest: BOOL, path: INT, region: BOOL, n: int) -> tuple[str, int, floa
     return best
 
 
-def _with_second(found: Located, second: tuple[str, int, float]) -> Located:
-    """found, told with the second class of differing pixels: two steps are wrong, or one
-    that both kinds of path take (the surface's hit point or normal)."""
+def _with_second(found: Located, head: str, second: tuple[str, int, float]) -> Located:
+    """found (its sentence's `head`), told with the second class of differing pixels: two
+    steps are wrong, or one that both kinds of path take (the surface's hit point or normal)."""
     name, m, precision = second
     step = BIT_STEPS[name]
-    head = found.sentence.split(": ", 1)[0]
     sentence = (
         f"{head}, and the other {m:,} exactly those whose path {BIT_PHRASES[name]} "
         f"({precision:.0%} of such pixels differ): the {found.step} and the {step} are both "
@@ -269,11 +268,20 @@ def _step(names: tuple[str, ...]) -> str:
     return BIT_STEPS[min(names, key=SPECIFIC_FIRST.index)]
 
 
-def _sentence(names: tuple[str, ...], counts: tuple[int, int, float], steps: list[str]) -> str:
+def _head(names: tuple[str, ...], counts: tuple[int, int, float]) -> str:
+    """ "the differing pixels are exactly those whose path … (hit of n; p% of such pixels
+    differ)": what the counts say, before the step is blamed."""
     hit, n, precision = counts
-    exact = precision >= EXACT_PRECISION
-    how = "exactly" if exact else "mostly"
+    how = "exactly" if precision >= EXACT_PRECISION else "mostly"
     what = " and ".join(BIT_PHRASES[x] for x in names)
+    return (
+        f"the differing pixels are {how} those whose path {what} ({hit:,} of {n:,}; "
+        f"{precision:.0%} of such pixels differ)"
+    )
+
+
+def _sentence(names: tuple[str, ...], counts: tuple[int, int, float], steps: list[str]) -> str:
+    exact = counts[2] >= EXACT_PRECISION
     named = f"the {steps[0]}"
     if len(steps) > 1:
         named = f"the {', the '.join(steps[:-1])} or the {steps[-1]} (the image cannot tell which)"
@@ -284,10 +292,7 @@ def _sentence(names: tuple[str, ...], counts: tuple[int, int, float], steps: lis
         if exact
         else f"the error lives on such paths, in {named} or a step only some of them take"
     )  # fmt: skip
-    return (
-        f"the differing pixels are {how} those whose path {what} ({hit:,} of {n:,}; "
-        f"{precision:.0%} of such pixels differ): {blame}"
-    )
+    return f"{_head(names, counts)}: {blame}"
 
 
 def on_silhouettes(differing: BOOL, edges: BOOL | None) -> Located | None:

@@ -188,7 +188,7 @@ class Search:
         self.images: list[ImageCause] = []  # the writer's transforms found (transformed)
         # a camera mistake or fitted camera (a switch) the modes are judged with
         self.camera_slips: tuple[Switch, ...] = ()
-        self.outlines = 1.0  # the start's outlines the image's edges cover (begin)
+        self.outlines = 1.0  # the scene camera's outlines the image's edges cover (begin)
         self.near_by_count: list[Candidate] = []  # the nearest start and those within its margin
         self.banned: set[tuple[str, str]] = set()  # switches of a dead end (searched)
         self.noisy = False  # the image carries random noise (denoised)
@@ -231,7 +231,8 @@ class Search:
         return diagnosis(self.scene, self.image.path, found, findings, text, facts)
 
     def outline_share(self, c: Candidate) -> float:
-        """How much of c's sphere outlines the image's edges cover (camera_view)."""
+        """How much of c's sphere outlines the image's edges cover (camera_view), from its
+        render's id AOV: its camera may be a fitted one."""
         ids = self.trials.render.with_aovs(c).aovs["id"]
         return camera_view.outline_share(self.trials.target.test, ids)
 
@@ -285,7 +286,7 @@ class Search:
             self.say(f"diagnose: each candidate may trace {budget} rays")
         mirrored = self.mirrored(starts + toned)
         self.camera_slips = self.camera_slip(starts)
-        self.outlines = self.outline_share(starts[0])
+        self.outlines = camera_view.scene_outline_share(self.trials.target.test, self.scene)
         begins = self.nearest(starts)
         # The writer's transforms are fitted against the nearest start and those close to it by
         # count, not against the far-off ones searched only because every start is far.
